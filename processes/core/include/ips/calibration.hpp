@@ -1,0 +1,61 @@
+#pragma once
+// The project's calibration format for a stereo sensor head: interior orientation of both cameras,
+// their relative exterior orientation, and the mounting of the IMU and tilt sensor relative to camera 0.
+// The simulator writes it, calib_from_euroc converts to it, every process reads it.
+//
+// Frames: camera frames are OpenCV's (x right, y down, z forward, origin at the projection centre).
+// A transform named T_a_b maps a point from frame b into frame a: X_a = T_a_b * X_b.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace ips {
+
+struct CameraIntrinsics {
+  int width = 0;
+  int height = 0;
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();           // fx 0 cx; 0 fy cy; 0 0 1 (pixels)
+  Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();  // OpenCV k1 k2 p1 p2 k3
+  std::string serial;                                        // camera serial number, informational
+
+  cv::Mat cvK() const;
+  cv::Mat cvDistortion() const;
+};
+
+struct StereoCalibration {
+  CameraIntrinsics cam0;  // left
+  CameraIntrinsics cam1;  // right
+  Eigen::Matrix3d R_cam1_cam0 = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t_cam1_cam0 = Eigen::Vector3d::Zero();  // metres; about (-baseline, 0, 0) for a left/right head
+  Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
+  Eigen::Matrix3d R_tilt_cam0 = Eigen::Matrix3d::Identity();
+
+  double baseline() const { return t_cam1_cam0.norm(); }
+};
+
+// Throws ConfigError naming the file and key on any problem.
+StereoCalibration loadCalibration(const std::string& path);
+void saveCalibration(const std::string& path, const StereoCalibration& calib);
+
+// The rectified geometry of a head: both rectified cameras share K_rect and differ by a pure
+// translation of `baseline` along x, so matching points lie on the same row and x_left - x_right = d,
+// depth Z = f * baseline / d.
+struct StereoRectification {
+  cv::Size size;
+  double f = 0, cx = 0, cy = 0;  // rectified pinhole (both cameras)
+  double baseline = 0;           // metres
+  Eigen::Matrix3d R_rect0_cam0 = Eigen::Matrix3d::Identity();  // rotation of the rectified left frame
+  Eigen::Matrix3d R_rect1_cam1 = Eigen::Matrix3d::Identity();
+  // For each rectified pixel, where to sample the raw image (CV_32FC1, as cv::remap takes them).
+  cv::Mat map0x, map0y, map1x, map1y;
+};
+
+// alpha as in cv::stereoRectify: 0 keeps only valid pixels, 1 keeps all source pixels.
+StereoRectification computeRectification(const StereoCalibration& calib, double alpha = 0.0);
+
+// Remaps a raw pair into the rectified geometry on the CPU (the reference for the device stage).
+void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat& out0,
+                 cv::Mat& out1);
+
+}  // namespace ips

@@ -1,0 +1,56 @@
+#pragma once
+// YAML configuration read with cv::FileStorage. Every error names the file and the key, so that a user
+// with a wrong deployment file knows what to fix.
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+#include <stdexcept>
+#include <string>
+
+namespace ips {
+
+class ConfigError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// A view of one node of a YAML file. Keys may be nested paths separated by '/', e.g. "imu/rate_hz".
+class Config {
+ public:
+  // Opens a YAML file; throws ConfigError if it does not exist or does not parse.
+  explicit Config(const std::string& path);
+
+  const std::string& path() const { return path_; }
+  bool has(const std::string& key) const;
+
+  // Required values: throw ConfigError("<file>: key '<key>' ...") when missing or of the wrong type.
+  double getDouble(const std::string& key) const;
+  int getInt(const std::string& key) const;
+  bool getBool(const std::string& key) const;
+  std::string getString(const std::string& key) const;
+  cv::Mat getMat(const std::string& key) const;
+  // A matrix of exactly rows x cols (written either as !!opencv-matrix or as a flat sequence).
+  Eigen::MatrixXd getMatrix(const std::string& key, int rows, int cols) const;
+
+  // Optional values: the default when the key is absent; ConfigError when present but wrong.
+  double getDouble(const std::string& key, double fallback) const;
+  int getInt(const std::string& key, int fallback) const;
+  bool getBool(const std::string& key, bool fallback) const;
+  std::string getString(const std::string& key, const std::string& fallback) const;
+
+  // A sub-tree (a YAML map) as a Config of its own, for passing sections to libraries.
+  Config section(const std::string& key) const;
+
+  cv::FileNode node(const std::string& key) const;  // empty node when absent
+
+ private:
+  Config(std::string path, cv::FileStorage fs, cv::FileNode root, std::string prefix);
+  cv::FileNode required(const std::string& key) const;
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
+
+  std::string path_;
+  cv::FileStorage fs_;
+  cv::FileNode root_;
+  std::string prefix_;  // for error messages of sections
+};
+
+}  // namespace ips

@@ -1,0 +1,120 @@
+#include "ips/calibration.hpp"
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ips/config.hpp"
+
+namespace ips {
+
+cv::Mat CameraIntrinsics::cvK() const {
+  cv::Mat k;
+  cv::eigen2cv(K, k);
+  return k;
+}
+
+cv::Mat CameraIntrinsics::cvDistortion() const {
+  cv::Mat d;
+  cv::eigen2cv(distortion, d);
+  return d.reshape(1, 1);
+}
+
+namespace {
+
+CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
+  CameraIntrinsics cam;
+  cam.width = cfg.getInt(name + "/width");
+  cam.height = cfg.getInt(name + "/height");
+  if (cam.width <= 0 || cam.height <= 0)
+    throw ConfigError(cfg.path() + ": key '" + name + "/width|height' must be positive");
+  cam.K = cfg.getMatrix(name + "/K", 3, 3);
+  cam.distortion = cfg.getMatrix(name + "/distortion", 1, 5).transpose();
+  cam.serial = cfg.getString(name + "/serial", "");
+  if (cam.K(0, 0) <= 0 || cam.K(1, 1) <= 0) throw ConfigError(cfg.path() + ": key '" + name + "/K' has no positive focal length");
+  return cam;
+}
+
+void writeCamera(cv::FileStorage& fs, const std::string& name, const CameraIntrinsics& cam) {
+  fs << name << "{";
+  fs << "width" << cam.width << "height" << cam.height;
+  fs << "K" << cam.cvK();
+  fs << "distortion" << cam.cvDistortion();
+  fs << "serial" << cam.serial;
+  fs << "}";
+}
+
+cv::Mat toCv(const Eigen::MatrixXd& m) {
+  cv::Mat out;
+  cv::eigen2cv(m, out);
+  return out;
+}
+
+Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r) {
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d out = svd.matrixU() * svd.matrixV().transpose();
+  if (out.determinant() < 0) out = -out;
+  return out;
+}
+
+}  // namespace
+
+StereoCalibration loadCalibration(const std::string& path) {
+  Config cfg(path);
+  StereoCalibration c;
+  c.cam0 = loadCamera(cfg, "cam0");
+  c.cam1 = loadCamera(cfg, "cam1");
+  Eigen::Matrix3d r = cfg.getMatrix("R_cam1_cam0", 3, 3);
+  if ((r * r.transpose() - Eigen::Matrix3d::Identity()).norm() > 1e-4)
+    throw ConfigError(path + ": key 'R_cam1_cam0' is not a rotation matrix");
+  c.R_cam1_cam0 = orthonormalize(r);
+  c.t_cam1_cam0 = cfg.getMatrix("t_cam1_cam0", 3, 1);
+  if (c.t_cam1_cam0.norm() <= 0) throw ConfigError(path + ": key 't_cam1_cam0' must not be zero");
+  if (cfg.has("T_imu_cam0")) {
+    Eigen::Matrix4d t = cfg.getMatrix("T_imu_cam0", 4, 4);
+    c.T_imu_cam0.linear() = orthonormalize(t.topLeftCorner<3, 3>());
+    c.T_imu_cam0.translation() = t.topRightCorner<3, 1>();
+  }
+  if (cfg.has("R_tilt_cam0")) c.R_tilt_cam0 = orthonormalize(cfg.getMatrix("R_tilt_cam0", 3, 3));
+  return c;
+}
+
+void saveCalibration(const std::string& path, const StereoCalibration& c) {
+  cv::FileStorage fs(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
+  if (!fs.isOpened()) throw ConfigError(path + ": cannot write calibration");
+  fs.writeComment(
+      "Stereo head calibration (ips). Camera frames: x right, y down, z forward. T_a_b maps points from b to a.\n"
+      "distortion: OpenCV radial-tangential k1 k2 p1 p2 k3. Lengths in metres.");
+  writeCamera(fs, "cam0", c.cam0);
+  writeCamera(fs, "cam1", c.cam1);
+  fs << "R_cam1_cam0" << toCv(c.R_cam1_cam0);
+  fs << "t_cam1_cam0" << toCv(c.t_cam1_cam0);
+  fs << "T_imu_cam0" << toCv(c.T_imu_cam0.matrix());
+  fs << "R_tilt_cam0" << toCv(c.R_tilt_cam0);
+}
+
+StereoRectification computeRectification(const StereoCalibration& c, double alpha) {
+  StereoRectification out;
+  out.size = cv::Size(c.cam0.width, c.cam0.height);
+  cv::Mat R1, R2, P1, P2, Q;
+  cv::stereoRectify(c.cam0.cvK(), c.cam0.cvDistortion(), c.cam1.cvK(), c.cam1.cvDistortion(), out.size,
+                    toCv(c.R_cam1_cam0), toCv(c.t_cam1_cam0), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, alpha,
+                    out.size);
+  out.f = P1.at<double>(0, 0);
+  out.cx = P1.at<double>(0, 2);
+  out.cy = P1.at<double>(1, 2);
+  out.baseline = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
+  cv::cv2eigen(R1, out.R_rect0_cam0);
+  cv::cv2eigen(R2, out.R_rect1_cam1);
+  cv::initUndistortRectifyMap(c.cam0.cvK(), c.cam0.cvDistortion(), R1, P1, out.size, CV_32FC1, out.map0x, out.map0y);
+  cv::initUndistortRectifyMap(c.cam1.cvK(), c.cam1.cvDistortion(), R2, P2, out.size, CV_32FC1, out.map1x, out.map1y);
+  return out;
+}
+
+void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat& out0,
+                 cv::Mat& out1) {
+  cv::remap(raw0, out0, rect.map0x, rect.map0y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::remap(raw1, out1, rect.map1x, rect.map1y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+}
+
+}  // namespace ips
