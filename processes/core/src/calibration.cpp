@@ -31,7 +31,8 @@ CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
   cam.K = cfg.getMatrix(name + "/K", 3, 3);
   cam.distortion = cfg.getMatrix(name + "/distortion", 1, 5).transpose();
   cam.serial = cfg.getString(name + "/serial", "");
-  if (cam.K(0, 0) <= 0 || cam.K(1, 1) <= 0) throw ConfigError(cfg.path() + ": key '" + name + "/K' has no positive focal length");
+  if (cam.K(0, 0) <= 0 || cam.K(1, 1) <= 0)
+    throw ConfigError(cfg.path() + ": key '" + name + "/K' has no positive focal length");
   return cam;
 }
 

@@ -104,9 +104,7 @@ Eigen::MatrixXd Config::getMatrix(const std::string& key, int rows, int cols) co
   return out;
 }
 
-double Config::getDouble(const std::string& key, double fallback) const {
-  return has(key) ? getDouble(key) : fallback;
-}
+double Config::getDouble(const std::string& key, double fallback) const { return has(key) ? getDouble(key) : fallback; }
 int Config::getInt(const std::string& key, int fallback) const { return has(key) ? getInt(key) : fallback; }
 bool Config::getBool(const std::string& key, bool fallback) const { return has(key) ? getBool(key) : fallback; }
 std::string Config::getString(const std::string& key, const std::string& fallback) const {

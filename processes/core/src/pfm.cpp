@@ -12,7 +12,8 @@ void writePfm(const std::string& path, const cv::Mat& image) {
   if (!out) throw std::runtime_error("writePfm: cannot open " + path);
   out << "Pf\n" << image.cols << " " << image.rows << "\n-1\n";  // negative scale: little endian
   for (int r = image.rows - 1; r >= 0; --r)
-    out.write(reinterpret_cast<const char*>(image.ptr<float>(r)), static_cast<std::streamsize>(image.cols * sizeof(float)));
+    out.write(reinterpret_cast<const char*>(image.ptr<float>(r)),
+              static_cast<std::streamsize>(image.cols * sizeof(float)));
   if (!out) throw std::runtime_error("writePfm: write failed: " + path);
 }
 
@@ -24,7 +25,8 @@ cv::Mat readPfm(const std::string& path) {
   double scale = 0;
   in >> magic >> w >> h >> scale;
   in.get();  // the single whitespace after the header
-  if (magic != "Pf" || w <= 0 || h <= 0 || scale == 0) throw std::runtime_error("readPfm: not a greyscale PFM: " + path);
+  if (magic != "Pf" || w <= 0 || h <= 0 || scale == 0)
+    throw std::runtime_error("readPfm: not a greyscale PFM: " + path);
   cv::Mat image(h, w, CV_32FC1);
   const bool big_endian = scale > 0;
   for (int r = h - 1; r >= 0; --r) {

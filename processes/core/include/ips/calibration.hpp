@@ -15,9 +15,9 @@ namespace ips {
 struct CameraIntrinsics {
   int width = 0;
   int height = 0;
-  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();           // fx 0 cx; 0 fy cy; 0 0 1 (pixels)
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();                               // fx 0 cx; 0 fy cy; 0 0 1 (pixels)
   Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();  // OpenCV k1 k2 p1 p2 k3
-  std::string serial;                                        // camera serial number, informational
+  std::string serial;                                                            // camera serial number, informational
 
   cv::Mat cvK() const;
   cv::Mat cvDistortion() const;
@@ -43,8 +43,8 @@ void saveCalibration(const std::string& path, const StereoCalibration& calib);
 // depth Z = f * baseline / d.
 struct StereoRectification {
   cv::Size size;
-  double f = 0, cx = 0, cy = 0;  // rectified pinhole (both cameras)
-  double baseline = 0;           // metres
+  double f = 0, cx = 0, cy = 0;                                // rectified pinhole (both cameras)
+  double baseline = 0;                                         // metres
   Eigen::Matrix3d R_rect0_cam0 = Eigen::Matrix3d::Identity();  // rotation of the rectified left frame
   Eigen::Matrix3d R_rect1_cam1 = Eigen::Matrix3d::Identity();
   // For each rectified pixel, where to sample the raw image (CV_32FC1, as cv::remap takes them).

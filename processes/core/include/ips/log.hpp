@@ -32,13 +32,13 @@ class LogThrottle {
 
 }  // namespace ips
 
-#define IPS_LOG(level, expr)                                             \
-  do {                                                                   \
+#define IPS_LOG(level, expr)                                              \
+  do {                                                                    \
     if (static_cast<int>(level) >= static_cast<int>(::ips::logLevel())) { \
-      std::ostringstream ips_log_os_;                                    \
-      ips_log_os_ << expr;                                               \
-      ::ips::logMessage(level, ips_log_os_.str());                       \
-    }                                                                    \
+      std::ostringstream ips_log_os_;                                     \
+      ips_log_os_ << expr;                                                \
+      ::ips::logMessage(level, ips_log_os_.str());                        \
+    }                                                                     \
   } while (0)
 #define IPS_DEBUG(expr) IPS_LOG(::ips::LogLevel::Debug, expr)
 #define IPS_INFO(expr) IPS_LOG(::ips::LogLevel::Info, expr)

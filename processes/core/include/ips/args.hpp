@@ -1,0 +1,62 @@
+#pragma once
+// A small command-line parser for the project's executables: "--name value" and "--flag" options, an error
+// naming the option for anything unknown or malformed, and a generated --help text.
+#include <map>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace ips {
+
+class ArgError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Args {
+ public:
+  // `summary` is the first line of --help.
+  Args(int argc, char** argv, std::string summary);
+
+  // Declare options before calling parse(); each returns *this for chaining.
+  Args& option(const std::string& name, const std::string& value_name, const std::string& help,
+               const std::string& default_value = "");
+  Args& required(const std::string& name, const std::string& value_name, const std::string& help);
+  Args& flag(const std::string& name, const std::string& help);
+  // Accept positional arguments (they are returned by positional()).
+  Args& positionals(const std::string& name, const std::string& help, size_t min_count, size_t max_count);
+
+  // Parses argv. Returns false when --help was given (the help text is printed to stdout); throws ArgError
+  // naming the option on any error.
+  bool parse();
+
+  std::string get(const std::string& name) const;
+  bool has(const std::string& name) const;  // given on the command line (or has a non-empty default)
+  bool isSet(const std::string& name) const { return has(name); }
+  double getDouble(const std::string& name) const;
+  long long getInt(const std::string& name) const;
+  bool getFlag(const std::string& name) const;
+  const std::vector<std::string>& positional() const { return positional_; }
+  std::string help() const;
+  const std::string& program() const { return program_; }
+
+ private:
+  struct Spec {
+    std::string value_name;
+    std::string help;
+    std::string default_value;
+    bool is_flag = false;
+    bool is_required = false;
+  };
+  std::vector<std::string> argv_;
+  std::string program_;
+  std::string summary_;
+  std::vector<std::string> order_;
+  std::map<std::string, Spec> specs_;
+  std::map<std::string, std::string> values_;
+  std::vector<std::string> positional_;
+  std::string positional_name_, positional_help_;
+  size_t positional_min_ = 0, positional_max_ = 0;
+};
+
+}  // namespace ips

@@ -1,0 +1,17 @@
+#pragma once
+// Between ips::stereo_pair_t and OpenCV images.
+#include <ips/stereo_pair_t.hpp>
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace ips::fw {
+
+// Views of the two images (no copy: they live as long as the message). The message must have passed validate().
+cv::Mat leftImage(const ips::stereo_pair_t& m);
+cv::Mat rightImage(const ips::stereo_pair_t& m);
+
+// A message holding copies of two mono8 or mono16 images of one size.
+ips::stereo_pair_t makeStereoPair(int64_t utime, int64_t seq, const cv::Mat& left, const cv::Mat& right,
+                                  const std::string& serial_left = "", const std::string& serial_right = "");
+
+}  // namespace ips::fw

@@ -1,0 +1,93 @@
+#include "ips/framework/node.hpp"
+
+#include <csignal>
+#include <cstdlib>
+#include <stdexcept>
+
+#include "ips/framework/channels.hpp"
+
+namespace ips::fw {
+
+namespace {
+std::atomic<bool> g_stop{false};
+extern "C" void onSignal(int) { g_stop = true; }
+
+std::string upper(std::string s) {
+  for (auto& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return s;
+}
+}  // namespace
+
+std::string resolveLcmUrl(const std::string& cli_url) {
+  if (!cli_url.empty()) return cli_url;
+  const char* env = std::getenv("LCM_DEFAULT_URL");
+  return env ? std::string(env) : std::string();
+}
+
+void installSignalHandlers() {
+  struct sigaction sa {};
+  sa.sa_handler = onSignal;
+  sigemptyset(&sa.sa_mask);
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+}
+
+bool stopRequested() { return g_stop.load(); }
+void requestStop() { g_stop = true; }
+
+Node::Node(const std::string& process_name, const std::string& lcm_url)
+    : name_(process_name),
+      health_channel_(std::string(channels::kHealthPrefix) + upper(process_name)),
+      lcm_(std::make_unique<lcm::LCM>(resolveLcmUrl(lcm_url))),
+      health_(process_name) {
+  if (!lcm_->good()) throw std::runtime_error("cannot initialise LCM with URL '" + resolveLcmUrl(lcm_url) + "'");
+  setLogName(process_name);
+  installSignalHandlers();
+}
+
+Node::~Node() {
+  for (auto& s : subscriptions_) (void)s;  // lcm::LCM's destructor unsubscribes everything
+}
+
+void Node::subscribeRaw(const std::string& channel,
+                        std::function<void(const lcm::ReceiveBuffer*, const std::string&)> fn) {
+  auto sub = std::make_unique<RawSubscription>();
+  sub->fn = std::move(fn);
+  // LCM 1.3.1 treats the channel as a regex anchored at both ends; escape nothing: our names are plain.
+  lcm_->subscribe(channel, &RawSubscription::handle, sub.get());
+  subscriptions_.push_back(std::move(sub));
+}
+
+bool Node::handleOnce(int timeout_ms) { return lcm_->handleTimeout(timeout_ms) >= 0; }
+
+void Node::publishHealth(double interval_s) {
+  ips::health_t msg = health_.report(interval_s);
+  lcm_->publish(health_channel_, &msg);
+}
+
+int Node::run(std::function<void()> on_tick, double health_period_s) {
+  using clock = std::chrono::steady_clock;
+  auto last_health = clock::now();
+  int errors = 0;
+  while (!stopRequested()) {
+    if (lcm_->handleTimeout(100) < 0) {
+      if (++errors > 50) {
+        IPS_ERROR("LCM keeps failing; stopping");
+        return 1;
+      }
+    }
+    if (on_tick) on_tick();
+    const auto now = clock::now();
+    const double since = std::chrono::duration<double>(now - last_health).count();
+    if (since >= health_period_s) {
+      publishHealth(since);
+      last_health = now;
+    }
+  }
+  publishHealth(std::chrono::duration<double>(clock::now() - last_health).count());
+  IPS_INFO("stopped");
+  return 0;
+}
+
+}  // namespace ips::fw

@@ -1,0 +1,162 @@
+// ips_core: config errors that name file and key, the calibration format's round trip and the geometry of the
+// rectification it produces, the command-line parser, PFM files.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <opencv2/calib3d.hpp>
+
+#include "ips/args.hpp"
+#include "ips/calibration.hpp"
+#include "ips/config.hpp"
+#include "ips/pfm.hpp"
+
+namespace {
+
+std::string tempPath(const std::string& name) {
+  return (testing::TempDir() + "/") + std::to_string(::getpid()) + "_" + name;
+}
+
+std::string writeFile(const std::string& name, const std::string& text) {
+  std::string p = tempPath(name);
+  std::ofstream(p) << text;
+  return p;
+}
+
+TEST(Config, ValuesAndErrorsNameFileAndKey) {
+  std::string p =
+      writeFile("c.yaml", "%YAML:1.0\n---\nimu:\n  rate_hz: 200\n  name: mmq50\nscale: 0.5\nflag: 1\nv: [1, 2, 3]\n");
+  ips::Config c(p);
+  EXPECT_EQ(c.getInt("imu/rate_hz"), 200);
+  EXPECT_EQ(c.getString("imu/name"), "mmq50");
+  EXPECT_DOUBLE_EQ(c.getDouble("scale"), 0.5);
+  EXPECT_TRUE(c.getBool("flag"));
+  EXPECT_DOUBLE_EQ(c.getDouble("missing", 7.0), 7.0);
+  EXPECT_EQ(c.getMatrix("v", 3, 1)(2, 0), 3.0);
+  EXPECT_EQ(c.section("imu").getInt("rate_hz"), 200);
+  try {
+    c.getDouble("imu/latency_s");
+    FAIL();
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(p), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("imu/latency_s"), std::string::npos);
+  }
+  try {
+    c.section("imu").getInt("name");
+    FAIL();
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("imu/name"), std::string::npos);  // the full path of the key
+  }
+  EXPECT_THROW(c.getMatrix("v", 2, 2), ips::ConfigError);
+  EXPECT_THROW(ips::Config("/nonexistent/x.yaml"), ips::ConfigError);
+  EXPECT_THROW(ips::Config(writeFile("bad.yaml", "%YAML:1.0\n---\na: [1, 2\n")), ips::ConfigError);
+}
+
+ips::StereoCalibration exampleHead() {
+  ips::StereoCalibration c;
+  for (ips::CameraIntrinsics* cam : {&c.cam0, &c.cam1}) {
+    cam->width = 1360;
+    cam->height = 1024;
+    cam->K << 744, 0, 680, 0, 744, 512, 0, 0, 1;
+    cam->distortion << -0.2, 0.05, 0.001, -0.0005, 0.0;
+  }
+  c.cam1.K(0, 2) = 684;
+  c.cam1.serial = "02-2110A";
+  // The right camera 0.2 m to the right, slightly rotated.
+  c.R_cam1_cam0 = Eigen::AngleAxisd(0.01, Eigen::Vector3d(0.2, 1, 0.1).normalized()).toRotationMatrix();
+  c.t_cam1_cam0 = -c.R_cam1_cam0 * Eigen::Vector3d(0.2, 0.002, -0.001);
+  c.T_imu_cam0.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  c.T_imu_cam0.translation() = Eigen::Vector3d(0.05, 0.0, -0.02);
+  return c;
+}
+
+TEST(Calibration, SaveLoadRoundTrip) {
+  ips::StereoCalibration c = exampleHead();
+  std::string p = tempPath("calib.yaml");
+  ips::saveCalibration(p, c);
+  ips::StereoCalibration r = ips::loadCalibration(p);
+  EXPECT_EQ(r.cam0.width, 1360);
+  EXPECT_NEAR((r.cam1.K - c.cam1.K).norm(), 0, 1e-12);
+  EXPECT_NEAR((r.cam0.distortion - c.cam0.distortion).norm(), 0, 1e-12);
+  EXPECT_NEAR((r.R_cam1_cam0 - c.R_cam1_cam0).norm(), 0, 1e-9);
+  EXPECT_NEAR((r.t_cam1_cam0 - c.t_cam1_cam0).norm(), 0, 1e-12);
+  EXPECT_NEAR((r.T_imu_cam0.matrix() - c.T_imu_cam0.matrix()).norm(), 0, 1e-9);
+  EXPECT_EQ(r.cam1.serial, "02-2110A");
+}
+
+TEST(Calibration, MissingKeyIsNamed) {
+  std::string p = writeFile("incomplete.yaml", "%YAML:1.0\n---\ncam0:\n  width: 10\n");
+  try {
+    ips::loadCalibration(p);
+    FAIL();
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("cam0/height"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Calibration, RectifiedGeometryPutsMatchesOnOneRow) {
+  // A 3D point seen by both cameras lands on the same rectified row, with x_left - x_right = f * b / Z.
+  ips::StereoCalibration c = exampleHead();
+  ips::StereoRectification rect = ips::computeRectification(c);
+  EXPECT_NEAR(rect.baseline, c.baseline(), 1e-9);
+  for (const Eigen::Vector3d& X0 : {Eigen::Vector3d(0.3, -0.2, 2.0), Eigen::Vector3d(-1.0, 0.5, 6.0)}) {
+    Eigen::Vector3d X1 = c.R_cam1_cam0 * X0 + c.t_cam1_cam0;
+    Eigen::Vector3d r0 = rect.R_rect0_cam0 * X0, r1 = rect.R_rect1_cam1 * X1;
+    double u0 = rect.f * r0.x() / r0.z() + rect.cx, v0 = rect.f * r0.y() / r0.z() + rect.cy;
+    double u1 = rect.f * r1.x() / r1.z() + rect.cx, v1 = rect.f * r1.y() / r1.z() + rect.cy;
+    EXPECT_NEAR(v0, v1, 1e-6);
+    EXPECT_NEAR(u0 - u1, rect.f * rect.baseline / r0.z(), 1e-6);
+    // The maps send that rectified pixel to where the raw (distorted) camera sees the point.
+    std::vector<cv::Point3d> obj{{X0.x(), X0.y(), X0.z()}};
+    std::vector<cv::Point2d> raw;
+    cv::projectPoints(obj, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), c.cam0.cvK(), c.cam0.cvDistortion(), raw);
+    const float mx = rect.map0x.at<float>(static_cast<int>(std::lround(v0)), static_cast<int>(std::lround(u0)));
+    const float my = rect.map0y.at<float>(static_cast<int>(std::lround(v0)), static_cast<int>(std::lround(u0)));
+    EXPECT_NEAR(mx, raw[0].x, 1.5);  // within the rounding of the rectified pixel
+    EXPECT_NEAR(my, raw[0].y, 1.5);
+  }
+}
+
+TEST(Args, OptionsFlagsAndErrors) {
+  const char* argv[] = {"prog", "--calib", "c.yaml", "--rate=8", "--verbose", "pos"};
+  ips::Args a(6, const_cast<char**>(argv), "test");
+  a.required("--calib", "FILE", "calibration").option("--rate", "HZ", "rate", "4").option("--n", "N", "n", "3");
+  a.flag("--verbose", "talk").positionals("X", "input", 1, 1);
+  ASSERT_TRUE(a.parse());
+  EXPECT_EQ(a.get("--calib"), "c.yaml");
+  EXPECT_DOUBLE_EQ(a.getDouble("--rate"), 8.0);
+  EXPECT_EQ(a.getInt("--n"), 3);
+  EXPECT_TRUE(a.getFlag("--verbose"));
+  EXPECT_EQ(a.positional().at(0), "pos");
+
+  const char* bad[] = {"prog", "--nope", "1"};
+  ips::Args b(3, const_cast<char**>(bad), "test");
+  b.option("--rate", "HZ", "rate");
+  EXPECT_THROW(b.parse(), ips::ArgError);
+  const char* missing[] = {"prog"};
+  ips::Args m(1, const_cast<char**>(missing), "test");
+  m.required("--calib", "FILE", "calibration");
+  EXPECT_THROW(m.parse(), ips::ArgError);
+  const char* notnum[] = {"prog", "--rate", "fast"};
+  ips::Args n(3, const_cast<char**>(notnum), "test");
+  n.option("--rate", "HZ", "rate");
+  ASSERT_TRUE(n.parse());
+  EXPECT_THROW(n.getDouble("--rate"), ips::ArgError);
+}
+
+TEST(Pfm, RoundTripKeepsInfAndOrientation) {
+  cv::Mat d(3, 4, CV_32FC1);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) d.at<float>(r, c) = r * 10.0f + c + 0.25f;
+  d.at<float>(0, 0) = INFINITY;
+  std::string p = tempPath("d.pfm");
+  ips::writePfm(p, d);
+  cv::Mat r = ips::readPfm(p);
+  ASSERT_EQ(r.size(), d.size());
+  EXPECT_TRUE(std::isinf(r.at<float>(0, 0)));
+  EXPECT_EQ(r.at<float>(2, 3), 23.25f);
+  EXPECT_THROW(ips::readPfm(writeFile("x.pfm", "P6\n1 1\n255\n")), std::runtime_error);
+}
+
+}  // namespace

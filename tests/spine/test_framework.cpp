@@ -1,0 +1,158 @@
+// The framework's handling of bad input: undecodable bytes, impossible sizes, NaN, time going backwards and
+// sequence gaps are counted by kind, and the good messages around them still get through.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <ips/imu_sample_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+
+#include "ips/framework/image.hpp"
+#include "ips/framework/node.hpp"
+#include "ips/framework/validate.hpp"
+
+namespace {
+
+ips::imu_sample_t imu(int64_t utime, int64_t seq) {
+  ips::imu_sample_t m{};
+  m.utime = utime;
+  m.seq = seq;
+  m.specific_force[2] = 9.81;
+  return m;
+}
+
+TEST(Framework, UndecodableMessagesAreCountedAndSkipped) {
+  ips::fw::Node node("t", "memq://");
+  int good = 0;
+  node.subscribe<ips::imu_sample_t>("IMU", [&](const ips::imu_sample_t&) { ++good; });
+  const char junk[] = "garbage bytes";
+  node.lcm().publish("IMU", junk, sizeof(junk));
+  node.publish("IMU", imu(1, 1));
+  // A message of another type on the channel: its fingerprint differs, so it must not decode either.
+  ips::stereo_pair_t other =
+      ips::fw::makeStereoPair(1, 1, cv::Mat(2, 2, CV_8UC1, cv::Scalar(1)), cv::Mat(2, 2, CV_8UC1, cv::Scalar(2)));
+  node.publish("IMU", other);
+  node.publish("IMU", imu(2, 2));
+  for (int i = 0; i < 4; ++i) node.handleOnce(10);
+  EXPECT_EQ(good, 2);
+  EXPECT_EQ(node.health().counter("decode_error"), 2);
+  EXPECT_EQ(node.health().badCount(), 2);
+}
+
+TEST(Framework, HandlerExceptionsAreCountedNotFatal) {
+  ips::fw::Node node("t", "memq://");
+  int calls = 0;
+  node.subscribe<ips::imu_sample_t>("IMU", [&](const ips::imu_sample_t& m) {
+    ++calls;
+    if (m.seq == 1) throw std::runtime_error("boom");
+  });
+  node.publish("IMU", imu(1, 1));
+  node.publish("IMU", imu(2, 2));
+  node.handleOnce(10);
+  node.handleOnce(10);
+  EXPECT_EQ(calls, 2);
+  EXPECT_EQ(node.health().counter("handler_error"), 1);
+}
+
+TEST(Framework, ValidateStereoSizes) {
+  cv::Mat a(4, 6, CV_8UC1, cv::Scalar(3));
+  ips::stereo_pair_t m = ips::fw::makeStereoPair(10, 1, a, a);
+  EXPECT_TRUE(ips::fw::validate(m).ok());
+  ips::stereo_pair_t short_data = m;
+  short_data.right.pop_back();
+  EXPECT_EQ(ips::fw::validate(short_data).reason, "bad_size");
+  ips::stereo_pair_t huge = m;
+  huge.width = 100000;
+  EXPECT_EQ(ips::fw::validate(huge).reason, "bad_size");
+  ips::stereo_pair_t negative = m;
+  negative.height = -4;
+  EXPECT_EQ(ips::fw::validate(negative).reason, "bad_size");
+  ips::stereo_pair_t stride = m;
+  stride.stride = 3;
+  EXPECT_EQ(ips::fw::validate(stride).reason, "bad_size");
+  ips::stereo_pair_t format = m;
+  format.pixel_format = 9;
+  EXPECT_EQ(ips::fw::validate(format).reason, "bad_format");
+}
+
+TEST(Framework, ValidateNanAndRanges) {
+  ips::imu_sample_t m = imu(1, 1);
+  EXPECT_TRUE(ips::fw::validate(m).ok());
+  m.angular_rate[1] = std::nan("");
+  EXPECT_EQ(ips::fw::validate(m).reason, "nan");
+  m = imu(1, 1);
+  m.specific_force[0] = INFINITY;
+  EXPECT_EQ(ips::fw::validate(m).reason, "nan");
+  m = imu(1, 1);
+  m.angular_rate[0] = 1e6;
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_value");
+
+  ips::tracker_delta_t d{};
+  d.utime = 2;
+  d.utime_prev = 1;
+  d.valid = true;
+  d.rotation[0] = 1;
+  for (int i = 0; i < 6; ++i) d.covariance[i * 7] = 1;
+  EXPECT_TRUE(ips::fw::validate(d).ok());
+  d.rotation[0] = 0.5;
+  EXPECT_EQ(ips::fw::validate(d).reason, "bad_value");
+  d.rotation[0] = 1;
+  d.translation[2] = std::nan("");
+  EXPECT_EQ(ips::fw::validate(d).reason, "nan");
+  d.utime_prev = 3;
+  EXPECT_EQ(ips::fw::validate(d).reason, "bad_time");
+}
+
+TEST(Framework, StreamOrderCountsGapsAndRejectsBackwards) {
+  ips::fw::StreamOrder order;
+  EXPECT_TRUE(order.check(100, 1).accept);
+  auto r = order.check(200, 4);  // 2 and 3 lost
+  EXPECT_TRUE(r.accept);
+  EXPECT_EQ(r.gap, 2);
+  EXPECT_FALSE(order.check(150, 5).accept);  // earlier than 200
+  EXPECT_FALSE(order.check(200, 5).accept);  // repeated stamp
+  EXPECT_TRUE(order.check(300, 5).accept);   // the stream goes on after the rejected ones
+  EXPECT_EQ(order.lastUtime(), 300);
+}
+
+TEST(Framework, HealthReportsRatesAndCounters) {
+  ips::fw::Health h("tracker");
+  for (int i = 0; i < 10; ++i) {
+    h.received(1000 + i);
+    h.accepted();
+    h.latency(2.0 + i % 2);
+  }
+  for (int i = 0; i < 4; ++i) h.published();
+  h.dropped("superseded", 3);
+  h.bad("nan", "test");
+  h.queueLength(2);
+  ips::health_t m = h.report(2.0);
+  EXPECT_EQ(m.process, "tracker");
+  EXPECT_EQ(m.utime, 1009);
+  EXPECT_DOUBLE_EQ(m.input_rate_hz, 5.0);
+  EXPECT_DOUBLE_EQ(m.output_rate_hz, 2.0);
+  EXPECT_DOUBLE_EQ(m.latency_ms, 2.5);
+  EXPECT_EQ(m.dropped, 3);
+  EXPECT_EQ(m.bad, 1);
+  EXPECT_EQ(m.queue_length, 2);
+  ASSERT_EQ(m.num_counters, 2);
+  EXPECT_EQ(m.counter_names[0], "nan");
+  EXPECT_EQ(m.counter_values[1], 3);
+  // Rates are per interval; totals are not reset.
+  ips::health_t next = h.report(1.0);
+  EXPECT_DOUBLE_EQ(next.input_rate_hz, 0.0);
+  EXPECT_EQ(next.received, 10);
+}
+
+TEST(Framework, HealthMessageIsPublishedOnItsChannel) {
+  ips::fw::Node node("my_proc", "memq://");
+  int seen = 0;
+  node.subscribe<ips::health_t>("HEALTH_MY_PROC", [&](const ips::health_t& h) {
+    EXPECT_EQ(h.process, "my_proc");
+    ++seen;
+  });
+  node.publishHealth(1.0);
+  node.handleOnce(10);
+  EXPECT_EQ(seen, 1);
+}
+
+}  // namespace
