@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Runs the whole test suite: installs what is missing (tools/setup.sh), builds in build/, runs ctest.
+# Options: --no-setup (skip package installation), --sanitize (build in build-asan with ASan+UBSan and run the
+# unit tests there), extra arguments after -- go to ctest.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+setup=1; sanitize=0; ctest_args=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --no-setup) setup=0 ;;
+    --sanitize) sanitize=1 ;;
+    --) shift; ctest_args=("$@"); break ;;
+    *) echo "test.sh: unknown option $1" >&2; exit 2 ;;
+  esac
+  shift
+done
+[ $setup = 1 ] && ./tools/setup.sh
+jobs=$(nproc)
+if [ $sanitize = 1 ]; then
+  dir=build-asan
+  cmake -S . -B $dir -DCMAKE_BUILD_TYPE=RelWithDebInfo -DIPS_SANITIZE=ON >/dev/null
+  cmake --build $dir -j"$jobs"
+  # Unit tests under the sanitizers; tests of whole processes and benchmarks are labelled and run in build/.
+  export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
+  (cd $dir && ctest -j"$jobs" --output-on-failure --timeout 900 -LE "process|slow" "${ctest_args[@]}")
+else
+  cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build build -j"$jobs"
+  (cd build && ctest -j"$jobs" --output-on-failure --timeout 900 "${ctest_args[@]}")
+fi
