@@ -1,0 +1,69 @@
+#pragma once
+// Semi-Global Matching (Hirschmueller 2008) as E3D runs it, and its plain C++ reference.
+//
+// Algorithm (identical integer arithmetic on the device and in sgmReference):
+//  1. Census 5x5 of both rectified 8-bit images: 24 bits, bit set when the neighbour is darker than the
+//     centre; neighbours outside the image are clamped to the border.
+//  2. Matching cost C(x,y,d) = popcount(census_left(x,y) xor census_right(x-d,y)) (0..24), x-d clamped
+//     into the image, d = min_disparity + k, k = 0..num_disparities-1. Computed on the fly, never stored.
+//  3. Path costs along 8 (or 4) directions r:
+//       L_r(p,k) = C(p,k) + min(L_r(p-r,k), L_r(p-r,k+-1) + P1, min_i L_r(p-r,i) + P2') - min_i L_r(p-r,i)
+//     with P2' = max(P1, P2 - (p2_slope * |I(p) - I(p-r)|) / 16) (p2_slope = 0: constant P2).
+//     Every L_r <= 24 + P2 <= 255, so the device keeps one byte per path, pixel and disparity.
+//  4. S = sum of the paths; winner-takes-all k* = argmin S (smallest k on ties).
+//     Uniqueness: invalid when min_{|k-k*|>1} S * (100 - uniqueness) < S(k*) * 100.
+//     Subpixel (equiangular, as rSGM): offset = (c0 - c2) / (2 (max(c0, c2) - c1)), rounded to 1/16 px
+//     in integer arithmetic, so the device and the reference agree exactly.
+//  5. Right disparity by the diagonal search in S: d_R(xr) = argmin_k S(xr + min_disparity + k, y, k).
+//  6. 3x3 median of both maps (optional; invalid pixels take part as kInvalidDisparity), then the
+//     left-right check: invalid when |d_L(x) - d_R(x - round(d_L(x)))| > lr_max_diff.
+#include <opencv2/core.hpp>
+#include <string>
+
+namespace ips {
+class Config;
+namespace e3d {
+
+// Disparity maps are CV_16S holding disparity * kSubpixelScale; pixels without a disparity hold
+// kInvalidDisparity (maps onto disparity_map_t: subpixel_scale = 16, invalid_value = -32768).
+constexpr int kSubpixelScale = 16;
+constexpr int16_t kInvalidDisparity = -32768;
+constexpr int kMaxDisparities = 256;
+constexpr int kCensusMaxCost = 24;
+
+struct SgmParams {
+  int num_disparities = 128;  // search range size, 1..256
+  int min_disparity = 0;      // smallest disparity searched [px]
+  int p1 = 7;                 // penalty for a disparity change of 1 px (census cost units, 0..24)
+  int p2 = 86;                // penalty for larger changes; p2 + 24 <= 255
+  int p2_slope = 0;           // adaptive P2: P2' = max(P1, P2 - p2_slope * |dI| / 16); 0 = constant P2
+  int paths = 8;              // 8 or 4 (horizontal + vertical)
+  int uniqueness = 10;        // percent, 0 = off (as OpenCV's uniquenessRatio)
+  bool subpixel = true;       // equiangular interpolation (else integer disparities * 16)
+  bool median = true;         // 3x3 median on both maps before the left-right check
+  int lr_max_diff = 1;        // left-right check tolerance [px]; < 0 = no check
+
+  // Throws std::invalid_argument naming the bad parameter.
+  void validate() const;
+  // Reads the keys above (same names) from a Config section; absent keys keep their defaults.
+  static SgmParams fromConfig(const Config& section);
+  std::string describe() const;
+};
+
+struct SgmResult {
+  cv::Mat left;   // CV_16S disparity of the left image (after median and LR check)
+  cv::Mat right;  // CV_16S disparity of the right image (diagonal search, after median)
+};
+
+// Plain C++ reference of the algorithm above (single-threaded, slow; for tests and for checking).
+// left, right: CV_8UC1, same size. Throws std::invalid_argument on bad input.
+SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params);
+
+// Census 5x5 transform as used above (CV_32S holding the 24-bit codes); exposed for tests.
+cv::Mat census5x5(const cv::Mat& image);
+
+// Converts a CV_16S disparity map to CV_32F pixels (invalid = +inf), the PFM convention.
+cv::Mat disparityToFloat(const cv::Mat& disparity16);
+
+}  // namespace e3d
+}  // namespace ips

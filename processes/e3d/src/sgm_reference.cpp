@@ -1,0 +1,169 @@
+// Plain C++ reference of E3D's SGM (see ips/e3d/sgm.hpp). Written for clarity, not speed: it is what the
+// device pipeline is compared with, pixel for pixel.
+#include <algorithm>
+#include <array>
+#include <cstdlib>
+#include <stdexcept>
+#include <vector>
+
+#include "ips/e3d/sgm.hpp"
+
+namespace ips {
+namespace e3d {
+
+namespace {
+
+int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
+
+// Rounds 8 * (c0 - c2) / den to the nearest integer, halves away from zero (the device does the same).
+int equiangularOffset16(int c0, int c1, int c2) {
+  int den = std::max(c0, c2) - c1;
+  if (den <= 0) return 0;
+  int num = 8 * (c0 - c2);
+  int mag = (2 * std::abs(num) + den) / (2 * den);
+  return num < 0 ? -mag : mag;
+}
+
+cv::Mat median3x3(const cv::Mat& in) {
+  cv::Mat out(in.size(), CV_16S);
+  for (int y = 0; y < in.rows; ++y)
+    for (int x = 0; x < in.cols; ++x) {
+      std::array<int16_t, 9> v;
+      int n = 0;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          v[n++] = in.at<int16_t>(clampi(y + dy, 0, in.rows - 1), clampi(x + dx, 0, in.cols - 1));
+      std::nth_element(v.begin(), v.begin() + 4, v.end());
+      out.at<int16_t>(y, x) = v[4];
+    }
+  return out;
+}
+
+}  // namespace
+
+cv::Mat census5x5(const cv::Mat& image) {
+  if (image.empty() || image.type() != CV_8UC1) throw std::invalid_argument("census5x5: need a CV_8UC1 image");
+  const int W = image.cols, H = image.rows;
+  cv::Mat out(image.size(), CV_32S);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const int c = image.at<uint8_t>(y, x);
+      uint32_t code = 0;
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx) {
+          if (dx == 0 && dy == 0) continue;
+          const int q = image.at<uint8_t>(clampi(y + dy, 0, H - 1), clampi(x + dx, 0, W - 1));
+          code = (code << 1) | (q < c ? 1u : 0u);
+        }
+      out.at<int32_t>(y, x) = static_cast<int32_t>(code);
+    }
+  return out;
+}
+
+SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& p) {
+  p.validate();
+  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
+    throw std::invalid_argument("sgmReference: need two CV_8UC1 images of the same size");
+  const int W = left.cols, H = left.rows, D = p.num_disparities;
+  const cv::Mat cl = census5x5(left), cr = census5x5(right);
+
+  // Matching costs, [y][x][k].
+  std::vector<uint8_t> cost(static_cast<size_t>(W) * H * D);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int k = 0; k < D; ++k) {
+        const int xr = clampi(x - (p.min_disparity + k), 0, W - 1);
+        const uint32_t a = static_cast<uint32_t>(cl.at<int32_t>(y, x));
+        const uint32_t b = static_cast<uint32_t>(cr.at<int32_t>(y, xr));
+        cost[(static_cast<size_t>(y) * W + x) * D + k] = static_cast<uint8_t>(__builtin_popcount(a ^ b));
+      }
+
+  std::vector<uint16_t> sum(cost.size(), 0);
+  std::vector<int> path(cost.size());
+  const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
+  for (int r = 0; r < p.paths; ++r) {
+    const int dx = dirs[r][0], dy = dirs[r][1];
+    // Visit pixels so that p - r always comes before p.
+    for (int yi = 0; yi < H; ++yi) {
+      const int y = dy >= 0 ? yi : H - 1 - yi;
+      for (int xi = 0; xi < W; ++xi) {
+        const int x = dx >= 0 ? xi : W - 1 - xi;
+        const size_t idx = (static_cast<size_t>(y) * W + x) * D;
+        const int px = x - dx, py = y - dy;
+        if (px < 0 || px >= W || py < 0 || py >= H) {
+          for (int k = 0; k < D; ++k) path[idx + k] = cost[idx + k];
+        } else {
+          const size_t pidx = (static_cast<size_t>(py) * W + px) * D;
+          int m = path[pidx];
+          for (int k = 1; k < D; ++k) m = std::min(m, path[pidx + k]);
+          int p2 = p.p2;
+          if (p.p2_slope > 0) {
+            const int grad = std::abs(int(left.at<uint8_t>(y, x)) - int(left.at<uint8_t>(py, px)));
+            p2 = std::max(p.p1, p.p2 - (p.p2_slope * grad) / 16);
+          }
+          for (int k = 0; k < D; ++k) {
+            int best = std::min(path[pidx + k], m + p2);
+            if (k > 0) best = std::min(best, path[pidx + k - 1] + p.p1);
+            if (k + 1 < D) best = std::min(best, path[pidx + k + 1] + p.p1);
+            path[idx + k] = cost[idx + k] + best - m;
+          }
+        }
+      }
+    }
+    for (size_t i = 0; i < sum.size(); ++i) sum[i] = static_cast<uint16_t>(sum[i] + path[i]);
+  }
+
+  cv::Mat dl(H, W, CV_16S), dr(H, W, CV_16S);
+  for (int y = 0; y < H; ++y) {
+    std::vector<int> bestRight(W, -1), bestRightCost(W, 0);
+    for (int x = 0; x < W; ++x) {
+      const uint16_t* s = &sum[(static_cast<size_t>(y) * W + x) * D];
+      int best = 0;
+      for (int k = 1; k < D; ++k)
+        if (s[k] < s[best]) best = k;
+      bool valid = true;
+      if (p.uniqueness > 0) {
+        for (int k = 0; k < D; ++k)
+          if (std::abs(k - best) > 1 && s[k] * (100 - p.uniqueness) < s[best] * 100) valid = false;
+      }
+      int d16 = (p.min_disparity + best) * kSubpixelScale;
+      if (p.subpixel && best > 0 && best + 1 < D) d16 += equiangularOffset16(s[best - 1], s[best], s[best + 1]);
+      dl.at<int16_t>(y, x) = valid ? static_cast<int16_t>(d16) : kInvalidDisparity;
+      for (int k = 0; k < D; ++k) {  // diagonal search for the right image
+        const int xr = x - p.min_disparity - k;
+        if (xr < 0 || xr >= W) continue;
+        if (bestRight[xr] < 0 || s[k] < bestRightCost[xr] || (s[k] == bestRightCost[xr] && k < bestRight[xr])) {
+          bestRight[xr] = k;
+          bestRightCost[xr] = s[k];
+        }
+      }
+    }
+    for (int xr = 0; xr < W; ++xr)
+      dr.at<int16_t>(y, xr) = bestRight[xr] < 0
+                                  ? kInvalidDisparity
+                                  : static_cast<int16_t>((p.min_disparity + bestRight[xr]) * kSubpixelScale);
+  }
+
+  if (p.median) {
+    dl = median3x3(dl);
+    dr = median3x3(dr);
+  }
+  if (p.lr_max_diff >= 0) {
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        int16_t& d = dl.at<int16_t>(y, x);
+        if (d == kInvalidDisparity) continue;
+        const int xr = x - ((d + kSubpixelScale / 2) >> 4);
+        if (xr < 0 || xr >= W) {
+          d = kInvalidDisparity;
+          continue;
+        }
+        const int16_t r = dr.at<int16_t>(y, xr);
+        if (r == kInvalidDisparity || std::abs(int(d) - int(r)) > p.lr_max_diff * kSubpixelScale) d = kInvalidDisparity;
+      }
+  }
+  return {dl, dr};
+}
+
+}  // namespace e3d
+}  // namespace ips

@@ -1,0 +1,479 @@
+#include "ips/e3d/stereo_matcher.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <stdexcept>
+
+#include "ips/shaders.hpp"
+
+namespace ips {
+namespace e3d {
+
+namespace {
+
+constexpr int kMaxChunks = 24;   // E3D_MAX_CHUNKS in shaders/e3d_common.glsl
+constexpr int kMaxWidth = 4096;  // E3D_MAX_WIDTH in shaders/sgm_wta.comp
+constexpr uint32_t kMaxTimestamps = 16;
+
+struct Buffer {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceMemory memory = VK_NULL_HANDLE;
+  VkDeviceSize size = 0;
+  void* mapped = nullptr;
+};
+
+struct Binding {
+  uint32_t binding;
+  std::vector<const Buffer*> buffers;  // more than one: a descriptor array
+};
+
+struct Stage {
+  VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
+  VkPipelineLayout layout = VK_NULL_HANDLE;
+  VkPipeline pipeline = VK_NULL_HANDLE;
+  VkDescriptorSet set = VK_NULL_HANDLE;
+};
+
+}  // namespace
+
+struct StereoMatcher::Impl {
+  VulkanContext& ctx;
+  VkDevice dev;
+  cv::Size size;
+  SgmParams params;
+  int lane_disps = 0;  // K: disparities per subgroup lane
+  int padded_disps = 0;
+  int rows_per_chunk = 0;
+  int row_words = 0;
+  int num_chunks = 0;
+  size_t memory_bytes = 0;
+
+  Buffer image[2], census[2], disp[2], median[2], final_disp;
+  std::vector<Buffer> volume;
+  Buffer raw[2], maps;
+  cv::Size raw_size;
+  bool has_rect = false;
+
+  VkDescriptorPool pool = VK_NULL_HANDLE;
+  Stage census_stage, aggregate_stage, wta_stage, median_stage, lr_stage, rectify_stage;
+  VkCommandPool cmd_pool = VK_NULL_HANDLE;
+  VkCommandBuffer cmd = VK_NULL_HANDLE;
+  VkFence fence = VK_NULL_HANDLE;
+  VkQueryPool queries = VK_NULL_HANDLE;
+
+  Impl(VulkanContext& c, cv::Size s, const SgmParams& p) : ctx(c), dev(c.device()), size(s), params(p) {}
+
+  Buffer createBuffer(VkDeviceSize bytes, bool host_visible) {
+    Buffer b;
+    b.size = std::max<VkDeviceSize>(bytes, 4);
+    VkBufferCreateInfo bi{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
+    bi.size = b.size;
+    bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+    bi.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
+    vkCheck(vkCreateBuffer(dev, &bi, nullptr, &b.buffer), "vkCreateBuffer");
+    VkMemoryRequirements req;
+    vkGetBufferMemoryRequirements(dev, b.buffer, &req);
+    VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+    ai.allocationSize = req.size;
+    ai.memoryTypeIndex =
+        host_visible ? ctx.findMemoryType(req.memoryTypeBits,
+                                          VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT,
+                                          VK_MEMORY_PROPERTY_HOST_CACHED_BIT)
+                     : ctx.findMemoryType(req.memoryTypeBits, 0, VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT);
+    vkCheck(vkAllocateMemory(dev, &ai, nullptr, &b.memory), "vkAllocateMemory");
+    vkCheck(vkBindBufferMemory(dev, b.buffer, b.memory, 0), "vkBindBufferMemory");
+    if (host_visible) vkCheck(vkMapMemory(dev, b.memory, 0, VK_WHOLE_SIZE, 0, &b.mapped), "vkMapMemory");
+    memory_bytes += req.size;
+    return b;
+  }
+
+  void destroyBuffer(Buffer& b) {
+    if (b.buffer) vkDestroyBuffer(dev, b.buffer, nullptr);
+    if (b.memory) vkFreeMemory(dev, b.memory, nullptr);
+    b = Buffer{};
+  }
+
+  Stage createStage(const std::string& shader, const std::vector<Binding>& bindings, uint32_t push_bytes,
+                    bool specialise) {
+    Stage st;
+    std::vector<VkDescriptorSetLayoutBinding> lb;
+    for (const auto& b : bindings) {
+      VkDescriptorSetLayoutBinding l{};
+      l.binding = b.binding;
+      l.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      l.descriptorCount = static_cast<uint32_t>(b.buffers.size());
+      l.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
+      lb.push_back(l);
+    }
+    VkDescriptorSetLayoutCreateInfo li{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_LAYOUT_CREATE_INFO};
+    li.bindingCount = static_cast<uint32_t>(lb.size());
+    li.pBindings = lb.data();
+    vkCheck(vkCreateDescriptorSetLayout(dev, &li, nullptr, &st.set_layout), "vkCreateDescriptorSetLayout");
+    VkPushConstantRange range{VK_SHADER_STAGE_COMPUTE_BIT, 0, push_bytes};
+    VkPipelineLayoutCreateInfo pli{VK_STRUCTURE_TYPE_PIPELINE_LAYOUT_CREATE_INFO};
+    pli.setLayoutCount = 1;
+    pli.pSetLayouts = &st.set_layout;
+    pli.pushConstantRangeCount = 1;
+    pli.pPushConstantRanges = &range;
+    vkCheck(vkCreatePipelineLayout(dev, &pli, nullptr, &st.layout), "vkCreatePipelineLayout");
+
+    const ShaderCode& code = shaderCode(shader);
+    VkShaderModuleCreateInfo mi{VK_STRUCTURE_TYPE_SHADER_MODULE_CREATE_INFO};
+    mi.codeSize = code.word_count * 4;
+    mi.pCode = code.words;
+    VkShaderModule module;
+    vkCheck(vkCreateShaderModule(dev, &mi, nullptr, &module), "vkCreateShaderModule");
+    const int32_t spec_values[2] = {static_cast<int32_t>(ctx.subgroupSize()), lane_disps};
+    const VkSpecializationMapEntry entries[2] = {{0, 0, 4}, {1, 4, 4}};
+    VkSpecializationInfo spec{2, entries, sizeof(spec_values), spec_values};
+    VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+    ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
+    ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+    ci.stage.module = module;
+    ci.stage.pName = "main";
+    ci.stage.pSpecializationInfo = specialise ? &spec : nullptr;
+    ci.layout = st.layout;
+    VkResult r = vkCreateComputePipelines(dev, VK_NULL_HANDLE, 1, &ci, nullptr, &st.pipeline);
+    vkDestroyShaderModule(dev, module, nullptr);
+    vkCheck(r, ("vkCreateComputePipelines(" + shader + ")").c_str());
+
+    VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
+    ai.descriptorPool = pool;
+    ai.descriptorSetCount = 1;
+    ai.pSetLayouts = &st.set_layout;
+    vkCheck(vkAllocateDescriptorSets(dev, &ai, &st.set), "vkAllocateDescriptorSets");
+    writeSet(st, bindings);
+    return st;
+  }
+
+  void writeSet(Stage& st, const std::vector<Binding>& bindings) {
+    std::vector<std::vector<VkDescriptorBufferInfo>> infos(bindings.size());
+    std::vector<VkWriteDescriptorSet> writes;
+    for (size_t i = 0; i < bindings.size(); ++i) {
+      for (const Buffer* b : bindings[i].buffers) infos[i].push_back({b->buffer, 0, VK_WHOLE_SIZE});
+      VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
+      w.dstSet = st.set;
+      w.dstBinding = bindings[i].binding;
+      w.descriptorCount = static_cast<uint32_t>(infos[i].size());
+      w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+      w.pBufferInfo = infos[i].data();
+      writes.push_back(w);
+    }
+    vkUpdateDescriptorSets(dev, static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
+  }
+
+  void destroyStage(Stage& st) {
+    if (st.pipeline) vkDestroyPipeline(dev, st.pipeline, nullptr);
+    if (st.layout) vkDestroyPipelineLayout(dev, st.layout, nullptr);
+    if (st.set_layout) vkDestroyDescriptorSetLayout(dev, st.set_layout, nullptr);
+    if (st.set) vkFreeDescriptorSets(dev, pool, 1, &st.set);
+    st = Stage{};
+  }
+
+  std::vector<const Buffer*> volumeArray() const {
+    std::vector<const Buffer*> v;
+    for (int i = 0; i < kMaxChunks; ++i) v.push_back(&volume[std::min<int>(i, num_chunks - 1)]);
+    return v;
+  }
+
+  void init() {
+    params.validate();
+    const int W = size.width, H = size.height;
+    if (W < 1 || H < 1) throw std::invalid_argument("StereoMatcher: empty image size");
+    if (W > kMaxWidth) throw std::invalid_argument("StereoMatcher: width above 4096");
+    const int sg = static_cast<int>(ctx.subgroupSize());
+    lane_disps = (params.num_disparities + sg - 1) / sg;
+    lane_disps = (lane_disps + 3) / 4 * 4;
+    padded_disps = lane_disps * sg;
+    const uint64_t row_bytes = static_cast<uint64_t>(W) * padded_disps;
+    row_words = static_cast<int>(row_bytes / 4);
+    const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
+    if (row_bytes > max_range) throw std::invalid_argument("StereoMatcher: one row of path costs exceeds a buffer");
+    const int total_rows = params.paths * H;
+    const int max_rows = static_cast<int>(max_range / row_bytes);
+    num_chunks = (total_rows + max_rows - 1) / max_rows;
+    if (num_chunks > kMaxChunks)
+      throw std::invalid_argument("StereoMatcher: path-cost volume too large for " + std::to_string(kMaxChunks) +
+                                  " buffers of maxStorageBufferRange (reduce size or num_disparities)");
+    rows_per_chunk = (total_rows + num_chunks - 1) / num_chunks;
+
+    const size_t pixels = static_cast<size_t>(W) * H;
+    for (int i = 0; i < 2; ++i) {
+      image[i] = createBuffer((pixels + 3) / 4 * 4, true);
+      census[i] = createBuffer(pixels * 4, false);
+      disp[i] = createBuffer(pixels * 4, true);
+      median[i] = createBuffer(pixels * 4, true);
+    }
+    final_disp = createBuffer(pixels * 4, true);
+    for (int c = 0; c < num_chunks; ++c) {
+      const int rows = std::min(rows_per_chunk, total_rows - c * rows_per_chunk);
+      volume.push_back(createBuffer(static_cast<uint64_t>(rows) * row_bytes, false));
+    }
+
+    VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 + 27 + 26 + 4 + 3 + 5};
+    VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    pi.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
+    pi.maxSets = 6;
+    pi.poolSizeCount = 1;
+    pi.pPoolSizes = &ps;
+    vkCheck(vkCreateDescriptorPool(dev, &pi, nullptr, &pool), "vkCreateDescriptorPool");
+
+    census_stage =
+        createStage("census5x5", {{0, {&image[0]}}, {1, {&image[1]}}, {2, {&census[0]}}, {3, {&census[1]}}}, 8, false);
+    aggregate_stage = createStage(
+        "sgm_aggregate", {{0, {&image[0]}}, {2, {&census[0]}}, {3, {&census[1]}}, {4, volumeArray()}}, 48, true);
+    wta_stage = createStage("sgm_wta", {{4, volumeArray()}, {5, {&disp[0]}}, {6, {&disp[1]}}}, 36, true);
+    median_stage =
+        createStage("median3x3", {{0, {&disp[0]}}, {1, {&disp[1]}}, {2, {&median[0]}}, {3, {&median[1]}}}, 8, false);
+    const Buffer* lr_in = params.median ? median : disp;
+    lr_stage = createStage("lr_check", {{0, {&lr_in[0]}}, {1, {&lr_in[1]}}, {2, {&final_disp}}}, 12, false);
+
+    VkCommandPoolCreateInfo ci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
+    ci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
+    ci.queueFamilyIndex = ctx.queueFamily();
+    vkCheck(vkCreateCommandPool(dev, &ci, nullptr, &cmd_pool), "vkCreateCommandPool");
+    VkCommandBufferAllocateInfo cai{VK_STRUCTURE_TYPE_COMMAND_BUFFER_ALLOCATE_INFO};
+    cai.commandPool = cmd_pool;
+    cai.level = VK_COMMAND_BUFFER_LEVEL_PRIMARY;
+    cai.commandBufferCount = 1;
+    vkCheck(vkAllocateCommandBuffers(dev, &cai, &cmd), "vkAllocateCommandBuffers");
+    VkFenceCreateInfo fi{VK_STRUCTURE_TYPE_FENCE_CREATE_INFO};
+    vkCheck(vkCreateFence(dev, &fi, nullptr, &fence), "vkCreateFence");
+    if (ctx.timestampsSupported()) {
+      VkQueryPoolCreateInfo qi{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+      qi.queryType = VK_QUERY_TYPE_TIMESTAMP;
+      qi.queryCount = kMaxTimestamps;
+      vkCheck(vkCreateQueryPool(dev, &qi, nullptr, &queries), "vkCreateQueryPool");
+    }
+  }
+
+  ~Impl() {
+    if (dev == VK_NULL_HANDLE) return;
+    vkDeviceWaitIdle(dev);
+    for (Stage* s : {&census_stage, &aggregate_stage, &wta_stage, &median_stage, &lr_stage, &rectify_stage})
+      destroyStage(*s);
+    if (pool) vkDestroyDescriptorPool(dev, pool, nullptr);
+    if (queries) vkDestroyQueryPool(dev, queries, nullptr);
+    if (fence) vkDestroyFence(dev, fence, nullptr);
+    if (cmd_pool) vkDestroyCommandPool(dev, cmd_pool, nullptr);
+    for (int i = 0; i < 2; ++i)
+      for (Buffer* b : {&image[i], &census[i], &disp[i], &median[i], &raw[i]}) destroyBuffer(*b);
+    destroyBuffer(final_disp);
+    destroyBuffer(maps);
+    for (auto& b : volume) destroyBuffer(b);
+  }
+
+  static void barrier(VkCommandBuffer c) {
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+    vkCmdPipelineBarrier(c, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &mb, 0,
+                         nullptr, 0, nullptr);
+  }
+
+  void bind(const Stage& st) {
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, st.pipeline);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, st.layout, 0, 1, &st.set, 0, nullptr);
+  }
+
+  template <typename T>
+  void push(const Stage& st, const T& values) {
+    vkCmdPushConstants(cmd, st.layout, VK_SHADER_STAGE_COMPUTE_BIT, 0, sizeof(T), &values);
+  }
+
+  static uint32_t groups(int n, int local) { return static_cast<uint32_t>((n + local - 1) / local); }
+
+  MatchOutput run(bool rectify, bool want_right) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const int W = size.width, H = size.height;
+    std::vector<std::string> names;
+    uint32_t stamp = 0;
+    auto timestamp = [&](const char* name) {
+      if (!queries) return;
+      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, stamp++);
+      if (name) names.push_back(name);
+    };
+
+    vkCheck(vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkCheck(vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer");
+    if (queries) vkCmdResetQueryPool(cmd, queries, 0, kMaxTimestamps);
+    timestamp(nullptr);
+    if (rectify) {
+      bind(rectify_stage);
+      const int32_t pc[4] = {W, H, raw_size.width, raw_size.height};
+      push(rectify_stage, pc);
+      vkCmdDispatch(cmd, groups((W * H + 3) / 4, 64), 1, 2);
+      barrier(cmd);
+      timestamp("rectify");
+    }
+    {
+      bind(census_stage);
+      const int32_t pc[2] = {W, H};
+      push(census_stage, pc);
+      vkCmdDispatch(cmd, groups(W, 16), groups(H, 8), 2);
+      barrier(cmd);
+      timestamp("census");
+    }
+    {
+      bind(aggregate_stage);
+      const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
+      for (int r = 0; r < params.paths; ++r) {
+        const int dx = dirs[r][0], dy = dirs[r][1];
+        const int32_t pc[12] = {W,         H,         params.num_disparities, params.min_disparity,
+                                params.p1, params.p2, params.p2_slope,        r,
+                                dx,        dy,        rows_per_chunk,         row_words};
+        push(aggregate_stage, pc);
+        const int lines = dy == 0 ? H : (dx == 0 ? W : W + H - 1);
+        vkCmdDispatch(cmd, static_cast<uint32_t>(lines), 1, 1);
+      }
+      barrier(cmd);
+      timestamp("aggregate");
+    }
+    {
+      bind(wta_stage);
+      const int32_t pc[9] = {W,
+                             H,
+                             params.num_disparities,
+                             params.min_disparity,
+                             params.paths,
+                             params.uniqueness,
+                             params.subpixel ? 1 : 0,
+                             rows_per_chunk,
+                             row_words};
+      push(wta_stage, pc);
+      vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
+      barrier(cmd);
+      timestamp("wta");
+    }
+    if (params.median) {
+      bind(median_stage);
+      const int32_t pc[2] = {W, H};
+      push(median_stage, pc);
+      vkCmdDispatch(cmd, groups(W, 16), groups(H, 8), 2);
+      barrier(cmd);
+      timestamp("median");
+    }
+    if (params.lr_max_diff >= 0) {
+      bind(lr_stage);
+      const int32_t pc[3] = {W, H, params.lr_max_diff * kSubpixelScale};
+      push(lr_stage, pc);
+      vkCmdDispatch(cmd, groups(W, 16), groups(H, 8), 1);
+      barrier(cmd);
+      timestamp("lr_check");
+    }
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &mb, 0, nullptr,
+                         0, nullptr);
+    vkCheck(vkEndCommandBuffer(cmd), "vkEndCommandBuffer");
+
+    VkSubmitInfo si{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+    si.commandBufferCount = 1;
+    si.pCommandBuffers = &cmd;
+    vkCheck(vkResetFences(dev, 1, &fence), "vkResetFences");
+    vkCheck(vkQueueSubmit(ctx.queue(), 1, &si, fence), "vkQueueSubmit");
+    vkCheck(vkWaitForFences(dev, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+
+    MatchOutput out;
+    if (queries && stamp > 1) {
+      std::vector<uint64_t> ticks(stamp);
+      vkCheck(vkGetQueryPoolResults(dev, queries, 0, stamp, ticks.size() * 8, ticks.data(), 8,
+                                    VK_QUERY_RESULT_64_BIT | VK_QUERY_RESULT_WAIT_BIT),
+              "vkGetQueryPoolResults");
+      for (size_t i = 1; i < stamp; ++i) {
+        const double ms = static_cast<double>(ticks[i] - ticks[i - 1]) * ctx.timestampPeriodNs() * 1e-6;
+        out.stages.push_back({names[i - 1], ms});
+        out.device_ms += ms;
+      }
+    }
+    const Buffer& left_final = params.lr_max_diff >= 0 ? final_disp : (params.median ? median[0] : disp[0]);
+    out.disparity = toInt16(left_final);
+    if (want_right) out.right = toInt16(params.median ? median[1] : disp[1]);
+    out.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  }
+
+  cv::Mat toInt16(const Buffer& b) const {
+    cv::Mat wrapped(size, CV_32S, b.mapped);
+    cv::Mat out;
+    wrapped.convertTo(out, CV_16S);
+    return out;
+  }
+
+  static void upload(Buffer& b, const cv::Mat& img) {
+    auto* dst = static_cast<uint8_t*>(b.mapped);
+    for (int y = 0; y < img.rows; ++y) std::memcpy(dst + static_cast<size_t>(y) * img.cols, img.ptr(y), img.cols);
+  }
+
+  void checkPair(const cv::Mat& a, const cv::Mat& b, cv::Size expected, const char* what) const {
+    if (a.empty() || b.empty() || a.type() != CV_8UC1 || b.type() != CV_8UC1)
+      throw std::invalid_argument(std::string("StereoMatcher: ") + what + " must be two CV_8UC1 images");
+    if (a.size() != expected || b.size() != expected)
+      throw std::invalid_argument(std::string("StereoMatcher: ") + what + " must be " + std::to_string(expected.width) +
+                                  "x" + std::to_string(expected.height));
+  }
+};
+
+StereoMatcher::StereoMatcher(VulkanContext& ctx, cv::Size size, const SgmParams& params)
+    : impl_(new Impl(ctx, size, params)) {
+  impl_->init();
+}
+
+StereoMatcher::~StereoMatcher() = default;
+
+MatchOutput StereoMatcher::match(const cv::Mat& left, const cv::Mat& right, bool want_right) {
+  impl_->checkPair(left, right, impl_->size, "match input");
+  Impl::upload(impl_->image[0], left);
+  Impl::upload(impl_->image[1], right);
+  return impl_->run(false, want_right);
+}
+
+void StereoMatcher::setRectification(const StereoRectification& rect, cv::Size raw_size) {
+  Impl& m = *impl_;
+  if (rect.size != m.size) throw std::invalid_argument("StereoMatcher::setRectification: rectified size differs");
+  const cv::Mat* maps[4] = {&rect.map0x, &rect.map0y, &rect.map1x, &rect.map1y};
+  for (const cv::Mat* mp : maps)
+    if (mp->type() != CV_32FC1 || mp->size() != m.size)
+      throw std::invalid_argument("StereoMatcher::setRectification: maps must be CV_32FC1 of the rectified size");
+  if (raw_size.width < 1 || raw_size.height < 1) throw std::invalid_argument("setRectification: empty raw size");
+  vkDeviceWaitIdle(m.dev);
+  m.destroyStage(m.rectify_stage);
+  for (auto* b : {&m.raw[0], &m.raw[1], &m.maps}) m.destroyBuffer(*b);
+  const size_t raw_pixels = static_cast<size_t>(raw_size.width) * raw_size.height;
+  const size_t n = static_cast<size_t>(m.size.area());
+  m.raw[0] = m.createBuffer((raw_pixels + 3) / 4 * 4, true);
+  m.raw[1] = m.createBuffer((raw_pixels + 3) / 4 * 4, true);
+  m.maps = m.createBuffer(4 * n * sizeof(float), true);
+  for (int i = 0; i < 4; ++i) {
+    cv::Mat dst(m.size, CV_32F, static_cast<float*>(m.maps.mapped) + i * n);
+    maps[i]->copyTo(dst);
+  }
+  m.raw_size = raw_size;
+  m.rectify_stage = m.createStage(
+      "rectify", {{0, {&m.raw[0]}}, {1, {&m.raw[1]}}, {2, {&m.maps}}, {3, {&m.image[0]}}, {4, {&m.image[1]}}}, 16,
+      false);
+  m.has_rect = true;
+}
+
+MatchOutput StereoMatcher::matchRaw(const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat* rect0, cv::Mat* rect1,
+                                    bool want_right) {
+  if (!impl_->has_rect) throw std::logic_error("StereoMatcher::matchRaw: call setRectification first");
+  impl_->checkPair(raw0, raw1, impl_->raw_size, "matchRaw input");
+  Impl::upload(impl_->raw[0], raw0);
+  Impl::upload(impl_->raw[1], raw1);
+  MatchOutput out = impl_->run(true, want_right);
+  if (rect0) cv::Mat(impl_->size, CV_8UC1, impl_->image[0].mapped).copyTo(*rect0);
+  if (rect1) cv::Mat(impl_->size, CV_8UC1, impl_->image[1].mapped).copyTo(*rect1);
+  return out;
+}
+
+cv::Size StereoMatcher::size() const { return impl_->size; }
+const SgmParams& StereoMatcher::params() const { return impl_->params; }
+size_t StereoMatcher::deviceMemoryBytes() const { return impl_->memory_bytes; }
+
+}  // namespace e3d
+}  // namespace ips

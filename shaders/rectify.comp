@@ -1,0 +1,40 @@
+#version 450
+// Rectification of the raw pair on the device: for each rectified pixel, bilinear interpolation of the raw
+// image at the position given by the maps of ips::StereoRectification (as cv::remap with INTER_LINEAR and a
+// constant 0 border). Each invocation writes one word = 4 pixels; z = 0 camera 0, z = 1 camera 1.
+#extension GL_GOOGLE_include_directive : require
+#include "e3d_common.glsl"
+layout(local_size_x = 64) in;
+layout(push_constant) uniform Params { int width; int height; int raw_width; int raw_height; } pc;
+layout(std430, binding = 0) readonly buffer Raw0 { uint raw0[]; };
+layout(std430, binding = 1) readonly buffer Raw1 { uint raw1[]; };
+layout(std430, binding = 2) readonly buffer Maps { float maps[]; };  // map0x, map0y, map1x, map1y
+layout(std430, binding = 3) writeonly buffer Out0 { uint out0[]; };
+layout(std430, binding = 4) writeonly buffer Out1 { uint out1[]; };
+
+float rawAt(bool cam1, int x, int y) {
+  if (x < 0 || y < 0 || x >= pc.raw_width || y >= pc.raw_height) return 0.0;
+  const int idx = y * pc.raw_width + x;
+  return float(cam1 ? E3D_PIXEL(raw1, idx) : E3D_PIXEL(raw0, idx));
+}
+
+void main() {
+  const int word = int(gl_GlobalInvocationID.x);
+  const int n = pc.width * pc.height;
+  if (4 * word >= n) return;
+  const bool cam1 = gl_GlobalInvocationID.z == 1u;
+  const int map_x = cam1 ? 2 * n : 0, map_y = cam1 ? 3 * n : n;
+  uint packed = 0u;
+  for (int i = 0; i < 4; ++i) {
+    const int idx = 4 * word + i;
+    if (idx >= n) break;
+    const float sx = maps[map_x + idx], sy = maps[map_y + idx];
+    const int x0 = int(floor(sx)), y0 = int(floor(sy));
+    const float fx = sx - float(x0), fy = sy - float(y0);
+    const float v = mix(mix(rawAt(cam1, x0, y0), rawAt(cam1, x0 + 1, y0), fx),
+                        mix(rawAt(cam1, x0, y0 + 1), rawAt(cam1, x0 + 1, y0 + 1), fx), fy);
+    packed |= uint(clamp(round(v), 0.0, 255.0)) << (8 * i);
+  }
+  if (cam1) out1[word] = packed;
+  else out0[word] = packed;
+}

@@ -1,0 +1,207 @@
+// e3d_eval: accuracy of E3D (and, with --opencv, of OpenCV StereoSGBM MODE_HH with the settings) on
+// the scenes of ../shared/data/stereo. Per scene: bad 0.5/1/2/4 px in the non-occluded region and in all
+// evaluated pixels (pixels without a disparity count as bad), mean absolute error of the valid disparities
+// (all region), density; writes colour-mapped disparity PNGs.
+//   e3d_eval [--data DIR] [--scenes a,b,..] [--out-dir DIR] [--opencv] [--device D] [SGM options]
+// The search range is the scene's num_disparities unless --num-disparities is given.
+#include <dirent.h>
+
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "ips/e3d/stereo_matcher.hpp"
+#include "ips/pfm.hpp"
+#include "tool_common.hpp"
+
+using namespace ips::e3d;
+
+namespace {
+
+struct Scene {
+  std::string name, dir;
+  cv::Mat left, right;
+  cv::Mat gt;      // CV_32F, NaN = unknown
+  cv::Mat nonocc;  // CV_8U, 255 = evaluated
+  cv::Mat all;     // CV_8U, 255 = evaluated
+  int num_disparities = 0;
+};
+
+Scene loadScene(const std::string& dir) {
+  cv::FileStorage fs(dir + "/scene.yaml", cv::FileStorage::READ);
+  if (!fs.isOpened()) throw std::runtime_error("cannot read " + dir + "/scene.yaml");
+  Scene s;
+  s.dir = dir;
+  s.name = (std::string)fs["name"];
+  s.left = loadGrey(dir + "/" + (std::string)fs["left"]);
+  s.right = loadGrey(dir + "/" + (std::string)fs["right"]);
+  s.num_disparities = (int)fs["num_disparities"];
+  const std::string format = (std::string)fs["gt_format"];
+  const double scale = (double)fs["gt_scale"];
+  const std::string invalid = (std::string)fs["gt_invalid"];
+  const std::string gt_path = dir + "/" + (std::string)fs["gt"];
+  cv::Mat raw;
+  if (format == "pfm") {
+    raw = ips::readPfm(gt_path);
+  } else {
+    cv::imread(gt_path, cv::IMREAD_UNCHANGED).convertTo(raw, CV_32F);
+    if (raw.empty()) throw std::runtime_error("cannot read " + gt_path);
+  }
+  s.gt = cv::Mat(raw.size(), CV_32F);
+  for (int y = 0; y < raw.rows; ++y)
+    for (int x = 0; x < raw.cols; ++x) {
+      const float v = raw.at<float>(y, x);
+      const bool unknown = invalid == "inf" ? !std::isfinite(v) : v == std::stof(invalid);
+      s.gt.at<float>(y, x) = unknown ? NAN : static_cast<float>(v / scale);
+    }
+  const int border = fs["border"].empty() ? 0 : (int)fs["border"];
+  cv::Mat known = s.gt == s.gt;  // not NaN
+  cv::Mat inner(known.size(), CV_8U, cv::Scalar(0));
+  inner(cv::Rect(border, border, known.cols - 2 * border, known.rows - 2 * border)).setTo(255);
+  known &= inner;
+  auto mask = [&](const char* key) {
+    if (fs[key].empty()) return cv::Mat();
+    cv::Mat m = cv::imread(dir + "/" + (std::string)fs[key], cv::IMREAD_GRAYSCALE);
+    if (m.empty()) throw std::runtime_error("cannot read mask " + (std::string)fs[key]);
+    return m;
+  };
+  cv::Mat nonocc = mask("mask_nonocc"), all = mask("mask_all");
+  s.nonocc = nonocc.empty() ? known.clone() : ((nonocc == 255) & known);
+  if (!all.empty())
+    s.all = (all == 255) & known;
+  else if (!nonocc.empty())
+    s.all = (nonocc > 0) & known;  // Middlebury 2014: 255 nonocc, 128 occluded
+  else
+    s.all = known.clone();
+  return s;
+}
+
+struct Scores {
+  double bad_nonocc[4] = {0, 0, 0, 0}, bad_all[4] = {0, 0, 0, 0};
+  double mean_error = 0, density = 0;
+};
+
+const double kThresholds[4] = {0.5, 1.0, 2.0, 4.0};
+
+Scores score(const Scene& s, const cv::Mat& disp /* CV_32F, inf = invalid */) {
+  Scores r;
+  long n_non = 0, n_all = 0, valid = 0;
+  double err_sum = 0;
+  for (int y = 0; y < disp.rows; ++y)
+    for (int x = 0; x < disp.cols; ++x) {
+      if (!s.all.at<uint8_t>(y, x)) continue;
+      const float d = disp.at<float>(y, x);
+      const bool ok = std::isfinite(d);
+      const double err = ok ? std::abs(d - s.gt.at<float>(y, x)) : INFINITY;
+      const bool non = s.nonocc.at<uint8_t>(y, x) != 0;
+      ++n_all;
+      n_non += non;
+      if (ok) {
+        ++valid;
+        err_sum += err;
+      }
+      for (int t = 0; t < 4; ++t)
+        if (err > kThresholds[t]) {
+          r.bad_all[t] += 1;
+          if (non) r.bad_nonocc[t] += 1;
+        }
+    }
+  for (int t = 0; t < 4; ++t) {
+    r.bad_all[t] = 100.0 * r.bad_all[t] / std::max(1L, n_all);
+    r.bad_nonocc[t] = 100.0 * r.bad_nonocc[t] / std::max(1L, n_non);
+  }
+  r.mean_error = err_sum / std::max(1L, valid);
+  r.density = 100.0 * valid / std::max(1L, n_all);
+  return r;
+}
+
+cv::Mat openCvHH(const Scene& s, int num_disparities) {
+  auto sgbm = cv::StereoSGBM::create(0, num_disparities, 5, 8 * 25, 32 * 25, 1, 0, 10, 0, 0, cv::StereoSGBM::MODE_HH);
+  cv::Mat d16;
+  sgbm->compute(s.left, s.right, d16);
+  cv::Mat out(d16.size(), CV_32F);
+  for (int y = 0; y < d16.rows; ++y)
+    for (int x = 0; x < d16.cols; ++x) {
+      const int16_t v = d16.at<int16_t>(y, x);
+      out.at<float>(y, x) = v < 0 ? INFINITY : v / 16.0f;
+    }
+  return out;
+}
+
+void printRow(const std::string& scene, const std::string& method, const Scores& r) {
+  std::cout << std::left << std::setw(18) << scene << std::setw(8) << method << std::right << std::fixed
+            << std::setprecision(2);
+  for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_nonocc[t];
+  for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_all[t];
+  std::cout << std::setw(7) << r.mean_error << std::setw(8) << r.density << "\n";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    std::vector<std::string> flags = paramFlags();
+    flags.push_back("opencv");
+    flags.push_back("help");
+    Args args(argc, argv, flags);
+    if (args.has("help")) {
+      std::cout << "usage: e3d_eval [--data DIR] [--scenes a,b] [--out-dir DIR] [--opencv] [--device D]\n"
+                << kParamUsage;
+      return 0;
+    }
+    std::vector<std::string> known = paramKeys();
+    for (const char* k : {"data", "scenes", "out-dir", "device"}) known.push_back(k);
+    for (const auto& f : flags) known.push_back(f);
+    args.checkKnown(known);
+    const std::string data = args.get("data", std::string(IPS_DATA_DIR) + "/stereo");
+    std::vector<std::string> names;
+    if (args.has("scenes")) {
+      std::stringstream ss(args.get("scenes", ""));
+      for (std::string n; std::getline(ss, n, ',');) names.push_back(n);
+    } else {
+      DIR* d = opendir(data.c_str());
+      if (!d) throw std::runtime_error("cannot open " + data);
+      while (dirent* e = readdir(d))
+        if (e->d_name[0] != '.') names.push_back(e->d_name);
+      closedir(d);
+      std::sort(names.begin(), names.end());
+    }
+    const std::string out_dir = args.get("out-dir", "");
+    const SgmParams base = paramsFromArgs(args);
+    VulkanContext ctx(args.get("device", ""));
+    std::cout << "E3D: " << base.describe() << " (num_disparities per scene unless given)\n";
+    std::cout << std::left << std::setw(18) << "scene" << std::setw(8) << "method" << std::right
+              << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density\n";
+    double sum_e3d = 0, sum_cv = 0;
+    int count = 0;
+    for (const auto& name : names) {
+      Scene s = loadScene(data + "/" + name);
+      SgmParams p = base;
+      if (!args.has("num-disparities")) p.num_disparities = s.num_disparities;
+      StereoMatcher matcher(ctx, s.left.size(), p);
+      cv::Mat disp = disparityToFloat(matcher.match(s.left, s.right).disparity);
+      Scores e = score(s, disp);
+      printRow(name, "e3d", e);
+      sum_e3d += e.bad_all[2];
+      if (!out_dir.empty()) cv::imwrite(out_dir + "/" + name + "_e3d.png", colourDisparity(disp, s.num_disparities));
+      if (args.has("opencv")) {
+        cv::Mat hh = openCvHH(s, s.num_disparities);
+        Scores o = score(s, hh);
+        printRow(name, "cv_hh", o);
+        sum_cv += o.bad_all[2];
+        if (!out_dir.empty()) cv::imwrite(out_dir + "/" + name + "_cv_hh.png", colourDisparity(hh, s.num_disparities));
+      }
+      ++count;
+    }
+    std::cout << "average bad2.0 all: e3d " << sum_e3d / count;
+    if (args.has("opencv")) std::cout << "  cv_hh " << sum_cv / count;
+    std::cout << "\n";
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "e3d_eval: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,130 @@
+#include "tool_common.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "ips/config.hpp"
+
+namespace ips {
+namespace e3d {
+
+Args::Args(int argc, char** argv, const std::vector<std::string>& flags) {
+  for (int i = 1; i < argc; ++i) {
+    std::string a = argv[i];
+    if (a.rfind("--", 0) != 0) throw std::invalid_argument("unexpected argument '" + a + "'");
+    a = a.substr(2);
+    if (std::find(flags.begin(), flags.end(), a) != flags.end()) {
+      values_[a] = "1";
+    } else {
+      if (i + 1 >= argc) throw std::invalid_argument("option --" + a + " needs a value");
+      values_[a] = argv[++i];
+    }
+  }
+}
+
+std::string Args::get(const std::string& key, const std::string& fallback) const {
+  auto it = values_.find(key);
+  return it == values_.end() ? fallback : it->second;
+}
+
+std::string Args::require(const std::string& key) const {
+  auto it = values_.find(key);
+  if (it == values_.end()) throw std::invalid_argument("missing option --" + key);
+  return it->second;
+}
+
+int Args::getInt(const std::string& key, int fallback) const {
+  if (!has(key)) return fallback;
+  try {
+    size_t used = 0;
+    int v = std::stoi(get(key, ""), &used);
+    if (used != get(key, "").size()) throw std::invalid_argument("");
+    return v;
+  } catch (const std::exception&) {
+    throw std::invalid_argument("option --" + key + " needs an integer, got '" + get(key, "") + "'");
+  }
+}
+
+double Args::getDouble(const std::string& key, double fallback) const {
+  if (!has(key)) return fallback;
+  try {
+    return std::stod(get(key, ""));
+  } catch (const std::exception&) {
+    throw std::invalid_argument("option --" + key + " needs a number, got '" + get(key, "") + "'");
+  }
+}
+
+void Args::checkKnown(const std::vector<std::string>& known) const {
+  for (const auto& kv : values_)
+    if (std::find(known.begin(), known.end(), kv.first) == known.end())
+      throw std::invalid_argument("unknown option --" + kv.first);
+}
+
+std::vector<std::string> paramKeys() {
+  return {"config", "num-disparities", "min-disparity", "p1", "p2", "p2-slope", "paths", "uniqueness", "lr-max-diff"};
+}
+std::vector<std::string> paramFlags() { return {"no-subpixel", "no-median"}; }
+
+const char* kParamUsage =
+    "  SGM options (defaults: config/e3d.yaml values, see processes/e3d/README.md):\n"
+    "    --config FILE           YAML with a section 'e3d' (SgmParams keys)\n"
+    "    --num-disparities N     1..256\n"
+    "    --min-disparity N\n"
+    "    --p1 N --p2 N           penalties (census cost units; p2 + 24 <= 255)\n"
+    "    --p2-slope N            adaptive P2 = max(P1, P2 - N*|dI|/16), 0 = off\n"
+    "    --paths 8|4\n"
+    "    --uniqueness PERCENT    0 = off\n"
+    "    --lr-max-diff PX        < 0 = no left-right check\n"
+    "    --no-subpixel --no-median\n";
+
+SgmParams paramsFromArgs(const Args& a) {
+  SgmParams p;
+  if (a.has("config")) p = SgmParams::fromConfig(Config(a.get("config", "")).section("e3d"));
+  p.num_disparities = a.getInt("num-disparities", p.num_disparities);
+  p.min_disparity = a.getInt("min-disparity", p.min_disparity);
+  p.p1 = a.getInt("p1", p.p1);
+  p.p2 = a.getInt("p2", p.p2);
+  p.p2_slope = a.getInt("p2-slope", p.p2_slope);
+  p.paths = a.getInt("paths", p.paths);
+  p.uniqueness = a.getInt("uniqueness", p.uniqueness);
+  p.lr_max_diff = a.getInt("lr-max-diff", p.lr_max_diff);
+  if (a.has("no-subpixel")) p.subpixel = false;
+  if (a.has("no-median")) p.median = false;
+  p.validate();
+  return p;
+}
+
+cv::Mat loadGrey(const std::string& path) {
+  cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
+  if (img.empty()) throw std::runtime_error("cannot read image '" + path + "'");
+  if (img.depth() == CV_16U) img.convertTo(img, CV_8U, 1.0 / 256);
+  cv::Mat grey;
+  if (img.channels() == 3)
+    cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
+  else if (img.channels() == 4)
+    cv::cvtColor(img, grey, cv::COLOR_BGRA2GRAY);
+  else
+    grey = img;
+  return grey;
+}
+
+cv::Mat colourDisparity(const cv::Mat& disparity, double max_disparity) {
+  cv::Mat scaled(disparity.size(), CV_8U), valid(disparity.size(), CV_8U);
+  for (int y = 0; y < disparity.rows; ++y)
+    for (int x = 0; x < disparity.cols; ++x) {
+      float d = disparity.at<float>(y, x);
+      valid.at<uint8_t>(y, x) = std::isfinite(d) ? 255 : 0;
+      scaled.at<uint8_t>(y, x) =
+          std::isfinite(d) ? cv::saturate_cast<uint8_t>(255.0 * std::max(0.0, double(d)) / max_disparity) : 0;
+    }
+  cv::Mat colour;
+  cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
+  colour.setTo(cv::Scalar(0, 0, 0), valid == 0);
+  return colour;
+}
+
+}  // namespace e3d
+}  // namespace ips
