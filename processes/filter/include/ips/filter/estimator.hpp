@@ -1,0 +1,139 @@
+#pragma once
+// The IPS estimator (paper section 4.3): fed message by message in arrival order, it buffers measurements for
+// a configurable window, applies them in time order to the chosen filter (EKF or UKF), initialises itself at
+// rest, clones the pose at image times so that tracker deltas are proper measurements, and queues the
+// posterior states. No middleware: the process main converts LCM messages to and from these structs.
+//
+// Per message:
+//   IMU sample   -> time update to its stamp + IMU measurement update (a full filter cycle), posterior output
+//   tilt sample  -> time update + tilt measurement update
+//   image time   -> the a-priori state at that time is returned at once (for the tracker's prediction);
+//                   in time order the pose is cloned at that time
+//   tracker delta-> measurement update on the two clones (may arrive late: the clones are kept)
+// Every measurement passes a chi-square gate on its Mahalanobis distance; counts per sensor.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "ips/calibration.hpp"
+#include "ips/filter/kalman.hpp"
+#include "ips/filter/params.hpp"
+#include "ips/filter/state.hpp"
+
+namespace ips::filter {
+
+struct ImuSample {  // ips::imu_sample_t
+  int64_t utime = 0;
+  Eigen::Vector3d angular_rate = Eigen::Vector3d::Zero();    // [rad/s], IMU frame
+  Eigen::Vector3d specific_force = Eigen::Vector3d::Zero();  // [m/s^2], IMU frame
+};
+
+struct TiltSample {  // ips::tilt_sample_t
+  int64_t utime = 0;
+  double angle_x = 0;  // [rad], see TiltMeasurement for the convention
+  double angle_y = 0;
+};
+
+struct TrackerDelta {  // ips::tracker_delta_t: X_c0(utime_prev) = R * X_c0(utime) + t
+  int64_t utime = 0;
+  int64_t utime_prev = 0;
+  bool valid = true;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Matrix6d covariance = Matrix6d::Identity();  // order tx ty tz rx ry rz
+};
+
+enum Sensor : int { kSensorImu = 0, kSensorTilt = 1, kSensorTracker = 2, kSensorImage = 3, kNumSensors = 4 };
+
+struct SensorCounters {
+  const char* name = "";
+  int64_t accepted = 0;
+  int64_t rejected = 0;  // by the Mahalanobis gate
+  int64_t too_late = 0;  // older than what the reordering window still allows (or clone gone)
+};
+
+// One to one ips::filter_state_t.
+struct FilterOutput {
+  NavState state;
+  Matrix21d covariance = Matrix21d::Zero();
+  FilterType type = FilterType::Ekf;
+  bool a_priori = false;
+  std::array<SensorCounters, kNumSensors> sensors;
+};
+
+class Estimator {
+ public:
+  Estimator(const FilterParams& params, const StereoCalibration& calib);
+
+  void addImu(const ImuSample& sample);
+  void addTilt(const TiltSample& sample);
+  // Returns the a-priori state at the image time (nullopt before initialisation or if the time is too old).
+  std::optional<FilterOutput> addImageTime(int64_t utime);
+  void addTrackerDelta(const TrackerDelta& delta);
+  // Applies everything still buffered (end of a log).
+  void flush();
+
+  // Starts the filter from a known state instead of the static initialisation (e.g. from ground truth).
+  void initialize(const NavState& state, const Matrix21d& covariance);
+  bool initialized() const { return initialized_; }
+
+  // Posterior states produced since the last call, oldest first.
+  std::vector<FilterOutput> takeOutputs();
+  FilterOutput current() const;
+  const KalmanFilter& filter() const { return *run_.kf; }
+  const std::array<SensorCounters, kNumSensors>& counters() const { return counters_; }
+  int64_t imuGaps() const { return imu_gaps_; }
+  const FilterParams& params() const { return params_; }
+
+ private:
+  struct Event {
+    int64_t time = 0;  // latency-corrected
+    Sensor sensor = kSensorImu;
+    ImuSample imu;
+    TiltSample tilt;
+    TrackerDelta delta;
+  };
+  // The filter plus what its processing needs; copied to compute an a-priori state ahead of the buffer.
+  struct Runner {
+    std::unique_ptr<KalmanFilter> kf;
+    int64_t last_imu_time = INT64_MIN;
+    std::array<int, kNumSensors> consecutive_rejects{};
+  };
+
+  void insert(Event&& e);
+  void release(int64_t up_to);
+  void process(const Event& e);
+  void processInit(const Event& e);
+  // Applies an IMU or tilt event to a runner; returns true if the measurement was applied.
+  bool applyMeasurement(Runner& run, const Event& e, std::array<SensorCounters, kNumSensors>* counters);
+  void predictTo(Runner& run, int64_t t);
+  double gateFor(Runner& run, Sensor s, int dof, bool enabled) const;
+  FilterOutput makeOutput(const KalmanFilter& kf, bool a_priori) const;
+
+  FilterParams params_;
+  Eigen::Isometry3d T_imu_cam0_;
+  Eigen::Matrix3d R_body_tilt_;
+  double gyro_sigma_, accel_sigma_;
+  double gate2_, gate6_;
+
+  Runner run_;
+  bool initialized_ = false;
+  std::multimap<int64_t, Event> buffer_;
+  int64_t newest_time_ = INT64_MIN;
+  int64_t processed_time_ = INT64_MIN;
+  std::array<SensorCounters, kNumSensors> counters_;
+  int64_t imu_gaps_ = 0;
+  int64_t imu_since_output_ = 0;
+  std::vector<FilterOutput> outputs_;
+
+  // Static initialisation.
+  std::vector<ImuSample> init_imu_;
+  std::vector<TiltSample> init_tilt_;
+};
+
+}  // namespace ips::filter

@@ -1,0 +1,82 @@
+#pragma once
+// The two filters behind one interface: an error-state Extended Kalman filter with analytic Jacobians and a
+// scaled Unscented Kalman filter (Julier 2002) that only evaluates the model functions. Both hold the same
+// mean (FullState: navigation state + pose clones) and the covariance of its error state.
+#include <Eigen/Core>
+#include <memory>
+
+#include "ips/filter/models.hpp"
+#include "ips/filter/params.hpp"
+#include "ips/filter/state.hpp"
+
+namespace ips::filter {
+
+struct UpdateResult {
+  bool applied = false;
+  double mahalanobis2 = 0;  // squared Mahalanobis distance of the innovation
+};
+
+class KalmanFilter {
+ public:
+  virtual ~KalmanFilter() = default;
+  virtual FilterType type() const = 0;
+
+  void reset(const FullState& x, const Eigen::MatrixXd& P);
+  const FullState& state() const { return x_; }
+  const Eigen::MatrixXd& covariance() const { return P_; }
+
+  // Time update over dt >= 0 seconds (the state's utime advances by dt).
+  virtual void predict(double dt) = 0;
+  // Measurement update; rejected (not applied) when the squared Mahalanobis distance exceeds `gate`
+  // (pass infinity to disable the gate).
+  virtual UpdateResult update(const Measurement& m, double gate) = 0;
+
+  // Stochastic cloning: appends the current body pose as a clone (time = state time) and returns its index.
+  int addClone();
+  void removeClone(int index);
+  // Forgets what is known about error elements [offset, offset + size): their correlations are removed
+  // and their variance set, e.g. for the rates after a gap in the IMU data.
+  void resetErrorBlock(int offset, int size, double variance);
+  virtual std::unique_ptr<KalmanFilter> copy() const = 0;
+  // Replaces parts of the state directly (e.g. zeroing stale rates after a gap), keeping P.
+  NavState& mutableNav() { return x_.nav; }
+
+ protected:
+  explicit KalmanFilter(const FilterParams& params) : params_(params) {}
+  void symmetrize();
+
+  FilterParams params_;
+  FullState x_;
+  Eigen::MatrixXd P_;
+};
+
+class ExtendedKalmanFilter : public KalmanFilter {
+ public:
+  explicit ExtendedKalmanFilter(const FilterParams& params) : KalmanFilter(params) {}
+  FilterType type() const override { return FilterType::Ekf; }
+  std::unique_ptr<KalmanFilter> copy() const override { return std::make_unique<ExtendedKalmanFilter>(*this); }
+  void predict(double dt) override;
+  UpdateResult update(const Measurement& m, double gate) override;
+};
+
+class UnscentedKalmanFilter : public KalmanFilter {
+ public:
+  explicit UnscentedKalmanFilter(const FilterParams& params) : KalmanFilter(params) {}
+  FilterType type() const override { return FilterType::Ukf; }
+  std::unique_ptr<KalmanFilter> copy() const override { return std::make_unique<UnscentedKalmanFilter>(*this); }
+  void predict(double dt) override;
+  UpdateResult update(const Measurement& m, double gate) override;
+
+ private:
+  struct Weights {
+    double lambda, mean0, cov0, other, spread;
+  };
+  Weights weights(int n) const;
+  // Lower Cholesky factor of P_; adds a small jitter if P_ lost definiteness numerically.
+  Eigen::MatrixXd choleskyLower();
+  FullState scratch_;
+};
+
+std::unique_ptr<KalmanFilter> makeKalmanFilter(const FilterParams& params);
+
+}  // namespace ips::filter

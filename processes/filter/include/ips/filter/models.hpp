@@ -1,0 +1,101 @@
+#pragma once
+// Process and measurement models of the IPS filter. Both filters use the same functions: the EKF their
+// analytic Jacobians, the UKF only the functions themselves.
+//
+// Process (continuous, between any two measurement times): p' = v, v' = a, a' = jerk noise, w' = angular
+// acceleration noise, biases random walks, q' = 1/2 q (x) (0, w) with w the body angular rate.
+// Measurements: IMU sample (gyro = w + bg, accel = R^T (a + g e_z) + ba), tilt sample (inclination of the
+// tilt sensor's x and y axes against the horizontal), tracker delta (relative pose of camera 0 between two
+// image times, a function of two pose clones).
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "ips/filter/params.hpp"
+#include "ips/filter/state.hpp"
+
+namespace ips::filter {
+
+// Mean propagation of the navigation state over dt [s] (exact for the constant-rate model).
+NavState propagateNav(const NavState& x, double dt);
+// Error-state transition: d(propagateNav(x (+) dx, dt)) / d(dx) at dx = 0.
+Matrix21d processJacobian(const NavState& x, double dt);
+// Discrete process noise over dt (integrated white jerk, angular acceleration and bias random walks);
+// attitude-rate correlation uses the attitude at the end of the step.
+Matrix21d processNoise(const NavState& x_end, double dt, const ProcessNoise& q);
+
+// Residual vector of a measurement: at most 6 elements, kept on the stack.
+using MeasVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;
+using MeasMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 6>;
+
+// A measurement model. residual() = z (-) h(x); jacobian() = d h(x (+) dx) / d dx at dx = 0 (m x errorDim),
+// so that residual(x (+) dx) ~= residual(x) - H dx.
+class Measurement {
+ public:
+  virtual ~Measurement() = default;
+  virtual int dim() const = 0;
+  virtual MeasVector residual(const FullState& x) const = 0;
+  virtual Eigen::MatrixXd jacobian(const FullState& x) const = 0;
+  virtual MeasMatrix noise() const = 0;
+  // True if h depends on the navigation state only (not on the clones): the UKF then needs sigma points
+  // along the first 21 Cholesky columns only (the others leave h unchanged), which is exact.
+  virtual bool coreOnly() const { return true; }
+};
+
+class ImuMeasurement : public Measurement {
+ public:
+  ImuMeasurement(const Eigen::Vector3d& angular_rate, const Eigen::Vector3d& specific_force, double gravity,
+                 double gyro_sigma, double accel_sigma);
+  int dim() const override { return 6; }
+  MeasVector predict(const NavState& x) const;
+  MeasVector residual(const FullState& x) const override;
+  Eigen::MatrixXd jacobian(const FullState& x) const override;
+  MeasMatrix noise() const override;
+
+ private:
+  Eigen::Vector3d gyro_, accel_;
+  double gravity_, gyro_var_, accel_var_;
+};
+
+// Tilt angles: angle_x = asin(e_z . R_world_tilt e_x) (positive when the sensor's x axis points up),
+// angle_y likewise for the y axis. R_body_tilt = R_imu_cam0 * R_tilt_cam0^T.
+class TiltMeasurement : public Measurement {
+ public:
+  TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma);
+  int dim() const override { return 2; }
+  static Eigen::Vector2d predict(const Eigen::Quaterniond& q_world_body, const Eigen::Matrix3d& R_body_tilt);
+  MeasVector residual(const FullState& x) const override;
+  Eigen::MatrixXd jacobian(const FullState& x) const override;
+  MeasMatrix noise() const override;
+
+ private:
+  Eigen::Vector2d z_;
+  Eigen::Matrix3d R_body_tilt_;
+  double var_;
+};
+
+// Relative pose of camera 0 between clone i0 (older) and clone i1: X_c0(t0) = R * X_c0(t1) + t. Residual
+// [t_meas - t_pred; Log(R_meas R_pred^T)] (rotation error in camera 0 at t0), covariance order [t, rotvec].
+class DeltaMeasurement : public Measurement {
+ public:
+  DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
+                   const Eigen::Isometry3d& T_imu_cam0);
+  int dim() const override { return 6; }
+  static Eigen::Isometry3d predict(const PoseClone& c0, const PoseClone& c1, const Eigen::Isometry3d& T_imu_cam0);
+  MeasVector residual(const FullState& x) const override;
+  Eigen::MatrixXd jacobian(const FullState& x) const override;
+  MeasMatrix noise() const override { return cov_; }
+  bool coreOnly() const override { return false; }
+
+ private:
+  int i0_, i1_;
+  Eigen::Isometry3d z_;
+  Matrix6d cov_;
+  Eigen::Isometry3d T_imu_cam0_;
+};
+
+// Quantile of the chi-square distribution with `dof` degrees of freedom: P(X <= x) = p.
+double chiSquareQuantile(double p, int dof);
+// Its cumulative distribution function.
+double chiSquareCdf(double x, int dof);
+
+}  // namespace ips::filter

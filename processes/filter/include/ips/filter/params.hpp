@@ -1,0 +1,86 @@
+#pragma once
+// Parameters of the IPS filter, read from the `filter` section of a YAML file (config/filter.yaml documents
+// every key). Defaults are the paper's sensor head: Systron Donner MMQ-50 IMU at 200 Hz, PEI Z260 tilt sensor.
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+
+#include "ips/config.hpp"
+
+namespace ips::filter {
+
+enum class FilterType { Ekf = 1, Ukf = 2 };  // values as filter_state_t.FILTER_EKF / FILTER_UKF
+
+struct ProcessNoise {
+  // The kinematic model holds acceleration and angular rate as states driven by white noise.
+  double jerk_psd = 4.0;            // [m^2/s^5] spectral density of the jerk driving the acceleration
+  double angular_accel_psd = 1.0;   // [rad^2/s^3] spectral density of the angular acceleration
+  double accel_bias_psd = 1e-8;     // [m^2/s^5] accelerometer bias random walk
+  double gyro_bias_psd = 1e-12;     // [rad^2/s^3] gyro bias random walk
+};
+
+struct ImuNoise {
+  // MMQ-50: angle random walk 0.005 deg/s/rtHz, velocity random walk 0.5 mg/rtHz.
+  double gyro_noise_density = 8.7e-5;   // [rad/s/sqrt(Hz)]
+  double accel_noise_density = 4.9e-3;  // [m/s^2/sqrt(Hz)]
+  double rate_hz = 200.0;               // nominal sample rate: discrete sigma = density * sqrt(rate)
+};
+
+struct InitParams {
+  double duration_s = 1.0;         // time at rest averaged for the static initialisation
+  double max_accel_std = 0.05;     // [m/s^2] above this the head is not at rest: the window restarts
+  double max_gyro_std = 0.005;     // [rad/s]
+  double heading_rad = 0.0;        // yaw of the body x axis about world z (the IMU cannot observe it)
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  // Initial standard deviations of the error state.
+  double sigma_position = 1e-3;       // [m]
+  double sigma_velocity = 0.01;       // [m/s]
+  double sigma_acceleration = 0.05;   // [m/s^2]
+  double sigma_accel_bias = 0.02;     // [m/s^2]
+  double sigma_angular_rate = 0.005;  // [rad/s]
+  double sigma_gyro_bias = 0.002;     // [rad/s]
+  double sigma_roll_pitch = 0.01;     // [rad]
+  double sigma_heading = 1e-3;        // [rad] heading is a convention (from config), so small
+};
+
+struct FilterParams {
+  FilterType type = FilterType::Ekf;
+  double gravity = 9.81;  // [m/s^2], world gravity is (0, 0, -gravity)
+
+  // Scaled unscented transform (Julier 2002).
+  double ukf_alpha = 1.0;
+  double ukf_beta = 2.0;
+  double ukf_kappa = 0.0;
+
+  ProcessNoise process;
+  ImuNoise imu;
+  double tilt_sigma = 1.75e-3;      // [rad] per axis (0.1 deg resolution + alignment)
+  double tracker_min_sigma_t = 1e-4;  // [m] floor on the tracker's translation sigma
+  double tracker_min_sigma_r = 1e-5;  // [rad] floor on the tracker's rotation sigma
+
+  // Latencies subtracted from message stamps [us] (zero when drivers already remove them).
+  int64_t imu_latency_us = 0;
+  int64_t tilt_latency_us = 0;
+  int64_t camera_latency_us = 0;
+
+  int64_t reorder_window_us = 50'000;  // measurements are held this long so that they can be sorted
+  int max_clones = 3;                  // pose clones kept at image times
+
+  double gate_probability = 0.9995;    // chi-square gate on the Mahalanobis distance of every measurement
+  bool gate_imu = true;
+  bool gate_tilt = true;
+  bool gate_tracker = true;
+  int max_consecutive_rejects = 20;    // then the next measurement is applied anyway (re-capture)
+
+  double imu_gap_s = 0.1;  // a longer pause between IMU samples inflates the covariance
+  int output_decimation = 1;  // one posterior output per this many IMU samples
+
+  InitParams init;
+};
+
+// Reads the keys of `cfg` (a section such as Config("config/filter.yaml").section("filter")); absent keys
+// keep their defaults, wrong ones throw ConfigError naming file and key.
+FilterParams loadFilterParams(const Config& cfg);
+std::string toString(FilterType type);
+
+}  // namespace ips::filter

@@ -1,0 +1,88 @@
+#pragma once
+// The navigation state of the IPS filter (paper section 4.2): position, velocity, acceleration, accelerometer
+// bias, angular rate, gyro bias (three each) and the attitude quaternion = 22 elements. The covariance is kept
+// over a 21-dimensional error state in which the attitude error is a 3-vector (rotation vector in world).
+// Stochastic clones of the body pose at image times extend the error state by 6 each (see FullState).
+//
+// Frames: world = local level, z up, gravity (0, 0, -g). Body = the IMU frame. The quaternion maps body to
+// world. This is one to one the content of lcmtypes/ips_filter_state_t.lcm.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <vector>
+
+namespace ips::filter {
+
+// Offsets into the 21-dimensional error state (and into filter_state_t.covariance).
+enum ErrorIndex : int {
+  kErrP = 0,    // position [m], world
+  kErrV = 3,    // velocity [m/s], world
+  kErrA = 6,    // acceleration (gravity removed) [m/s^2], world
+  kErrBa = 9,   // accelerometer bias [m/s^2], body
+  kErrW = 12,   // angular rate (bias removed) [rad/s], body
+  kErrBg = 15,  // gyro bias [rad/s], body
+  kErrTh = 18,  // attitude error, rotation vector in world: R_true = Exp(dtheta) * R_est
+  kCoreErrorDim = 21,
+  kCloneErrorDim = 6,  // per clone: position, attitude error (same conventions)
+};
+constexpr int kStateElements = 22;
+
+using Vector21d = Eigen::Matrix<double, 21, 1>;
+using Matrix21d = Eigen::Matrix<double, 21, 21>;
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+struct NavState {
+  int64_t utime = 0;  // [us] on the head's common clock
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
+  Eigen::Vector3d acceleration = Eigen::Vector3d::Zero();  // world, gravity removed
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();    // body
+  Eigen::Vector3d angular_rate = Eigen::Vector3d::Zero();  // body, bias removed
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();     // body
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // body to world (w x y z)
+
+  // The 22 elements in the order of filter_state_t (p v a ba w bg q[w x y z]).
+  Eigen::Matrix<double, 22, 1> toVector() const;
+  static NavState fromVector(const Eigen::Matrix<double, 22, 1>& x, int64_t utime);
+};
+
+// A stochastic clone: the body pose at an image time, kept in the state so that a relative pose between two
+// image times is a proper measurement.
+struct PoseClone {
+  int64_t utime = 0;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+};
+
+// Mean of the estimator: the navigation state followed by its clones (oldest first).
+struct FullState {
+  NavState nav;
+  std::vector<PoseClone> clones;
+
+  int errorDim() const { return kCoreErrorDim + kCloneErrorDim * static_cast<int>(clones.size()); }
+  // Index of the clone taken at utime, or -1.
+  int findClone(int64_t utime) const;
+};
+
+// The same on the 21-dimensional core (navigation state only).
+NavState boxplus(const NavState& x, const Eigen::Ref<const Vector21d>& dx);
+Vector21d boxminus(const NavState& a, const NavState& b);
+
+// x (+) dx: apply an error-state vector of size errorDim() (attitude errors act from the left, in world).
+FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx);
+// The same, written into `out`, which must already have x's clone layout (no allocation).
+void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx, FullState& out);
+// a (-) b: the error-state vector taking b to a (same clone layout required).
+Eigen::VectorXd boxminus(const FullState& a, const FullState& b);
+
+// SO(3) helpers.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v);
+Eigen::Matrix3d expSO3(const Eigen::Vector3d& phi);
+Eigen::Vector3d logSO3(const Eigen::Matrix3d& R);
+Eigen::Quaterniond expQuat(const Eigen::Vector3d& phi);
+Eigen::Vector3d logQuat(const Eigen::Quaterniond& q);
+// Right Jacobian of SO(3): Exp(phi + d) ~= Exp(phi) Exp(Jr(phi) d).
+Eigen::Matrix3d rightJacobianSO3(const Eigen::Vector3d& phi);
+
+}  // namespace ips::filter

@@ -1,0 +1,323 @@
+#include "ips/filter/estimator.hpp"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+#include "ips/log.hpp"
+
+namespace ips::filter {
+
+namespace {
+constexpr double kInf = std::numeric_limits<double>::infinity();
+}
+
+Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
+    : params_(params),
+      T_imu_cam0_(calib.T_imu_cam0),
+      R_body_tilt_(calib.T_imu_cam0.linear() * calib.R_tilt_cam0.transpose()) {
+  run_.kf = makeKalmanFilter(params_);
+  gyro_sigma_ = params_.imu.gyro_noise_density * std::sqrt(params_.imu.rate_hz);
+  accel_sigma_ = params_.imu.accel_noise_density * std::sqrt(params_.imu.rate_hz);
+  gate2_ = chiSquareQuantile(params_.gate_probability, 2);
+  gate6_ = chiSquareQuantile(params_.gate_probability, 6);
+  const char* names[kNumSensors] = {"imu", "tilt", "tracker", "image"};
+  for (int i = 0; i < kNumSensors; ++i) counters_[i].name = names[i];
+}
+
+void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
+  FullState x;
+  x.nav = state;
+  run_.kf->reset(x, covariance);
+  run_.last_imu_time = state.utime;
+  run_.consecutive_rejects.fill(0);
+  initialized_ = true;
+  processed_time_ = std::max(processed_time_, state.utime);
+  // Anything buffered from before the start is dropped silently.
+  buffer_.erase(buffer_.begin(), buffer_.upper_bound(state.utime));
+}
+
+void Estimator::addImu(const ImuSample& s) {
+  if (!s.angular_rate.allFinite() || !s.specific_force.allFinite()) {
+    ++counters_[kSensorImu].rejected;
+    return;
+  }
+  Event e;
+  e.sensor = kSensorImu;
+  e.imu = s;
+  e.time = s.utime - params_.imu_latency_us;
+  e.imu.utime = e.time;
+  insert(std::move(e));
+}
+
+void Estimator::addTilt(const TiltSample& s) {
+  if (!std::isfinite(s.angle_x) || !std::isfinite(s.angle_y)) {
+    ++counters_[kSensorTilt].rejected;
+    return;
+  }
+  Event e;
+  e.sensor = kSensorTilt;
+  e.tilt = s;
+  e.time = s.utime - params_.tilt_latency_us;
+  e.tilt.utime = e.time;
+  insert(std::move(e));
+}
+
+void Estimator::addTrackerDelta(const TrackerDelta& d) {
+  if (!d.valid) return;  // the tracker found no motion: nothing to fuse
+  if (!d.translation.allFinite() || !d.rotation.coeffs().allFinite() || !d.covariance.allFinite() ||
+      std::abs(d.rotation.norm() - 1.0) > 1e-3) {
+    ++counters_[kSensorTracker].rejected;
+    return;
+  }
+  Event e;
+  e.sensor = kSensorTracker;
+  e.delta = d;
+  e.delta.utime = d.utime - params_.camera_latency_us;
+  e.delta.utime_prev = d.utime_prev - params_.camera_latency_us;
+  e.time = e.delta.utime;
+  if (e.time <= processed_time_) {
+    // Deltas come late by nature (after the tracker ran): they act on the clones, which are still there.
+    if (initialized_) process(e);
+    return;
+  }
+  insert(std::move(e));
+}
+
+std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
+  Event e;
+  e.sensor = kSensorImage;
+  e.time = utime - params_.camera_latency_us;
+  const int64_t t = e.time;
+  if (t < processed_time_) {
+    if (initialized_) ++counters_[kSensorImage].too_late;
+    return std::nullopt;
+  }
+  insert(std::move(e));
+  if (!initialized_ || t < run_.kf->state().nav.utime) return std::nullopt;
+  // A-priori state at the image time: a copy of the filter takes the buffered IMU and tilt samples up to then.
+  Runner ahead;
+  ahead.kf = run_.kf->copy();
+  ahead.last_imu_time = run_.last_imu_time;
+  ahead.consecutive_rejects = run_.consecutive_rejects;
+  for (auto it = buffer_.begin(); it != buffer_.end() && it->first <= t; ++it)
+    if (it->second.sensor == kSensorImu || it->second.sensor == kSensorTilt) applyMeasurement(ahead, it->second, nullptr);
+  predictTo(ahead, t);
+  return makeOutput(*ahead.kf, true);
+}
+
+void Estimator::flush() { release(INT64_MAX); }
+
+std::vector<FilterOutput> Estimator::takeOutputs() {
+  std::vector<FilterOutput> out;
+  out.swap(outputs_);
+  return out;
+}
+
+FilterOutput Estimator::current() const { return makeOutput(*run_.kf, false); }
+
+void Estimator::insert(Event&& e) {
+  if (e.time < processed_time_) {
+    ++counters_[e.sensor].too_late;
+    return;
+  }
+  const int64_t t = e.time;
+  buffer_.emplace(t, std::move(e));  // equal times keep arrival order
+  newest_time_ = std::max(newest_time_, t);
+  release(newest_time_ - params_.reorder_window_us);
+}
+
+void Estimator::release(int64_t up_to) {
+  while (!buffer_.empty() && buffer_.begin()->first <= up_to) {
+    const Event e = std::move(buffer_.begin()->second);
+    buffer_.erase(buffer_.begin());
+    processed_time_ = std::max(processed_time_, e.time);
+    if (initialized_)
+      process(e);
+    else
+      processInit(e);
+  }
+}
+
+void Estimator::predictTo(Runner& run, int64_t t) {
+  const int64_t now = run.kf->state().nav.utime;
+  if (t <= now) return;
+  run.kf->predict(static_cast<double>(t - now) * 1e-6);
+}
+
+double Estimator::gateFor(Runner& run, Sensor s, int dof, bool enabled) const {
+  if (!enabled || run.consecutive_rejects[s] >= params_.max_consecutive_rejects) return kInf;
+  return dof == 2 ? gate2_ : dof == 6 ? gate6_ : chiSquareQuantile(params_.gate_probability, dof);
+}
+
+bool Estimator::applyMeasurement(Runner& run, const Event& e, std::array<SensorCounters, kNumSensors>* counters) {
+  KalmanFilter& kf = *run.kf;
+  UpdateResult r;
+  if (e.time < kf.state().nav.utime) {
+    if (counters) ++(*counters)[e.sensor].too_late;
+    return false;
+  }
+  if (e.sensor == kSensorImu) {
+    if (run.last_imu_time != INT64_MIN && e.time - run.last_imu_time >= params_.imu_gap_s * 1e6) {
+      // After a gap the held acceleration and rate are stale: fall back to "no motion" with the initial
+      // uncertainty; the process noise over the gap inflates velocity, position and attitude.
+      NavState& n = kf.mutableNav();
+      n.acceleration.setZero();
+      n.angular_rate.setZero();
+      kf.resetErrorBlock(kErrA, 3, std::pow(params_.init.sigma_acceleration, 2) + params_.process.jerk_psd);
+      kf.resetErrorBlock(kErrW, 3, std::pow(params_.init.sigma_angular_rate, 2) + params_.process.angular_accel_psd);
+      if (counters) {
+        ++imu_gaps_;
+        IPS_WARN("filter: IMU gap of " << (e.time - run.last_imu_time) * 1e-6 << " s, covariance inflated");
+      }
+    }
+    predictTo(run, e.time);
+    const ImuMeasurement m(e.imu.angular_rate, e.imu.specific_force, params_.gravity, gyro_sigma_, accel_sigma_);
+    r = kf.update(m, gateFor(run, kSensorImu, 6, params_.gate_imu));
+    run.last_imu_time = e.time;
+  } else if (e.sensor == kSensorTilt) {
+    predictTo(run, e.time);
+    const TiltMeasurement m(e.tilt.angle_x, e.tilt.angle_y, R_body_tilt_, params_.tilt_sigma);
+    r = kf.update(m, gateFor(run, kSensorTilt, 2, params_.gate_tilt));
+  } else {
+    return false;
+  }
+  if (r.applied) {
+    run.consecutive_rejects[e.sensor] = 0;
+    if (counters) ++(*counters)[e.sensor].accepted;
+  } else {
+    ++run.consecutive_rejects[e.sensor];
+    if (counters) ++(*counters)[e.sensor].rejected;
+  }
+  return r.applied;
+}
+
+void Estimator::process(const Event& e) {
+  KalmanFilter& kf = *run_.kf;
+  switch (e.sensor) {
+    case kSensorImu:
+    case kSensorTilt:
+      applyMeasurement(run_, e, &counters_);
+      if (e.sensor == kSensorImu && ++imu_since_output_ >= params_.output_decimation) {
+        imu_since_output_ = 0;
+        outputs_.push_back(makeOutput(kf, false));
+      }
+      break;
+    case kSensorImage: {
+      if (e.time < kf.state().nav.utime || kf.state().findClone(e.time) >= 0) {
+        ++counters_[kSensorImage].too_late;
+        break;
+      }
+      predictTo(run_, e.time);
+      kf.addClone();
+      ++counters_[kSensorImage].accepted;
+      while (static_cast<int>(kf.state().clones.size()) > params_.max_clones) kf.removeClone(0);
+      break;
+    }
+    case kSensorTracker: {
+      const int i0 = kf.state().findClone(e.delta.utime_prev);
+      const int i1 = kf.state().findClone(e.delta.utime);
+      if (i0 < 0 || i1 < 0 || i0 == i1) {
+        ++counters_[kSensorTracker].too_late;
+        break;
+      }
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.linear() = e.delta.rotation.normalized().toRotationMatrix();
+      T.translation() = e.delta.translation;
+      Matrix6d cov = e.delta.covariance;
+      cov = 0.5 * (cov + cov.transpose()).eval();
+      for (int k = 0; k < 3; ++k) {
+        cov(k, k) = std::max(cov(k, k), params_.tracker_min_sigma_t * params_.tracker_min_sigma_t);
+        cov(k + 3, k + 3) = std::max(cov(k + 3, k + 3), params_.tracker_min_sigma_r * params_.tracker_min_sigma_r);
+      }
+      const DeltaMeasurement m(i0, i1, T, cov, T_imu_cam0_);
+      const UpdateResult r = kf.update(m, gateFor(run_, kSensorTracker, 6, params_.gate_tracker));
+      if (r.applied) {
+        run_.consecutive_rejects[kSensorTracker] = 0;
+        ++counters_[kSensorTracker].accepted;
+      } else {
+        ++run_.consecutive_rejects[kSensorTracker];
+        ++counters_[kSensorTracker].rejected;
+      }
+      break;
+    }
+    default:
+      break;
+  }
+}
+
+void Estimator::processInit(const Event& e) {
+  if (e.sensor == kSensorTilt) {
+    init_tilt_.push_back(e.tilt);
+    return;
+  }
+  if (e.sensor != kSensorImu) return;  // images and deltas before the start carry nothing usable
+  init_imu_.push_back(e.imu);
+  const double span = (init_imu_.back().utime - init_imu_.front().utime) * 1e-6;
+  if (span < params_.init.duration_s) return;
+
+  const double n = static_cast<double>(init_imu_.size());
+  Eigen::Vector3d mean_f = Eigen::Vector3d::Zero(), mean_w = Eigen::Vector3d::Zero();
+  for (const ImuSample& s : init_imu_) {
+    mean_f += s.specific_force / n;
+    mean_w += s.angular_rate / n;
+  }
+  double var_f = 0, var_w = 0;
+  for (const ImuSample& s : init_imu_) {
+    var_f += (s.specific_force - mean_f).squaredNorm() / n;
+    var_w += (s.angular_rate - mean_w).squaredNorm() / n;
+  }
+  // Per-axis standard deviation (the sums run over three axes).
+  if (std::sqrt(var_f / 3.0) > params_.init.max_accel_std || std::sqrt(var_w / 3.0) > params_.init.max_gyro_std ||
+      mean_f.norm() < 0.5 * params_.gravity) {
+    IPS_INFO("filter: not at rest yet (accel std " << std::sqrt(var_f / 3.0) << " m/s^2, gyro std "
+                                                   << std::sqrt(var_w / 3.0) << " rad/s), waiting");
+    init_imu_.clear();
+    init_tilt_.clear();
+    return;
+  }
+  // At rest the accelerometer measures R^T (0, 0, g): roll and pitch; heading is a convention from config.
+  const Eigen::Vector3d f = mean_f.normalized();
+  const double roll = std::atan2(f.y(), f.z());
+  const double pitch = std::atan2(-f.x(), std::sqrt(f.y() * f.y() + f.z() * f.z()));
+  NavState s;
+  s.utime = init_imu_.back().utime;
+  s.position = params_.init.position;
+  s.orientation = Eigen::AngleAxisd(params_.init.heading_rad, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  s.gyro_bias = mean_w;
+  Vector21d sd;
+  const InitParams& ip = params_.init;
+  sd << Eigen::Vector3d::Constant(ip.sigma_position), Eigen::Vector3d::Constant(ip.sigma_velocity),
+      Eigen::Vector3d::Constant(ip.sigma_acceleration), Eigen::Vector3d::Constant(ip.sigma_accel_bias),
+      Eigen::Vector3d::Constant(ip.sigma_angular_rate), Eigen::Vector3d::Constant(ip.sigma_gyro_bias),
+      ip.sigma_roll_pitch, ip.sigma_roll_pitch, ip.sigma_heading;
+  const Matrix21d P = sd.cwiseAbs2().asDiagonal();
+  initialize(s, P);
+  // The tilt sensor's mean over the same time refines roll and pitch (and, against the accelerometer, its bias).
+  if (!init_tilt_.empty()) {
+    Eigen::Vector2d mean_tilt = Eigen::Vector2d::Zero();
+    for (const TiltSample& t : init_tilt_) mean_tilt += Eigen::Vector2d(t.angle_x, t.angle_y);
+    mean_tilt /= static_cast<double>(init_tilt_.size());
+    const TiltMeasurement m(mean_tilt.x(), mean_tilt.y(), R_body_tilt_, params_.tilt_sigma);
+    run_.kf->update(m, kInf);
+  }
+  IPS_INFO("filter: initialised at rest at t=" << s.utime << " us from " << init_imu_.size() << " IMU and "
+                                               << init_tilt_.size() << " tilt samples, roll " << roll << " pitch "
+                                               << pitch << " rad");
+  init_imu_.clear();
+  init_tilt_.clear();
+}
+
+FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const {
+  FilterOutput o;
+  o.state = kf.state().nav;
+  o.covariance = kf.covariance().topLeftCorner<kCoreErrorDim, kCoreErrorDim>();
+  o.type = kf.type();
+  o.a_priori = a_priori;
+  o.sensors = counters_;
+  return o;
+}
+
+}  // namespace ips::filter

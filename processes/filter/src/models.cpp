@@ -1,0 +1,238 @@
+#include "ips/filter/models.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace ips::filter {
+
+// ---------------------------------------------------------------------------------------------- process
+
+NavState propagateNav(const NavState& x, double dt) {
+  NavState y = x;
+  y.position = x.position + x.velocity * dt + 0.5 * dt * dt * x.acceleration;
+  y.velocity = x.velocity + x.acceleration * dt;
+  // Body rate: the increment acts from the right.
+  y.orientation = (x.orientation * expQuat(x.angular_rate * dt)).normalized();
+  y.utime = x.utime + static_cast<int64_t>(std::llround(dt * 1e6));
+  return y;
+}
+
+Matrix21d processJacobian(const NavState& x, double dt) {
+  Matrix21d F = Matrix21d::Identity();
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  F.block<3, 3>(kErrP, kErrV) = dt * I;
+  F.block<3, 3>(kErrP, kErrA) = 0.5 * dt * dt * I;
+  F.block<3, 3>(kErrV, kErrA) = dt * I;
+  // R' = Exp(dth) R Exp((w + dw) dt) = Exp(dth + R' Jr(w dt) dt dw) R'
+  const Eigen::Vector3d phi = x.angular_rate * dt;
+  const Eigen::Matrix3d R_end = (x.orientation * expQuat(phi)).toRotationMatrix();
+  F.block<3, 3>(kErrTh, kErrW) = R_end * rightJacobianSO3(phi) * dt;
+  return F;
+}
+
+Matrix21d processNoise(const NavState& x_end, double dt, const ProcessNoise& q) {
+  Matrix21d Q = Matrix21d::Zero();
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const double dt2 = dt * dt, dt3 = dt2 * dt, dt4 = dt3 * dt, dt5 = dt4 * dt;
+  // (p, v, a) driven by white jerk.
+  const double j = q.jerk_psd;
+  Q.block<3, 3>(kErrP, kErrP) = j * dt5 / 20.0 * I;
+  Q.block<3, 3>(kErrP, kErrV) = j * dt4 / 8.0 * I;
+  Q.block<3, 3>(kErrP, kErrA) = j * dt3 / 6.0 * I;
+  Q.block<3, 3>(kErrV, kErrV) = j * dt3 / 3.0 * I;
+  Q.block<3, 3>(kErrV, kErrA) = j * dt2 / 2.0 * I;
+  Q.block<3, 3>(kErrA, kErrA) = j * dt * I;
+  Q.block<3, 3>(kErrV, kErrP) = Q.block<3, 3>(kErrP, kErrV);
+  Q.block<3, 3>(kErrA, kErrP) = Q.block<3, 3>(kErrP, kErrA);
+  Q.block<3, 3>(kErrA, kErrV) = Q.block<3, 3>(kErrV, kErrA);
+  // (theta in world, w in body) driven by white angular acceleration: dth' = R dw.
+  const double a = q.angular_accel_psd;
+  const Eigen::Matrix3d R = x_end.orientation.toRotationMatrix();
+  Q.block<3, 3>(kErrW, kErrW) = a * dt * I;
+  Q.block<3, 3>(kErrTh, kErrTh) = a * dt3 / 3.0 * I;
+  Q.block<3, 3>(kErrTh, kErrW) = a * dt2 / 2.0 * R;
+  Q.block<3, 3>(kErrW, kErrTh) = a * dt2 / 2.0 * R.transpose();
+  Q.block<3, 3>(kErrBa, kErrBa) = q.accel_bias_psd * dt * I;
+  Q.block<3, 3>(kErrBg, kErrBg) = q.gyro_bias_psd * dt * I;
+  return Q;
+}
+
+// ---------------------------------------------------------------------------------------------- IMU
+
+ImuMeasurement::ImuMeasurement(const Eigen::Vector3d& angular_rate, const Eigen::Vector3d& specific_force,
+                               double gravity, double gyro_sigma, double accel_sigma)
+    : gyro_(angular_rate),
+      accel_(specific_force),
+      gravity_(gravity),
+      gyro_var_(gyro_sigma * gyro_sigma),
+      accel_var_(accel_sigma * accel_sigma) {}
+
+MeasVector ImuMeasurement::predict(const NavState& x) const {
+  MeasVector h(6);
+  h.head<3>() = x.angular_rate + x.gyro_bias;
+  const Eigen::Vector3d u = x.acceleration + Eigen::Vector3d(0, 0, gravity_);
+  h.tail<3>() = x.orientation.conjugate() * u + x.accel_bias;
+  return h;
+}
+
+MeasVector ImuMeasurement::residual(const FullState& x) const {
+  MeasVector z(6);
+  z << gyro_, accel_;
+  return z - predict(x.nav);
+}
+
+Eigen::MatrixXd ImuMeasurement::jacobian(const FullState& x) const {
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6, x.errorDim());
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d Rt = x.nav.orientation.toRotationMatrix().transpose();
+  const Eigen::Vector3d u = x.nav.acceleration + Eigen::Vector3d(0, 0, gravity_);
+  H.block<3, 3>(0, kErrW) = I;
+  H.block<3, 3>(0, kErrBg) = I;
+  H.block<3, 3>(3, kErrA) = Rt;
+  H.block<3, 3>(3, kErrBa) = I;
+  H.block<3, 3>(3, kErrTh) = Rt * skew(u);
+  return H;
+}
+
+MeasMatrix ImuMeasurement::noise() const {
+  MeasMatrix R = MeasMatrix::Zero(6, 6);
+  R.diagonal() << gyro_var_, gyro_var_, gyro_var_, accel_var_, accel_var_, accel_var_;
+  return R;
+}
+
+// ---------------------------------------------------------------------------------------------- tilt
+
+TiltMeasurement::TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma)
+    : z_(angle_x, angle_y), R_body_tilt_(R_body_tilt), var_(sigma * sigma) {}
+
+Eigen::Vector2d TiltMeasurement::predict(const Eigen::Quaterniond& q, const Eigen::Matrix3d& R_body_tilt) {
+  const Eigen::Matrix3d R_world_tilt = q.toRotationMatrix() * R_body_tilt;
+  const double sx = std::clamp(R_world_tilt(2, 0), -1.0, 1.0);
+  const double sy = std::clamp(R_world_tilt(2, 1), -1.0, 1.0);
+  return Eigen::Vector2d(std::asin(sx), std::asin(sy));
+}
+
+MeasVector TiltMeasurement::residual(const FullState& x) const {
+  return MeasVector(z_ - predict(x.nav.orientation, R_body_tilt_));
+}
+
+Eigen::MatrixXd TiltMeasurement::jacobian(const FullState& x) const {
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(2, x.errorDim());
+  const Eigen::Matrix3d R_world_tilt = x.nav.orientation.toRotationMatrix() * R_body_tilt_;
+  const Eigen::Vector3d ez(0, 0, 1);
+  for (int k = 0; k < 2; ++k) {
+    // d/dth e_z . (Exp(th) v) = (v x e_z)^T ; d asin(s)/ds = 1/sqrt(1 - s^2)
+    const Eigen::Vector3d v = R_world_tilt.col(k);
+    const double c = std::sqrt(std::max(1e-12, 1.0 - v.z() * v.z()));
+    H.block<1, 3>(k, kErrTh) = v.cross(ez).transpose() / c;
+  }
+  return H;
+}
+
+MeasMatrix TiltMeasurement::noise() const {
+  MeasMatrix R = MeasMatrix::Zero(2, 2);
+  R.diagonal().setConstant(var_);
+  return R;
+}
+
+// ---------------------------------------------------------------------------------------------- delta
+
+DeltaMeasurement::DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1,
+                                   const Matrix6d& covariance, const Eigen::Isometry3d& T_imu_cam0)
+    : i0_(clone0), i1_(clone1), z_(T_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0) {}
+
+Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone& c1,
+                                            const Eigen::Isometry3d& T_imu_cam0) {
+  Eigen::Isometry3d T_w_b0 = Eigen::Isometry3d::Identity(), T_w_b1 = Eigen::Isometry3d::Identity();
+  T_w_b0.linear() = c0.orientation.toRotationMatrix();
+  T_w_b0.translation() = c0.position;
+  T_w_b1.linear() = c1.orientation.toRotationMatrix();
+  T_w_b1.translation() = c1.position;
+  return T_imu_cam0.inverse() * T_w_b0.inverse() * T_w_b1 * T_imu_cam0;
+}
+
+MeasVector DeltaMeasurement::residual(const FullState& x) const {
+  const Eigen::Isometry3d T = predict(x.clones.at(i0_), x.clones.at(i1_), T_imu_cam0_);
+  MeasVector r(6);
+  r.head<3>() = z_.translation() - T.translation();
+  r.tail<3>() = logSO3(z_.linear() * T.linear().transpose());
+  return r;
+}
+
+Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(6, x.errorDim());
+  const PoseClone& c0 = x.clones.at(i0_);
+  const PoseClone& c1 = x.clones.at(i1_);
+  const Eigen::Matrix3d R0 = c0.orientation.toRotationMatrix();
+  const Eigen::Matrix3d R1 = c1.orientation.toRotationMatrix();
+  const Eigen::Matrix3d R_ci = T_imu_cam0_.linear().transpose();
+  const Eigen::Vector3d t_ic = T_imu_cam0_.translation();
+  const Eigen::Matrix3d A = R_ci * R0.transpose();
+  const Eigen::Vector3d d = c1.position + R1 * t_ic - c0.position;
+  const int o0 = kCoreErrorDim + kCloneErrorDim * i0_;
+  const int o1 = kCoreErrorDim + kCloneErrorDim * i1_;
+  // t_pred = R_ci R0^T (p1 + R1 t_ic - p0) - R_ci t_ic
+  H.block<3, 3>(0, o1) = A;
+  H.block<3, 3>(0, o0) = -A;
+  H.block<3, 3>(0, o1 + 3) = -A * skew(R1 * t_ic);
+  H.block<3, 3>(0, o0 + 3) = A * skew(d);
+  // R_pred = R_ci R0^T R1 R_ic, perturbed from the left by Exp(A (dth1 - dth0)).
+  H.block<3, 3>(3, o1 + 3) = A;
+  H.block<3, 3>(3, o0 + 3) = -A;
+  return H;
+}
+
+// ---------------------------------------------------------------------------------------------- chi-square
+
+namespace {
+
+// Regularised lower incomplete gamma P(a, x) (series for x < a + 1, continued fraction otherwise).
+double gammaP(double a, double x) {
+  if (x <= 0) return 0.0;
+  const double gln = std::lgamma(a);
+  if (x < a + 1.0) {
+    double ap = a, sum = 1.0 / a, del = sum;
+    for (int n = 0; n < 500; ++n) {
+      ap += 1.0;
+      del *= x / ap;
+      sum += del;
+      if (std::fabs(del) < std::fabs(sum) * 1e-15) break;
+    }
+    return sum * std::exp(-x + a * std::log(x) - gln);
+  }
+  const double tiny = 1e-300;
+  double b = x + 1.0 - a, c = 1.0 / tiny, d = 1.0 / b, h = d;
+  for (int i = 1; i < 500; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::fabs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::fabs(c) < tiny) c = tiny;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::fabs(del - 1.0) < 1e-15) break;
+  }
+  return 1.0 - std::exp(-x + a * std::log(x) - gln) * h;
+}
+
+}  // namespace
+
+double chiSquareCdf(double x, int dof) {
+  if (dof < 1) throw std::invalid_argument("chiSquareCdf: dof must be >= 1");
+  return gammaP(0.5 * dof, 0.5 * x);
+}
+
+double chiSquareQuantile(double p, int dof) {
+  if (!(p > 0 && p < 1) || dof < 1) throw std::invalid_argument("chiSquareQuantile: need 0 < p < 1, dof >= 1");
+  double lo = 0.0, hi = std::max(1.0, 2.0 * dof);
+  while (chiSquareCdf(hi, dof) < p) hi *= 2.0;
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (chiSquareCdf(mid, dof) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace ips::filter

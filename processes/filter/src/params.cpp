@@ -1,0 +1,103 @@
+#include "ips/filter/params.hpp"
+
+namespace ips::filter {
+
+namespace {
+
+void positive(const Config& cfg, const std::string& key, double v) {
+  if (!(v > 0)) throw ConfigError(cfg.path() + ": key '" + key + "' must be positive");
+}
+void nonNegative(const Config& cfg, const std::string& key, double v) {
+  if (!(v >= 0)) throw ConfigError(cfg.path() + ": key '" + key + "' must not be negative");
+}
+
+}  // namespace
+
+std::string toString(FilterType type) { return type == FilterType::Ekf ? "ekf" : "ukf"; }
+
+FilterParams loadFilterParams(const Config& c) {
+  FilterParams p;
+  const std::string type = c.getString("type", "ekf");
+  if (type == "ekf")
+    p.type = FilterType::Ekf;
+  else if (type == "ukf")
+    p.type = FilterType::Ukf;
+  else
+    throw ConfigError(c.path() + ": key 'type' must be 'ekf' or 'ukf', not '" + type + "'");
+  p.gravity = c.getDouble("gravity", p.gravity);
+  positive(c, "gravity", p.gravity);
+
+  p.ukf_alpha = c.getDouble("ukf/alpha", p.ukf_alpha);
+  p.ukf_beta = c.getDouble("ukf/beta", p.ukf_beta);
+  p.ukf_kappa = c.getDouble("ukf/kappa", p.ukf_kappa);
+  positive(c, "ukf/alpha", p.ukf_alpha);
+
+  p.process.jerk_psd = c.getDouble("process_noise/jerk_psd", p.process.jerk_psd);
+  p.process.angular_accel_psd = c.getDouble("process_noise/angular_accel_psd", p.process.angular_accel_psd);
+  p.process.accel_bias_psd = c.getDouble("process_noise/accel_bias_psd", p.process.accel_bias_psd);
+  p.process.gyro_bias_psd = c.getDouble("process_noise/gyro_bias_psd", p.process.gyro_bias_psd);
+  positive(c, "process_noise/jerk_psd", p.process.jerk_psd);
+  positive(c, "process_noise/angular_accel_psd", p.process.angular_accel_psd);
+  nonNegative(c, "process_noise/accel_bias_psd", p.process.accel_bias_psd);
+  nonNegative(c, "process_noise/gyro_bias_psd", p.process.gyro_bias_psd);
+
+  p.imu.gyro_noise_density = c.getDouble("imu/gyro_noise_density", p.imu.gyro_noise_density);
+  p.imu.accel_noise_density = c.getDouble("imu/accel_noise_density", p.imu.accel_noise_density);
+  p.imu.rate_hz = c.getDouble("imu/rate_hz", p.imu.rate_hz);
+  positive(c, "imu/gyro_noise_density", p.imu.gyro_noise_density);
+  positive(c, "imu/accel_noise_density", p.imu.accel_noise_density);
+  positive(c, "imu/rate_hz", p.imu.rate_hz);
+
+  p.tilt_sigma = c.getDouble("tilt/sigma", p.tilt_sigma);
+  positive(c, "tilt/sigma", p.tilt_sigma);
+  p.tracker_min_sigma_t = c.getDouble("tracker/min_sigma_t", p.tracker_min_sigma_t);
+  p.tracker_min_sigma_r = c.getDouble("tracker/min_sigma_r", p.tracker_min_sigma_r);
+  nonNegative(c, "tracker/min_sigma_t", p.tracker_min_sigma_t);
+  nonNegative(c, "tracker/min_sigma_r", p.tracker_min_sigma_r);
+
+  p.imu_latency_us = c.getInt("latency_us/imu", static_cast<int>(p.imu_latency_us));
+  p.tilt_latency_us = c.getInt("latency_us/tilt", static_cast<int>(p.tilt_latency_us));
+  p.camera_latency_us = c.getInt("latency_us/camera", static_cast<int>(p.camera_latency_us));
+
+  p.reorder_window_us = c.getInt("reorder_window_us", static_cast<int>(p.reorder_window_us));
+  nonNegative(c, "reorder_window_us", static_cast<double>(p.reorder_window_us));
+  p.max_clones = c.getInt("max_clones", p.max_clones);
+  if (p.max_clones < 2) throw ConfigError(c.path() + ": key 'max_clones' must be at least 2");
+
+  p.gate_probability = c.getDouble("gate/probability", p.gate_probability);
+  if (!(p.gate_probability > 0 && p.gate_probability < 1))
+    throw ConfigError(c.path() + ": key 'gate/probability' must be in (0, 1)");
+  p.gate_imu = c.getBool("gate/imu", p.gate_imu);
+  p.gate_tilt = c.getBool("gate/tilt", p.gate_tilt);
+  p.gate_tracker = c.getBool("gate/tracker", p.gate_tracker);
+  p.max_consecutive_rejects = c.getInt("gate/max_consecutive_rejects", p.max_consecutive_rejects);
+  if (p.max_consecutive_rejects < 1) throw ConfigError(c.path() + ": key 'gate/max_consecutive_rejects' must be >= 1");
+
+  p.imu_gap_s = c.getDouble("imu_gap_s", p.imu_gap_s);
+  positive(c, "imu_gap_s", p.imu_gap_s);
+  p.output_decimation = c.getInt("output_decimation", p.output_decimation);
+  if (p.output_decimation < 1) throw ConfigError(c.path() + ": key 'output_decimation' must be >= 1");
+
+  InitParams& i = p.init;
+  i.duration_s = c.getDouble("init/duration_s", i.duration_s);
+  positive(c, "init/duration_s", i.duration_s);
+  i.max_accel_std = c.getDouble("init/max_accel_std", i.max_accel_std);
+  i.max_gyro_std = c.getDouble("init/max_gyro_std", i.max_gyro_std);
+  i.heading_rad = c.getDouble("init/heading_rad", i.heading_rad);
+  if (c.has("init/position")) i.position = c.getMatrix("init/position", 3, 1);
+  i.sigma_position = c.getDouble("init/sigma_position", i.sigma_position);
+  i.sigma_velocity = c.getDouble("init/sigma_velocity", i.sigma_velocity);
+  i.sigma_acceleration = c.getDouble("init/sigma_acceleration", i.sigma_acceleration);
+  i.sigma_accel_bias = c.getDouble("init/sigma_accel_bias", i.sigma_accel_bias);
+  i.sigma_angular_rate = c.getDouble("init/sigma_angular_rate", i.sigma_angular_rate);
+  i.sigma_gyro_bias = c.getDouble("init/sigma_gyro_bias", i.sigma_gyro_bias);
+  i.sigma_roll_pitch = c.getDouble("init/sigma_roll_pitch", i.sigma_roll_pitch);
+  i.sigma_heading = c.getDouble("init/sigma_heading", i.sigma_heading);
+  for (const char* k : {"init/sigma_position", "init/sigma_velocity", "init/sigma_acceleration", "init/sigma_accel_bias",
+                        "init/sigma_angular_rate", "init/sigma_gyro_bias", "init/sigma_roll_pitch", "init/sigma_heading",
+                        "init/max_accel_std", "init/max_gyro_std"})
+    positive(c, k, c.getDouble(k, 1.0));
+  return p;
+}
+
+}  // namespace ips::filter

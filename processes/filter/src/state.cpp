@@ -1,0 +1,127 @@
+#include "ips/filter/state.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace ips::filter {
+
+Eigen::Matrix<double, 22, 1> NavState::toVector() const {
+  Eigen::Matrix<double, 22, 1> x;
+  x << position, velocity, acceleration, accel_bias, angular_rate, gyro_bias, orientation.w(), orientation.x(),
+      orientation.y(), orientation.z();
+  return x;
+}
+
+NavState NavState::fromVector(const Eigen::Matrix<double, 22, 1>& x, int64_t t) {
+  NavState s;
+  s.utime = t;
+  s.position = x.segment<3>(0);
+  s.velocity = x.segment<3>(3);
+  s.acceleration = x.segment<3>(6);
+  s.accel_bias = x.segment<3>(9);
+  s.angular_rate = x.segment<3>(12);
+  s.gyro_bias = x.segment<3>(15);
+  s.orientation = Eigen::Quaterniond(x(18), x(19), x(20), x(21)).normalized();
+  return s;
+}
+
+int FullState::findClone(int64_t t) const {
+  for (size_t i = 0; i < clones.size(); ++i)
+    if (clones[i].utime == t) return static_cast<int>(i);
+  return -1;
+}
+
+NavState boxplus(const NavState& x, const Eigen::Ref<const Vector21d>& dx) {
+  NavState n = x;
+  n.position += dx.segment<3>(kErrP);
+  n.velocity += dx.segment<3>(kErrV);
+  n.acceleration += dx.segment<3>(kErrA);
+  n.accel_bias += dx.segment<3>(kErrBa);
+  n.angular_rate += dx.segment<3>(kErrW);
+  n.gyro_bias += dx.segment<3>(kErrBg);
+  n.orientation = (expQuat(dx.segment<3>(kErrTh)) * n.orientation).normalized();
+  return n;
+}
+
+Vector21d boxminus(const NavState& a, const NavState& b) {
+  Vector21d d;
+  d.segment<3>(kErrP) = a.position - b.position;
+  d.segment<3>(kErrV) = a.velocity - b.velocity;
+  d.segment<3>(kErrA) = a.acceleration - b.acceleration;
+  d.segment<3>(kErrBa) = a.accel_bias - b.accel_bias;
+  d.segment<3>(kErrW) = a.angular_rate - b.angular_rate;
+  d.segment<3>(kErrBg) = a.gyro_bias - b.gyro_bias;
+  d.segment<3>(kErrTh) = logQuat(a.orientation * b.orientation.conjugate());
+  return d;
+}
+
+void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx, FullState& out) {
+  if (dx.size() != x.errorDim() || out.clones.size() != x.clones.size())
+    throw std::invalid_argument("boxplus: error vector size does not match the state");
+  out.nav = boxplus(x.nav, dx.head<kCoreErrorDim>());
+  for (size_t i = 0; i < x.clones.size(); ++i) {
+    const int o = kCoreErrorDim + kCloneErrorDim * static_cast<int>(i);
+    out.clones[i].utime = x.clones[i].utime;
+    out.clones[i].position = x.clones[i].position + dx.segment<3>(o);
+    out.clones[i].orientation = (expQuat(dx.segment<3>(o + 3)) * x.clones[i].orientation).normalized();
+  }
+}
+
+FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx) {
+  FullState y = x;
+  boxplusInto(x, dx, y);
+  return y;
+}
+
+Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
+  if (a.clones.size() != b.clones.size()) throw std::invalid_argument("boxminus: clone layouts differ");
+  Eigen::VectorXd d(a.errorDim());
+  d.head<kCoreErrorDim>() = boxminus(a.nav, b.nav);
+  for (size_t i = 0; i < a.clones.size(); ++i) {
+    const int o = kCoreErrorDim + kCloneErrorDim * static_cast<int>(i);
+    d.segment<3>(o) = a.clones[i].position - b.clones[i].position;
+    d.segment<3>(o + 3) = logQuat(a.clones[i].orientation * b.clones[i].orientation.conjugate());
+  }
+  return d;
+}
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+Eigen::Quaterniond expQuat(const Eigen::Vector3d& phi) {
+  const double angle = phi.norm();
+  if (angle < 1e-8) {
+    // Second-order series keeps the map smooth at zero (numeric Jacobian tests rely on it).
+    Eigen::Quaterniond q(1.0 - angle * angle / 8.0, 0.5 * phi.x(), 0.5 * phi.y(), 0.5 * phi.z());
+    return q.normalized();
+  }
+  const double s = std::sin(0.5 * angle) / angle;
+  return Eigen::Quaterniond(std::cos(0.5 * angle), s * phi.x(), s * phi.y(), s * phi.z());
+}
+
+Eigen::Vector3d logQuat(const Eigen::Quaterniond& q_in) {
+  Eigen::Quaterniond q = q_in;
+  if (q.w() < 0) q.coeffs() = -q.coeffs();  // shortest rotation
+  const Eigen::Vector3d v = q.vec();
+  const double sn = v.norm();
+  if (sn < 1e-10) return 2.0 * v / q.w();
+  const double angle = 2.0 * std::atan2(sn, q.w());
+  return angle / sn * v;
+}
+
+Eigen::Matrix3d expSO3(const Eigen::Vector3d& phi) { return expQuat(phi).toRotationMatrix(); }
+
+Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) { return logQuat(Eigen::Quaterniond(R)); }
+
+Eigen::Matrix3d rightJacobianSO3(const Eigen::Vector3d& phi) {
+  const double a = phi.norm();
+  const Eigen::Matrix3d K = skew(phi);
+  if (a < 1e-6) return Eigen::Matrix3d::Identity() - 0.5 * K + K * K / 6.0;
+  const double a2 = a * a;
+  return Eigen::Matrix3d::Identity() - (1.0 - std::cos(a)) / a2 * K + (a - std::sin(a)) / (a2 * a) * K * K;
+}
+
+}  // namespace ips::filter

@@ -1,0 +1,247 @@
+// Models and filters of ips_filter against references: analytic Jacobians vs central differences, the
+// chi-square quantiles vs tabulated values, EKF vs UKF on a mildly nonlinear case, the gate.
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "ips/filter/kalman.hpp"
+#include "ips/filter/models.hpp"
+#include "ips/filter/testbed.hpp"
+
+using namespace ips::filter;
+
+namespace {
+
+NavState randomNav(std::mt19937& rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  auto v3 = [&](double s) { return Eigen::Vector3d(s * n(rng), s * n(rng), s * n(rng)); };
+  NavState x;
+  x.utime = 1'000'000;
+  x.position = v3(3);
+  x.velocity = v3(1);
+  x.acceleration = v3(2);
+  x.accel_bias = v3(0.05);
+  x.angular_rate = v3(1.0);
+  x.gyro_bias = v3(0.01);
+  x.orientation = expQuat(v3(1.0));
+  return x;
+}
+
+FullState randomFull(std::mt19937& rng, int clones) {
+  FullState x;
+  x.nav = randomNav(rng);
+  for (int i = 0; i < clones; ++i) {
+    const NavState c = randomNav(rng);
+    x.clones.push_back({1000 + i, c.position, c.orientation});
+  }
+  return x;
+}
+
+// Numeric derivative of a residual: H_num = -(r(x (+) e_i h) - r(x (-) e_i h)) / 2h.
+Eigen::MatrixXd numericH(const Measurement& m, const FullState& x) {
+  const int n = x.errorDim();
+  Eigen::MatrixXd H(m.dim(), n);
+  const double h = 1e-6;
+  for (int i = 0; i < n; ++i) {
+    Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
+    d(i) = h;
+    const MeasVector rp = m.residual(boxplus(x, d));
+    const MeasVector rm = m.residual(boxplus(x, -d));
+    H.col(i) = -(rp - rm) / (2 * h);
+  }
+  return H;
+}
+
+}  // namespace
+
+TEST(FilterModels, BoxplusBoxminusRoundTrip) {
+  std::mt19937 rng(1);
+  const FullState x = randomFull(rng, 2);
+  Eigen::VectorXd d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
+  EXPECT_LT((boxminus(boxplus(x, d), x) - d).norm(), 1e-12);
+  EXPECT_THROW(boxplus(x, Eigen::VectorXd::Zero(5)), std::invalid_argument);
+}
+
+TEST(FilterModels, So3RightJacobian) {
+  const Eigen::Vector3d phi(0.4, -0.7, 0.2), d(1e-6, -2e-6, 1.5e-6);
+  const Eigen::Matrix3d lhs = expSO3(phi + d);
+  const Eigen::Matrix3d rhs = expSO3(phi) * expSO3(rightJacobianSO3(phi) * d);
+  EXPECT_LT((lhs - rhs).norm(), 1e-11);
+  EXPECT_LT((logSO3(expSO3(phi)) - phi).norm(), 1e-12);
+}
+
+TEST(FilterModels, ProcessJacobianMatchesNumeric) {
+  std::mt19937 rng(2);
+  for (double dt : {0.005, 0.1, 0.5}) {
+    const NavState x = randomNav(rng);
+    const Matrix21d F = processJacobian(x, dt);
+    const NavState fx = propagateNav(x, dt);
+    Matrix21d Fn;
+    const double h = 1e-6;
+    for (int i = 0; i < 21; ++i) {
+      Vector21d d = Vector21d::Zero();
+      d(i) = h;
+      Fn.col(i) = (boxminus(propagateNav(boxplus(x, d), dt), fx) - boxminus(propagateNav(boxplus(x, (-d).eval()), dt), fx)) /
+                  (2 * h);
+    }
+    EXPECT_LT((F - Fn).cwiseAbs().maxCoeff(), 1e-7) << "dt=" << dt << "\n" << F - Fn;
+  }
+}
+
+TEST(FilterModels, ProcessNoiseIsSymmetricPositive) {
+  std::mt19937 rng(3);
+  const Matrix21d Q = processNoise(randomNav(rng), 0.01, ProcessNoise{});
+  EXPECT_LT((Q - Q.transpose()).norm(), 1e-15);
+  Eigen::SelfAdjointEigenSolver<Matrix21d> es(Q);
+  EXPECT_GT(es.eigenvalues().minCoeff(), 0.0);
+}
+
+TEST(FilterModels, ImuJacobianMatchesNumeric) {
+  std::mt19937 rng(4);
+  const FullState x = randomFull(rng, 2);
+  const ImuMeasurement m(Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(0.5, -0.2, 9.7), 9.81, 1e-3, 1e-2);
+  EXPECT_LT((m.jacobian(x) - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(FilterModels, TiltJacobianMatchesNumeric) {
+  std::mt19937 rng(5);
+  FullState x = randomFull(rng, 1);
+  x.nav.orientation = expQuat(Eigen::Vector3d(0.2, -0.3, 1.0));
+  const Eigen::Matrix3d R_bt = expSO3(Eigen::Vector3d(0.01, 0.02, 0.5));
+  const TiltMeasurement m(0.1, -0.2, R_bt, 1e-3);
+  EXPECT_LT((m.jacobian(x) - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(FilterModels, TiltAnglesFollowTheirConvention) {
+  // Pitching the nose up (negative rotation about body y) raises the x axis: angle_x > 0.
+  const Eigen::Quaterniond q(Eigen::AngleAxisd(-0.1, Eigen::Vector3d::UnitY()));
+  const Eigen::Vector2d z = TiltMeasurement::predict(q, Eigen::Matrix3d::Identity());
+  EXPECT_NEAR(z.x(), 0.1, 1e-12);
+  EXPECT_NEAR(z.y(), 0.0, 1e-12);
+}
+
+TEST(FilterModels, DeltaJacobianMatchesNumeric) {
+  std::mt19937 rng(6);
+  const FullState x = randomFull(rng, 3);
+  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
+  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
+  T_imu_cam.translation() = Eigen::Vector3d(0.1, -0.05, 0.2);
+  // Measurement equal to the prediction: the residual is zero and its derivative is exactly -H.
+  const Eigen::Isometry3d z = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_imu_cam);
+  const DeltaMeasurement m(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam);
+  EXPECT_LT(m.residual(x).norm(), 1e-12);
+  EXPECT_LT((m.jacobian(x) - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(FilterModels, ChiSquareQuantilesMatchTables) {
+  EXPECT_NEAR(chiSquareQuantile(0.95, 1), 3.841, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(0.95, 2), 5.991, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(0.99, 6), 16.812, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(0.025, 60), 40.482, 1e-3);
+  EXPECT_NEAR(chiSquareQuantile(0.975, 60), 83.298, 1e-3);
+  EXPECT_NEAR(chiSquareCdf(12.592, 6), 0.95, 1e-4);
+}
+
+namespace {
+
+// Runs the same sequence through a filter: time updates, IMU and tilt samples, clones and a delta.
+void runSequence(KalmanFilter& kf, const FullState& x0, const Eigen::MatrixXd& P0, double* last_m2 = nullptr) {
+  kf.reset(x0, P0);
+  const double g = 9.81;
+  const Eigen::Matrix3d R_bt = expSO3(Eigen::Vector3d(0.01, -0.02, 0.3));
+  Eigen::Isometry3d T_ic = Eigen::Isometry3d::Identity();
+  T_ic.linear() = expSO3(Eigen::Vector3d(1.2, -1.2, 1.2));
+  T_ic.translation() = Eigen::Vector3d(0.05, 0.1, 0.0);
+  kf.addClone();
+  for (int k = 0; k < 40; ++k) {
+    kf.predict(0.005);
+    const double t = 0.005 * (k + 1);
+    const ImuMeasurement imu(Eigen::Vector3d(0.3 + 0.1 * t, -0.2, 0.5), Eigen::Vector3d(0.8, 0.3, 9.9), g, 2e-3, 5e-2);
+    kf.update(imu, std::numeric_limits<double>::infinity());
+    if (k % 10 == 5) kf.update(TiltMeasurement(0.06, -0.03, R_bt, 3e-3), std::numeric_limits<double>::infinity());
+  }
+  kf.addClone();
+  // A delta a little off the current estimate.
+  Eigen::Isometry3d z = DeltaMeasurement::predict(kf.state().clones[0], kf.state().clones[1], T_ic);
+  z.translation() += Eigen::Vector3d(0.004, -0.003, 0.002);
+  z.linear() = expSO3(Eigen::Vector3d(0.002, 0.001, -0.002)) * z.linear();
+  Matrix6d R = Matrix6d::Zero();
+  R.diagonal() << 1e-5, 1e-5, 1e-5, 1e-6, 1e-6, 1e-6;
+  const UpdateResult r = kf.update(DeltaMeasurement(0, 1, z, R, T_ic), std::numeric_limits<double>::infinity());
+  if (last_m2) *last_m2 = r.mahalanobis2;
+  kf.predict(0.02);
+}
+
+}  // namespace
+
+TEST(FilterKalman, EkfAndUkfAgreeOnMildlyNonlinearCase) {
+  FilterParams params;
+  FullState x0;
+  x0.nav.orientation = expQuat(Eigen::Vector3d(0.1, -0.05, 0.8));
+  x0.nav.angular_rate = Eigen::Vector3d(0.3, -0.2, 0.5);
+  x0.nav.velocity = Eigen::Vector3d(0.5, 0.1, 0.0);
+  Vector21d sd;
+  sd << Eigen::Vector3d::Constant(0.01), Eigen::Vector3d::Constant(0.05), Eigen::Vector3d::Constant(0.2),
+      Eigen::Vector3d::Constant(0.02), Eigen::Vector3d::Constant(0.02), Eigen::Vector3d::Constant(0.005),
+      Eigen::Vector3d::Constant(0.02);
+  const Eigen::MatrixXd P0 = Matrix21d(sd.cwiseAbs2().asDiagonal());
+  ExtendedKalmanFilter ekf(params);
+  UnscentedKalmanFilter ukf(params);
+  double m2_ekf = 0, m2_ukf = 0;
+  runSequence(ekf, x0, P0, &m2_ekf);
+  runSequence(ukf, x0, P0, &m2_ukf);
+  const Eigen::MatrixXd& Pe = ekf.covariance();
+  const Eigen::MatrixXd& Pu = ukf.covariance();
+  ASSERT_EQ(Pe.rows(), 33);
+  const Eigen::VectorXd diff = boxminus(ukf.state(), ekf.state());
+  const Eigen::VectorXd sigma = Pe.diagonal().cwiseSqrt();
+  // Means agree to a small part of a standard deviation, covariances to a few percent.
+  EXPECT_LT((diff.array() / sigma.array()).abs().maxCoeff(), 0.05);
+  std::printf("DBG mean %g cov %g m2 %g %g\n", (diff.array() / sigma.array()).abs().maxCoeff(), (Pu.diagonal().cwiseSqrt().array() / sigma.array() - 1.0).abs().maxCoeff(), m2_ekf, m2_ukf);
+  EXPECT_LT((Pu.diagonal().cwiseSqrt().array() / sigma.array() - 1.0).abs().maxCoeff(), 0.03);
+  EXPECT_NEAR(m2_ekf, m2_ukf, 0.02 * m2_ekf);
+  // And the update did something: the delta reduced the clone uncertainty.
+  EXPECT_LT(Pe(27, 27), Pe(21, 21) + 1e-3);
+}
+
+TEST(FilterKalman, GateRejectsAnOutlierAndKeepsTheState) {
+  FilterParams params;
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    params.type = type;
+    auto kf = makeKalmanFilter(params);
+    FullState x0;
+    Matrix21d P = Matrix21d::Identity() * 1e-4;
+    kf->reset(x0, P);
+    const double gate = chiSquareQuantile(0.9995, 2);
+    // Level head; a tilt reading of 5 degrees is far outside sigma = 0.1 degree.
+    const UpdateResult bad = kf->update(TiltMeasurement(0.087, 0.0, Eigen::Matrix3d::Identity(), 1.75e-3), gate);
+    EXPECT_FALSE(bad.applied);
+    EXPECT_GT(bad.mahalanobis2, gate);
+    EXPECT_LT(boxminus(kf->state(), FullState{x0}).norm(), 1e-15);
+    const UpdateResult good = kf->update(TiltMeasurement(0.002, -0.001, Eigen::Matrix3d::Identity(), 1.75e-3), gate);
+    EXPECT_TRUE(good.applied);
+    EXPECT_LT(good.mahalanobis2, gate);
+  }
+}
+
+TEST(FilterKalman, ClonesCarryCorrelationsThroughPrediction) {
+  FilterParams params;
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    params.type = type;
+    auto kf = makeKalmanFilter(params);
+    FullState x0;
+    x0.nav.velocity = Eigen::Vector3d(1, 0, 0);
+    kf->reset(x0, Matrix21d::Identity() * 1e-2);
+    kf->addClone();
+    kf->predict(0.5);
+    // Position error after 0.5 s = dp + 0.5 dv + 0.125 da: its covariance with the cloned position is var(dp).
+    EXPECT_NEAR(kf->covariance()(0, 21), 1e-2, 1e-9);
+    EXPECT_NEAR(kf->covariance()(3, 21), 0.0, 1e-12);
+    kf->removeClone(0);
+    EXPECT_EQ(kf->covariance().rows(), 21);
+  }
+}

@@ -1,0 +1,190 @@
+#include "ips/filter/testbed.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "ips/filter/models.hpp"
+
+namespace ips::filter {
+
+namespace {
+constexpr double kTwoPi = 6.283185307179586;
+
+struct Angle {
+  double v, d, dd;  // value and first two derivatives
+};
+Angle sine(double amp, double freq_hz, double t, double phase = 0) {
+  const double w = kTwoPi * freq_hz;
+  return {amp * std::sin(w * t + phase), amp * w * std::cos(w * t + phase), -amp * w * w * std::sin(w * t + phase)};
+}
+}  // namespace
+
+TruthSample AnalyticWalk::at(double t) const {
+  TruthSample s;
+  s.utime = static_cast<int64_t>(std::llround(t * 1e6));
+  double roll, pitch, yaw, droll, dpitch, dyaw;
+  if (p_.at_rest) {
+    s.p = Eigen::Vector3d::Zero();
+    s.v = Eigen::Vector3d::Zero();
+    s.a = Eigen::Vector3d::Zero();
+    roll = p_.rest_roll_rad, pitch = p_.rest_pitch_rad, yaw = p_.rest_yaw_rad;
+    droll = dpitch = dyaw = 0;
+  } else {
+    const double W = kTwoPi / p_.loop_period_s;
+    const double A = p_.semi_axis_x, B = p_.semi_axis_y;
+    const Angle sway = sine(p_.sway_m, 0.5 * p_.step_hz, t);
+    const Angle bounce = sine(p_.bounce_m, p_.step_hz, t, 0.3);
+    s.p = Eigen::Vector3d(A * std::sin(W * t), B * (1 - std::cos(W * t)) + sway.v, bounce.v);
+    s.v = Eigen::Vector3d(A * W * std::cos(W * t), B * W * std::sin(W * t) + sway.d, bounce.d);
+    s.a = Eigen::Vector3d(-A * W * W * std::sin(W * t), B * W * W * std::cos(W * t) + sway.dd, bounce.dd);
+    // Heading along the ellipse's tangent (without the sway) plus looking around.
+    const double vx = A * W * std::cos(W * t), vy = B * W * std::sin(W * t);
+    const double ax = -A * W * W * std::sin(W * t), ay = B * W * W * std::cos(W * t);
+    const Angle look = sine(p_.head_yaw_rad, 0.13, t);
+    yaw = std::atan2(vy, vx) + look.v;
+    dyaw = (vx * ay - vy * ax) / (vx * vx + vy * vy) + look.d;
+    const Angle pt = sine(p_.head_pitch_rad, p_.step_hz, t, 1.0);
+    const Angle rl = sine(p_.head_roll_rad, 0.5 * p_.step_hz, t, 0.5);
+    pitch = pt.v, dpitch = pt.d, roll = rl.v, droll = rl.d;
+  }
+  s.q = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+        Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  // Body rate of R = Rz(yaw) Ry(pitch) Rx(roll).
+  const double sr = std::sin(roll), cr = std::cos(roll), sp = std::sin(pitch), cp = std::cos(pitch);
+  s.w = Eigen::Vector3d(droll - dyaw * sp, dpitch * cr + dyaw * sr * cp, -dpitch * sr + dyaw * cr * cp);
+  return s;
+}
+
+double AnalyticWalk::distance(double t0, double t1) const {
+  double d = 0;
+  Eigen::Vector3d prev = at(t0).p;
+  for (double t = t0 + 1e-3; t <= t1 + 1e-12; t += 1e-3) {
+    const Eigen::Vector3d p = at(t).p;
+    d += (p - prev).norm();
+    prev = p;
+  }
+  return d;
+}
+
+StereoCalibration testbedCalibration() {
+  StereoCalibration c;
+  c.cam0.width = c.cam1.width = 1360;
+  c.cam0.height = c.cam1.height = 1024;
+  c.cam0.K << 1200, 0, 680, 0, 1200, 512, 0, 0, 1;
+  c.cam1.K = c.cam0.K;
+  c.t_cam1_cam0 = Eigen::Vector3d(-0.2, 0, 0);
+  // Camera looking forward along the body x axis (body: x forward, y left, z up), a few mm off the IMU.
+  Eigen::Matrix3d R_imu_cam;
+  R_imu_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  c.T_imu_cam0.linear() = expSO3(Eigen::Vector3d(0.004, -0.003, 0.002)) * R_imu_cam;
+  c.T_imu_cam0.translation() = Eigen::Vector3d(0.06, 0.10, -0.03);
+  // Tilt sensor mounted level in the body with a small misalignment.
+  const Eigen::Matrix3d R_tilt_imu = expSO3(Eigen::Vector3d(0.003, 0.002, 0.3));
+  c.R_tilt_cam0 = R_tilt_imu * c.T_imu_cam0.linear();
+  return c;
+}
+
+SensorSim::SensorSim(const AnalyticWalk& walk, const SensorSimParams& p, const StereoCalibration& calib, uint32_t seed)
+    : walk_(walk), p_(p), calib_(calib), rng_(seed) {}
+
+Eigen::Vector3d SensorSim::noise3() { return Eigen::Vector3d(n01_(rng_), n01_(rng_), n01_(rng_)); }
+
+NavState SensorSim::truth(int64_t utime) const {
+  const TruthSample s = walk_.at(utime * 1e-6);
+  NavState n;
+  n.utime = utime;
+  n.position = s.p;
+  n.velocity = s.v;
+  n.acceleration = s.a;
+  n.orientation = s.q;
+  n.angular_rate = s.w;
+  n.gyro_bias = p_.gyro_bias;
+  n.accel_bias = p_.accel_bias;
+  return n;
+}
+
+ImuSample SensorSim::imu(int64_t utime) {
+  const TruthSample s = walk_.at(utime * 1e-6);
+  ImuSample m;
+  m.utime = utime;
+  const double sg = p_.gyro_noise_density * std::sqrt(p_.imu_rate_hz);
+  const double sa = p_.accel_noise_density * std::sqrt(p_.imu_rate_hz);
+  m.angular_rate = s.w + p_.gyro_bias + sg * noise3();
+  m.specific_force = s.q.conjugate() * (s.a + Eigen::Vector3d(0, 0, p_.gravity)) + p_.accel_bias + sa * noise3();
+  return m;
+}
+
+TiltSample SensorSim::tilt(int64_t utime) {
+  const TruthSample s = walk_.at(utime * 1e-6);
+  const Eigen::Matrix3d R_body_tilt = calib_.T_imu_cam0.linear() * calib_.R_tilt_cam0.transpose();
+  const Eigen::Vector2d z = TiltMeasurement::predict(s.q, R_body_tilt);
+  TiltSample m;
+  m.utime = utime;
+  m.angle_x = z.x() + p_.tilt_sigma * n01_(rng_);
+  m.angle_y = z.y() + p_.tilt_sigma * n01_(rng_);
+  return m;
+}
+
+TrackerDelta SensorSim::delta(int64_t utime_prev, int64_t utime) {
+  const TruthSample s0 = walk_.at(utime_prev * 1e-6), s1 = walk_.at(utime * 1e-6);
+  PoseClone c0, c1;
+  c0.position = s0.p, c0.orientation = s0.q;
+  c1.position = s1.p, c1.orientation = s1.q;
+  const Eigen::Isometry3d T = DeltaMeasurement::predict(c0, c1, calib_.T_imu_cam0);
+  TrackerDelta d;
+  d.utime = utime;
+  d.utime_prev = utime_prev;
+  d.translation = T.translation() + p_.tracker_sigma_t * noise3();
+  d.rotation = Eigen::Quaterniond(expSO3(p_.tracker_sigma_r * noise3()) * T.linear()).normalized();
+  d.covariance.setZero();
+  d.covariance.diagonal() << Eigen::Vector3d::Constant(p_.tracker_sigma_t * p_.tracker_sigma_t),
+      Eigen::Vector3d::Constant(p_.tracker_sigma_r * p_.tracker_sigma_r);
+  return d;
+}
+
+std::vector<FilterOutput> runSimulation(Estimator& est, SensorSim& sim, double t_start_s, double t_end_s,
+                                        bool use_tracker, bool use_tilt, const Matrix21d& P0) {
+  const int64_t t0 = static_cast<int64_t>(std::llround(t_start_s * 1e6));
+  const int64_t t1 = static_cast<int64_t>(std::llround(t_end_s * 1e6));
+  if (!P0.isZero()) {
+    // Start from a sample of the initial distribution around the truth, so that the errors match P0.
+    std::mt19937 rng(static_cast<uint32_t>(t0 + 12345));
+    std::normal_distribution<double> n01(0.0, 1.0);
+    Vector21d z;
+    for (int i = 0; i < 21; ++i) z(i) = n01(rng);
+    const Matrix21d L = Eigen::LLT<Matrix21d>(P0).matrixL();
+    FullState x;
+    x.nav = sim.truth(t0);
+    const Vector21d dx = L * z;
+    est.initialize(boxplus(x.nav, dx), P0);
+  }
+  const int64_t imu_dt = static_cast<int64_t>(std::llround(1e6 / sim.params().imu_rate_hz));
+  const int64_t tilt_dt = static_cast<int64_t>(std::llround(1e6 / sim.params().tilt_rate_hz));
+  const int64_t img_dt = static_cast<int64_t>(std::llround(1e6 / sim.params().image_rate_hz));
+  int64_t next_imu = t0 + imu_dt, next_tilt = t0 + tilt_dt / 2, next_img = t0 + img_dt / 3;
+  int64_t last_img = INT64_MIN;
+  std::vector<FilterOutput> out;
+  while (true) {
+    const int64_t t = std::min({next_imu, use_tilt ? next_tilt : INT64_MAX, use_tracker ? next_img : INT64_MAX});
+    if (t > t1) break;
+    if (t == next_imu) {
+      est.addImu(sim.imu(t));
+      next_imu += imu_dt;
+    } else if (t == next_tilt) {
+      est.addTilt(sim.tilt(t));
+      next_tilt += tilt_dt;
+    } else {
+      est.addImageTime(t);
+      if (last_img != INT64_MIN) est.addTrackerDelta(sim.delta(last_img, t));
+      last_img = t;
+      next_img += img_dt;
+    }
+    for (FilterOutput& o : est.takeOutputs()) out.push_back(std::move(o));
+  }
+  est.flush();
+  for (FilterOutput& o : est.takeOutputs()) out.push_back(std::move(o));
+  return out;
+}
+
+}  // namespace ips::filter
