@@ -1,0 +1,77 @@
+#pragma once
+// Parameters of the stereo tracker. Every number the algorithm uses lives here with its default and its
+// meaning; config/tracker.yaml lists them all, and loadTrackerParams reads any subset of them.
+#include <string>
+
+#include "ips/config.hpp"
+
+namespace ips::tracker {
+
+enum class CornerResponse { Harris, MinEigen };
+
+struct DetectorParams {
+  CornerResponse response = CornerResponse::Harris;  // "harris" (det - k trace^2) or "min_eigen"
+  double harris_k = 0.04;                            // Harris and Stephens' k
+  int block_size = 3;                                // window of the autocorrelation matrix [px]
+  int sobel_size = 3;                                // derivative aperture [px]
+  int grid_cols = 16;                                // corners are spread over a grid of cells...
+  int grid_rows = 12;
+  int max_per_cell = 6;         // ...with at most this many (strongest local maxima) per cell
+  double quality_level = 1e-3;  // a corner's response must reach this fraction of the image's strongest
+  int border = 8;               // no corners this close to the image edge [px] (plus the NCC half window)
+};
+
+struct MatcherParams {
+  int ncc_half_window = 5;     // NCC templates are (2h+1)^2 pixels
+  double min_patch_std = 3.0;  // grey-level std below which a template is too flat to match
+  double min_disparity = 1.0;  // intra-matching search range on the rectified row [px]
+  double max_disparity = 128.0;
+  double intra_min_ncc = 0.8;          // accept a left-right match from this correlation on
+  double intra_uniqueness = 0.03;      // the second best peak (>1 px away) must be this much lower
+  double epipolar_tolerance_px = 1.0;  // |row left - row right| allowed after inter-matching refinement
+  double inter_min_ncc = 0.8;          // accept a match between times from this correlation (both cameras)
+  double inter_uniqueness = 0.02;      // second best candidate must be this much lower
+  int window_min_px = 6;               // inter-matching search window half size with a perfect prior
+  int window_max_px = 200;             // ... and its upper bound (used without any prior)
+  double window_sigma_scale = 3.0;     // window half size = min + scale * predicted 1-sigma image error
+  int guided_window_px = 6;            // second, guided matching pass around the first estimate
+  double prior_ok_px = 3.0;            // a prediction is "right" when the match is this close to it
+  double prior_ok_fraction = 0.5;      // prior_ok when at least this share of inter-matches were right
+};
+
+struct MotionParams {
+  int ransac_iterations = 300;
+  double pixel_sigma = 0.3;       // 1-sigma of a matched image position (left x, row, right x) [px]
+  double inlier_chi2 = 11.34;     // inlier: Mahalanobis reprojection error below this (3 dof, 99 %)
+  int min_inliers = 12;           // fewer: the delta is invalid
+  double min_inlier_ratio = 0.2;  // of the inter-matches
+  int refine_iterations = 10;     // Gauss-Newton on the stereo reprojection errors
+  double max_depth = 60.0;        // points farther away than this [m] are not used
+  unsigned ransac_seed = 12345;   // fixed: the same input gives the same result
+};
+
+struct PriorParams {
+  // Constant-velocity prior: the last delta scaled to the new interval, with this 1-sigma uncertainty
+  // per second of interval (the motion changes between frames).
+  double cv_rotation_sigma_per_s = 0.5;     // [rad/s]
+  double cv_translation_sigma_per_s = 0.5;  // [m/s]
+  // IMU prior: rotation from the gyro; translation unknown up to this speed [m/s].
+  double imu_translation_sigma_per_s = 1.0;
+  double imu_rotation_sigma = 0.005;  // [rad] added to the gyro's own
+  double max_interval_s = 1.0;        // a constant-velocity prior older than this is not used
+};
+
+struct TrackerParams {
+  double rectification_alpha = 0.0;  // as cv::stereoRectify; 0 keeps only valid pixels
+  DetectorParams detector;
+  MatcherParams matcher;
+  MotionParams motion;
+  PriorParams prior;
+};
+
+// Reads the keys present in `cfg` (a file or a section, keys as in config/tracker.yaml); the others keep
+// their defaults. Throws ConfigError on a bad value.
+TrackerParams loadTrackerParams(const Config& cfg);
+TrackerParams loadTrackerParams(const std::string& path);
+
+}  // namespace ips::tracker

@@ -1,0 +1,122 @@
+#pragma once
+// The IPS stereo tracker: from consecutive raw stereo pairs to the relative motion of camera 0.
+//
+//   process(pair N+1): rectify -> Harris corners (left) -> intra-matching (NCC along rows) -> triangulation
+//   -> inter-matching against pair N in windows placed by the motion prior -> RANSAC(Umeyama) ->
+//   Gauss-Newton refinement -> covariance -> (guided second matching pass when the prior was weak).
+//
+// Knows nothing of LCM; TrackResult maps one to one onto ips_tracker_delta_t.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <opencv2/core.hpp>
+
+#include "ips/calibration.hpp"
+#include "ips/tracker/matching.hpp"
+#include "ips/tracker/motion.hpp"
+#include "ips/tracker/params.hpp"
+
+namespace ips::tracker {
+
+// A prediction of the motion of camera 0 from the previous image pair to the new one, in the tracker
+// delta's semantic (X_prev = R * X_now + t, camera 0 frames) with its uncertainty.
+struct MotionPrior {
+  enum class Source : int8_t { None = 0, ConstantVelocity = 1, Imu = 2, Filter = 3 };  // = PRIOR_* of the message
+  Source source = Source::None;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Matrix6d covariance = Matrix6d::Identity();  // [tx ty tz rx ry rz], rotation as right perturbation
+
+  // From the filter's a-priori state: the predicted pose of camera 0 at the new time in camera 0 at the
+  // previous image time.
+  static MotionPrior fromFilter(const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Matrix6d& covariance);
+  // From gyro rates (IMU frame, bias-corrected, mean over the interval [rad/s]): rotation only; the
+  // translation is unknown within params.imu_translation_sigma_per_s.
+  static MotionPrior fromImuRates(const Eigen::Vector3d& omega_imu, const Eigen::Matrix3d& R_imu_cam0, double dt_s,
+                                  double omega_sigma, const PriorParams& params);
+};
+
+struct StageTimes {  // [ms] measured with a monotonic clock, for benchmarks and health
+  double rectify = 0, detect = 0, intra = 0, inter = 0, motion = 0, total = 0;
+};
+
+// One-to-one with ips_tracker_delta_t (seq is the caller's), plus prediction statistics and timings.
+struct TrackResult {
+  int64_t utime = 0;
+  int64_t utime_prev = 0;
+  bool valid = false;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();  // [m] in camera 0 at utime_prev
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Matrix6d covariance = Matrix6d::Identity();
+  int num_features = 0;
+  int num_intra_matches = 0;
+  int num_inter_matches = 0;
+  int num_inliers = 0;
+  double residual_rms = 0;  // [m]
+  MotionPrior::Source prior_source = MotionPrior::Source::None;
+  bool prior_ok = false;
+
+  double residual_rms_px = 0;      // stereo reprojection rms of the inliers
+  int num_predictions_ok = 0;      // inter-matches of the first pass found within prior_ok_px of the prediction
+  double prediction_ok_ratio = 0;  // ... as a share of that pass's inter-matches
+  bool guided_pass = false;        // a second matching pass around the first estimate was run
+  StageTimes times;
+
+  Eigen::Vector3d rotationVector() const;
+};
+
+// Running counts of how often the prediction was right, since construction or reset().
+struct PredictionStats {
+  int64_t frames_with_prior = 0;
+  int64_t frames_prior_ok = 0;
+  int64_t matches = 0;
+  int64_t matches_ok = 0;
+};
+
+class StereoTracker {
+ public:
+  // Throws std::invalid_argument on an unusable calibration or parameters.
+  StereoTracker(const StereoCalibration& calib, const TrackerParams& params);
+
+  // Raw (distorted, unrectified) 8-bit grey pair of the calibration's size (3-channel images are converted).
+  // prior == nullptr: constant velocity from the last valid delta when there is one, else no prior.
+  // The first pair, a time that does not increase, or too few inliers give valid == false; the new pair is
+  // then the reference for the next one. Throws std::invalid_argument on empty or wrongly sized images.
+  TrackResult process(int64_t utime, const cv::Mat& left_raw, const cv::Mat& right_raw,
+                      const MotionPrior* prior = nullptr);
+
+  void reset();  // forget the reference pair and the constant-velocity state
+  const StereoRectification& rectification() const { return rect_; }
+  const RectifiedStereo& rectifiedStereo() const { return stereo_; }
+  const PredictionStats& predictionStats() const { return stats_; }
+  const TrackerParams& params() const { return params_; }
+
+  // The last rectified pair and its features (for tools and tests).
+  const cv::Mat& rectifiedLeft() const { return cur_.left; }
+  const cv::Mat& rectifiedRight() const { return cur_.right; }
+  const StereoFeatures& features() const { return cur_.features; }
+
+ private:
+  struct Frame {
+    int64_t utime = 0;
+    cv::Mat left, right;  // rectified
+    StereoFeatures features;
+    std::vector<Eigen::Vector3d> points;  // rectified left camera
+    bool valid = false;
+  };
+  std::vector<Prediction> predict(const RigidMotion& m_rect, const Matrix6d& cov_rect, bool have_prior) const;
+  std::vector<Correspondence> correspondences(const std::vector<InterMatch>& matches) const;
+
+  TrackerParams params_;
+  StereoCalibration calib_;
+  StereoRectification rect_;
+  RectifiedStereo stereo_;
+  cv::Mat map0a_, map0b_, map1a_, map1b_;  // fixed-point remap tables
+  Frame prev_, cur_;
+  bool have_velocity_ = false;
+  RigidMotion last_delta_;  // camera 0 frame
+  double last_dt_s_ = 0;
+  PredictionStats stats_;
+};
+
+}  // namespace ips::tracker

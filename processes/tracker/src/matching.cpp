@@ -1,0 +1,245 @@
+#include "ips/tracker/matching.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace ips::tracker {
+
+bool normalizedPatch(const cv::Mat& gray8, int x, int y, int half, double min_std, float* out) {
+  if (x - half < 0 || y - half < 0 || x + half >= gray8.cols || y + half >= gray8.rows) return false;
+  const int side = 2 * half + 1, n = side * side;
+  float sum = 0;
+  for (int v = 0; v < side; ++v) {
+    const uint8_t* row = gray8.ptr<uint8_t>(y - half + v) + (x - half);
+    for (int u = 0; u < side; ++u) {
+      out[v * side + u] = row[u];
+      sum += row[u];
+    }
+  }
+  const float mean = sum / n;
+  float sq = 0;
+  for (int k = 0; k < n; ++k) {
+    out[k] -= mean;
+    sq += out[k] * out[k];
+  }
+  if (sq < float(min_std * min_std * n) || sq <= 0) return false;
+  const float inv = 1.0f / std::sqrt(sq);
+  for (int k = 0; k < n; ++k) out[k] *= inv;
+  return true;
+}
+
+float patchDot(const float* a, const float* b, int n) {
+  float s = 0;
+  for (int k = 0; k < n; ++k) s += a[k] * b[k];
+  return s;
+}
+
+namespace {
+
+// Vertex offset of the parabola through (-1, a), (0, b), (1, c), b the maximum; 0 when flat.
+float parabolaPeak(float a, float b, float c) {
+  const float den = a - 2 * b + c;
+  if (!(den < 0)) return 0.f;
+  return std::clamp(0.5f * (a - c) / den, -0.5f, 0.5f);
+}
+
+void checkPair(const cv::Mat& a, const cv::Mat& b, const char* what) {
+  if (a.empty() || b.empty() || a.type() != CV_8UC1 || b.type() != CV_8UC1 || a.size() != b.size())
+    throw std::invalid_argument(std::string(what) + ": need two 8-bit grey images of equal size");
+}
+
+}  // namespace
+
+StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const std::vector<Corner>& corners,
+                              const MatcherParams& p) {
+  checkPair(left8, right8, "matchAlongRows");
+  if (p.ncc_half_window < 1 || p.max_disparity < p.min_disparity)
+    throw std::invalid_argument("matchAlongRows: bad window or disparity range");
+  StereoFeatures out;
+  const int h = p.ncc_half_window, side = 2 * h + 1, n = side * side;
+  out.half = h;
+  const int w = right8.cols;
+  std::vector<float> tmpl(n), strip, acc, wsum, wsq, colsum, colsq, ncc;
+  std::vector<float> right_patch(n);
+  for (const Corner& c : corners) {
+    const int xl = c.xi, y = c.yi;
+    if (!normalizedPatch(left8, xl, y, h, p.min_patch_std, tmpl.data())) continue;
+    // Candidate right columns of the template centre.
+    const int x_lo = std::max(h, int(std::floor(xl - p.max_disparity)));
+    const int x_hi = std::min(w - 1 - h, int(std::ceil(xl - p.min_disparity)));
+    const int nc = x_hi - x_lo + 1;
+    if (nc < 3) continue;
+    const int sw = nc + 2 * h;  // strip width
+    strip.resize(size_t(side) * sw);
+    for (int v = 0; v < side; ++v) {
+      const uint8_t* row = right8.ptr<uint8_t>(y - h + v) + (x_lo - h);
+      float* dst = strip.data() + size_t(v) * sw;
+      for (int k = 0; k < sw; ++k) dst[k] = row[k];
+    }
+    // Correlation with the zero-mean template: sum T0 * I (the mean of I drops out).
+    acc.assign(nc, 0.f);
+    for (int v = 0; v < side; ++v) {
+      const float* srow = strip.data() + size_t(v) * sw;
+      for (int u = 0; u < side; ++u) {
+        const float t = tmpl[v * side + u];
+        const float* src = srow + u;
+        float* a = acc.data();
+        for (int k = 0; k < nc; ++k) a[k] += t * src[k];
+      }
+    }
+    // Window sums of I and I^2 via column sums.
+    colsum.assign(sw, 0.f);
+    colsq.assign(sw, 0.f);
+    for (int v = 0; v < side; ++v) {
+      const float* srow = strip.data() + size_t(v) * sw;
+      for (int k = 0; k < sw; ++k) {
+        colsum[k] += srow[k];
+        colsq[k] += srow[k] * srow[k];
+      }
+    }
+    ncc.resize(nc);
+    float s = 0, q = 0;
+    for (int k = 0; k < side; ++k) {
+      s += colsum[k];
+      q += colsq[k];
+    }
+    for (int k = 0; k < nc; ++k) {
+      if (k > 0) {
+        s += colsum[k + side - 1] - colsum[k - 1];
+        q += colsq[k + side - 1] - colsq[k - 1];
+      }
+      const float var = q - s * s / n;  // n * variance of the window
+      ncc[k] = var > 1e-3f ? acc[k] / std::sqrt(var) : -1.f;
+    }
+    int best = 0;
+    for (int k = 1; k < nc; ++k)
+      if (ncc[k] > ncc[best]) best = k;
+    if (ncc[best] < p.intra_min_ncc) continue;
+    // A peak on the edge of the range may belong to a disparity outside it.
+    if (best == 0 || best == nc - 1) continue;
+    float second = -1.f;
+    for (int k = 0; k < nc; ++k)
+      if (std::abs(k - best) > 1) second = std::max(second, ncc[k]);
+    if (ncc[best] - second < p.intra_uniqueness) continue;
+    const int xr_int = x_lo + best;
+    if (!normalizedPatch(right8, xr_int, y, h, p.min_patch_std, right_patch.data())) continue;
+    const float xr = xr_int + parabolaPeak(ncc[best - 1], ncc[best], ncc[best + 1]);
+    if (xl - xr < p.min_disparity) continue;
+    out.xl.push_back(xl);
+    out.y.push_back(y);
+    out.xr.push_back(xr);
+    out.xr_int.push_back(xr_int);
+    out.ncc.push_back(ncc[best]);
+    out.left_patch.insert(out.left_patch.end(), tmpl.begin(), tmpl.end());
+    out.right_patch.insert(out.right_patch.end(), right_patch.begin(), right_patch.end());
+  }
+  return out;
+}
+
+namespace {
+
+// Subpixel offset (dx, dy) of the best position (x, y) of template t in img, from the correlation with
+// the four neighbours. Returns false when a neighbour window leaves the image or is flat.
+bool refineSubpixel(const cv::Mat& img, int x, int y, int half, const float* t, float center, float* dx, float* dy) {
+  const int n = (2 * half + 1) * (2 * half + 1);
+  float buf[4][(2 * 15 + 1) * (2 * 15 + 1)];
+  if (half > 15) return false;
+  const int off[4][2] = {{-1, 0}, {1, 0}, {0, -1}, {0, 1}};
+  float c[4];
+  for (int k = 0; k < 4; ++k) {
+    if (!normalizedPatch(img, x + off[k][0], y + off[k][1], half, 1e-3, buf[k])) return false;
+    c[k] = patchDot(t, buf[k], n);
+  }
+  *dx = parabolaPeak(c[0], center, c[1]);
+  *dy = parabolaPeak(c[2], center, c[3]);
+  return true;
+}
+
+}  // namespace
+
+std::vector<InterMatch> matchBetweenTimes(const StereoFeatures& prev, const StereoFeatures& now,
+                                          const std::vector<Prediction>& pred, const cv::Mat& now_left8,
+                                          const cv::Mat& now_right8, const MatcherParams& p) {
+  checkPair(now_left8, now_right8, "matchBetweenTimes");
+  if (pred.size() != prev.size()) throw std::invalid_argument("matchBetweenTimes: one prediction per feature");
+  if (prev.half != now.half) throw std::invalid_argument("matchBetweenTimes: template sizes differ");
+  std::vector<InterMatch> out;
+  if (prev.size() == 0 || now.size() == 0) return out;
+  const int n = prev.patchSize();
+
+  // Bucket the newer features by left position so that a window visits only nearby candidates.
+  const int cell = 16;
+  const int gw = now_left8.cols / cell + 1, gh = now_left8.rows / cell + 1;
+  std::vector<std::vector<int>> grid(size_t(gw) * gh);
+  for (size_t j = 0; j < now.size(); ++j) grid[size_t(now.y[j] / cell) * gw + now.xl[j] / cell].push_back(int(j));
+
+  std::vector<int> owner(now.size(), -1);  // best older feature per newer feature
+  std::vector<float> owner_score(now.size(), -2.f);
+  std::vector<int> choice(prev.size(), -1);
+  std::vector<float> choice_score(prev.size(), -2.f);
+  for (size_t i = 0; i < prev.size(); ++i) {
+    const Prediction& q = pred[i];
+    if (!(q.radius > 0) || !std::isfinite(q.xl) || !std::isfinite(q.y)) continue;
+    const double pred_disp = q.xl - q.xr;
+    const int cx0 = std::max(0, int(std::floor((q.xl - q.radius) / cell)));
+    const int cx1 = std::min(gw - 1, int(std::floor((q.xl + q.radius) / cell)));
+    const int cy0 = std::max(0, int(std::floor((q.y - q.radius) / cell)));
+    const int cy1 = std::min(gh - 1, int(std::floor((q.y + q.radius) / cell)));
+    int best = -1;
+    float best_s = -2.f, second_s = -2.f;
+    for (int cy = cy0; cy <= cy1; ++cy)
+      for (int cx = cx0; cx <= cx1; ++cx)
+        for (int j : grid[size_t(cy) * gw + cx]) {
+          if (std::abs(now.xl[j] - q.xl) > q.radius || std::abs(now.y[j] - q.y) > q.radius) continue;
+          if (std::abs((now.xl[j] - now.xr[j]) - pred_disp) > q.radius) continue;
+          const float sl = patchDot(prev.leftPatch(i), now.leftPatch(j), n);
+          if (sl < p.inter_min_ncc - p.inter_uniqueness) continue;
+          const float s = std::min(sl, patchDot(prev.rightPatch(i), now.rightPatch(j), n));
+          if (s > best_s) {
+            // The old best is a competitor unless it is the same image structure (adjacent pixel).
+            if (best >= 0 && (std::abs(now.xl[best] - now.xl[j]) > 2 || std::abs(now.y[best] - now.y[j]) > 2))
+              second_s = std::max(second_s, best_s);
+            best_s = s;
+            best = j;
+          } else if (std::abs(now.xl[best] - now.xl[j]) > 2 || std::abs(now.y[best] - now.y[j]) > 2) {
+            second_s = std::max(second_s, s);
+          }
+        }
+    if (best < 0 || best_s < p.inter_min_ncc || best_s - second_s < p.inter_uniqueness) continue;
+    choice[i] = best;
+    choice_score[i] = best_s;
+    if (best_s > owner_score[best]) {
+      owner_score[best] = best_s;
+      owner[best] = int(i);
+    }
+  }
+
+  for (size_t i = 0; i < prev.size(); ++i) {
+    const int j = choice[i];
+    if (j < 0 || owner[j] != int(i)) continue;
+    float lx, ly, rx, ry;
+    const float cl = patchDot(prev.leftPatch(i), now.leftPatch(j), n);
+    const float cr = patchDot(prev.rightPatch(i), now.rightPatch(j), n);
+    if (!refineSubpixel(now_left8, now.xl[j], now.y[j], now.half, prev.leftPatch(i), cl, &lx, &ly)) continue;
+    if (!refineSubpixel(now_right8, now.xr_int[j], now.y[j], now.half, prev.rightPatch(i), cr, &rx, &ry)) continue;
+    InterMatch m;
+    m.prev = int(i);
+    m.now = j;
+    m.ncc = choice_score[i];
+    m.prev_obs = {double(prev.xl[i]), double(prev.y[i]), double(prev.xr[i])};
+    // The older right observation sits (xr - xr_int) from its template centre; it moves with the template.
+    const double yl = now.y[j] + ly, yr = now.y[j] + ry;
+    if (std::abs(yl - yr) > p.epipolar_tolerance_px) continue;
+    m.now_obs.xl = now.xl[j] + lx;
+    m.now_obs.y = 0.5 * (yl + yr);
+    m.now_obs.xr = now.xr_int[j] + rx + (prev.xr[i] - prev.xr_int[i]);
+    if (m.now_obs.xl - m.now_obs.xr < p.min_disparity) continue;
+    const Prediction& q = pred[i];
+    m.prediction_ok = std::abs(m.now_obs.xl - q.xl) <= p.prior_ok_px && std::abs(m.now_obs.y - q.y) <= p.prior_ok_px;
+    out.push_back(m);
+  }
+  return out;
+}
+
+}  // namespace ips::tracker

@@ -1,0 +1,266 @@
+#include "ips/tracker/motion.hpp"
+
+#include <Eigen/Cholesky>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+namespace ips::tracker {
+
+namespace {
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d s;
+  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return s;
+}
+
+// Depth below which a projection is treated as invalid (behind or at the camera).
+constexpr double kMinProjectionDepth = 1e-3;
+
+}  // namespace
+
+Eigen::Matrix3d expSO3(const Eigen::Vector3d& w) {
+  const double angle = w.norm();
+  if (angle < 1e-12) return Eigen::Matrix3d::Identity() + skew(w);
+  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
+}
+
+Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {
+  Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+Eigen::Vector3d RectifiedStereo::triangulate(double xl, double y, double xr) const {
+  const double d = xl - xr;
+  const double z = f * baseline / d;
+  return {(xl - cx) * z / f, (y - cy) * z / f, z};
+}
+
+Eigen::Vector3d RectifiedStereo::project(const Eigen::Vector3d& p) const {
+  const double z = std::max(p.z(), kMinProjectionDepth);
+  return {f * p.x() / z + cx, f * p.y() / z + cy, f * (p.x() - baseline) / z + cx};
+}
+
+bool alignPointClouds(const std::vector<Eigen::Vector3d>& prev, const std::vector<Eigen::Vector3d>& now,
+                      RigidMotion& out) {
+  const size_t n = prev.size();
+  if (n < 3 || now.size() != n) return false;
+  Eigen::Vector3d mean_prev = Eigen::Vector3d::Zero(), mean_now = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < n; ++i) {
+    mean_prev += prev[i];
+    mean_now += now[i];
+  }
+  mean_prev /= double(n);
+  mean_now /= double(n);
+  Eigen::Matrix3d cross = Eigen::Matrix3d::Zero();  // sum (prev - mean)(now - mean)^T
+  for (size_t i = 0; i < n; ++i) cross += (prev[i] - mean_prev) * (now[i] - mean_now).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(cross, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Vector3d sv = svd.singularValues();
+  // Collinear (or coincident) points leave the rotation about their line undetermined.
+  if (!(sv(1) > 1e-9 * std::max(1.0, sv(0)))) return false;
+  Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) s(2, 2) = -1;  // no reflection
+  out.R = svd.matrixU() * s * svd.matrixV().transpose();
+  out.t = mean_prev - out.R * mean_now;
+  return true;
+}
+
+double forwardReprojectionError2(const RectifiedStereo& cam, const Correspondence& c, const RigidMotion& m) {
+  const Eigen::Vector3d p = m.R.transpose() * (c.p_prev - m.t);
+  if (p.z() < kMinProjectionDepth) return 1e12;
+  const Eigen::Vector3d uv = cam.project(p);
+  return (uv - Eigen::Vector3d(c.now.xl, c.now.y, c.now.xr)).squaredNorm();
+}
+
+Eigen::Matrix3d RectifiedStereo::projectJacobian(const Eigen::Vector3d& p) const {
+  const double z = std::max(p.z(), kMinProjectionDepth), z2 = z * z;
+  Eigen::Matrix3d j;
+  j << f / z, 0, -f * p.x() / z2, 0, f / z, -f * p.y() / z2, f / z, 0, -f * (p.x() - baseline) / z2;
+  return j;
+}
+
+Eigen::Matrix3d RectifiedStereo::triangulationCovariance(double xl, double y, double xr, double sigma) const {
+  const double d = xl - xr;
+  const double z = f * baseline / d;
+  const double dz_dxl = -z / d, dz_dxr = z / d;
+  Eigen::Matrix3d j;                                               // rows X Y Z, columns xl y xr
+  j << z / f + (xl - cx) / f * dz_dxl, 0, (xl - cx) / f * dz_dxr,  //
+      (y - cy) / f * dz_dxl, z / f, (y - cy) / f * dz_dxr,         //
+      dz_dxl, 0, dz_dxr;
+  return sigma * sigma * j * j.transpose();
+}
+
+namespace {
+
+// Whitened forward residual: L^-1 r with S = L L^T the residual's covariance. Returns r^T S^-1 r.
+double whitenedForward(const RectifiedStereo& cam, const Correspondence& c, const Eigen::Matrix3d& R,
+                       const Eigen::Vector3d& t, const Eigen::Matrix3d& cov_prev, double sigma, Eigen::Vector3d* white,
+                       Eigen::Vector3d* raw) {
+  const Eigen::Vector3d p = R.transpose() * (c.p_prev - t);
+  if (p.z() < kMinProjectionDepth) {
+    if (white) white->setConstant(1e6);
+    if (raw) raw->setConstant(1e6);
+    return 1e12;
+  }
+  const Eigen::Vector3d r = cam.project(p) - Eigen::Vector3d(c.now.xl, c.now.y, c.now.xr);
+  const Eigen::Matrix3d J = cam.projectJacobian(p) * R.transpose();
+  const Eigen::Matrix3d S = J * cov_prev * J.transpose() + sigma * sigma * Eigen::Matrix3d::Identity();
+  Eigen::LLT<Eigen::Matrix3d> llt(S);
+  const Eigen::Vector3d w = llt.matrixL().solve(r);
+  if (white) *white = w;
+  if (raw) *raw = r;
+  return w.squaredNorm();
+}
+
+}  // namespace
+
+double forwardMahalanobis2(const RectifiedStereo& cam, const Correspondence& c, const RigidMotion& m,
+                           const Eigen::Matrix3d& cov_prev, double sigma) {
+  return whitenedForward(cam, c, m.R, m.t, cov_prev, sigma, nullptr, nullptr);
+}
+
+namespace {
+
+std::vector<Eigen::Matrix3d> prevCovariances(const RectifiedStereo& cam, const std::vector<Correspondence>& corr,
+                                             double sigma) {
+  std::vector<Eigen::Matrix3d> out(corr.size());
+  for (size_t i = 0; i < corr.size(); ++i)
+    out[i] = cam.triangulationCovariance(corr[i].prev.xl, corr[i].prev.y, corr[i].prev.xr, sigma);
+  return out;
+}
+
+RigidMotion refineWithCovariances(const RectifiedStereo& cam, const std::vector<Correspondence>& corr,
+                                  const std::vector<Eigen::Matrix3d>& cov_prev, const std::vector<int>& use,
+                                  const RigidMotion& initial, int iterations, double sigma, Matrix6d* covariance,
+                                  double* rms_px) {
+  RigidMotion m = initial;
+  const double eps = 1e-6;
+  Matrix6d jtj = Matrix6d::Zero();
+  double chi2 = 0, sum_raw2 = 0;
+  for (int iter = 0; iter <= iterations; ++iter) {
+    jtj.setZero();
+    Eigen::Matrix<double, 6, 1> jtr = Eigen::Matrix<double, 6, 1>::Zero();
+    chi2 = 0;
+    sum_raw2 = 0;
+    for (int idx : use) {
+      const Correspondence& c = corr[idx];
+      Eigen::Vector3d w0, raw;
+      chi2 += whitenedForward(cam, c, m.R, m.t, cov_prev[idx], sigma, &w0, &raw);
+      sum_raw2 += raw.squaredNorm();
+      Eigen::Matrix<double, 3, 6> J;  // whitened residual by [dt, dr]; weights held at the estimate
+      for (int k = 0; k < 6; ++k) {
+        Eigen::Vector3d dt = Eigen::Vector3d::Zero(), dr = Eigen::Vector3d::Zero();
+        if (k < 3)
+          dt(k) = eps;
+        else
+          dr(k - 3) = eps;
+        Eigen::Vector3d wp, wm;
+        whitenedForward(cam, c, m.R * expSO3(dr), m.t + dt, cov_prev[idx], sigma, &wp, nullptr);
+        whitenedForward(cam, c, m.R * expSO3(-dr), m.t - dt, cov_prev[idx], sigma, &wm, nullptr);
+        J.col(k) = (wp - wm) / (2 * eps);
+      }
+      jtj += J.transpose() * J;
+      jtr += J.transpose() * w0;
+    }
+    if (iter == iterations) break;  // the last pass only evaluates J and residuals at the final estimate
+    const Eigen::Matrix<double, 6, 1> delta = jtj.ldlt().solve(-jtr);
+    if (!delta.allFinite()) break;
+    m.t += delta.head<3>();
+    m.R = m.R * expSO3(delta.tail<3>());
+    if (delta.norm() < 1e-10) iterations = iter + 1;  // converged: one more pass for J at the estimate
+  }
+  const size_t num_res = use.size() * 3;
+  if (rms_px) *rms_px = num_res ? std::sqrt(sum_raw2 / double(num_res)) : 0.0;
+  if (covariance) {
+    const double dof = std::max<double>(1.0, double(num_res) - 6.0);
+    *covariance = (chi2 / dof) * jtj.inverse();
+  }
+  return m;
+}
+
+}  // namespace
+
+RigidMotion refineMotion(const RectifiedStereo& cam, const std::vector<Correspondence>& corr,
+                         const std::vector<int>& use, const RigidMotion& initial, int iterations, double sigma,
+                         Matrix6d* covariance, double* rms_px) {
+  return refineWithCovariances(cam, corr, prevCovariances(cam, corr, sigma), use, initial, iterations, sigma,
+                               covariance, rms_px);
+}
+
+MotionEstimate estimateMotion(const RectifiedStereo& cam, const std::vector<Correspondence>& corr,
+                              const MotionParams& params) {
+  MotionEstimate est;
+  const int n = int(corr.size());
+  if (n < std::max(3, params.min_inliers)) return est;
+  const double sigma = params.pixel_sigma;
+  const std::vector<Eigen::Matrix3d> cov_prev = prevCovariances(cam, corr, sigma);
+  auto collectInliers = [&](const RigidMotion& m, std::vector<int>& inl) {
+    inl.clear();
+    for (int i = 0; i < n; ++i)
+      if (forwardMahalanobis2(cam, corr[i], m, cov_prev[i], sigma) < params.inlier_chi2) inl.push_back(i);
+  };
+
+  std::mt19937 rng(params.ransac_seed);
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  std::vector<int> best_inliers, inliers;
+  RigidMotion best;
+  int max_iter = params.ransac_iterations;
+  std::vector<Eigen::Vector3d> a(3), b(3);
+  for (int it = 0; it < max_iter; ++it) {
+    int i0 = pick(rng), i1 = pick(rng), i2 = pick(rng);
+    if (i0 == i1 || i0 == i2 || i1 == i2) continue;
+    a = {corr[i0].p_prev, corr[i1].p_prev, corr[i2].p_prev};
+    b = {corr[i0].p_now, corr[i1].p_now, corr[i2].p_now};
+    // Nearly collinear samples give a badly conditioned rotation.
+    if ((b[1] - b[0]).cross(b[2] - b[0]).norm() < 1e-6) continue;
+    RigidMotion m;
+    if (!alignPointClouds(a, b, m)) continue;
+    collectInliers(m, inliers);
+    if (inliers.size() > best_inliers.size()) {
+      best_inliers = inliers;
+      best = m;
+      // Adaptive stop at 99.9 % confidence of one all-inlier sample.
+      const double w = double(best_inliers.size()) / n;
+      const double p_good = w * w * w;
+      if (p_good > 0.999999) break;
+      const double needed = std::log(1e-3) / std::log(1.0 - p_good);
+      max_iter = std::min(params.ransac_iterations, int(std::ceil(needed)) + 10);
+    }
+  }
+  if (int(best_inliers.size()) < std::max(3, params.min_inliers)) return est;
+
+  // All inliers: closed form, then refined on the reprojection errors; inliers re-collected in between.
+  std::vector<Eigen::Vector3d> pa, pb;
+  for (int i : best_inliers) {
+    pa.push_back(corr[i].p_prev);
+    pb.push_back(corr[i].p_now);
+  }
+  RigidMotion m = best;
+  RigidMotion aligned;
+  if (alignPointClouds(pa, pb, aligned)) {
+    collectInliers(aligned, inliers);
+    if (inliers.size() >= best_inliers.size()) {
+      m = aligned;
+      best_inliers = inliers;
+    }
+  }
+  for (int round = 0; round < 2; ++round) {
+    m = refineWithCovariances(cam, corr, cov_prev, best_inliers, m, params.refine_iterations, sigma, nullptr, nullptr);
+    collectInliers(m, inliers);
+    if (int(inliers.size()) < std::max(3, params.min_inliers)) return est;
+    best_inliers = inliers;
+  }
+  est.motion = refineWithCovariances(cam, corr, cov_prev, best_inliers, m, params.refine_iterations, sigma,
+                                     &est.covariance, &est.residual_rms_px);
+  est.inliers = best_inliers;
+  double s = 0;
+  for (int i : best_inliers) s += (corr[i].p_prev - (est.motion.R * corr[i].p_now + est.motion.t)).squaredNorm();
+  est.residual_rms_m = std::sqrt(s / double(best_inliers.size()));
+  est.valid = int(best_inliers.size()) >= params.min_inliers &&
+              double(best_inliers.size()) >= params.min_inlier_ratio * n && est.covariance.allFinite();
+  return est;
+}
+
+}  // namespace ips::tracker

@@ -1,0 +1,272 @@
+#include "ips/tracker/stereo_tracker.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "ips/log.hpp"
+#include "ips/tracker/corners.hpp"
+
+namespace ips::tracker {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double msSince(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+Eigen::Matrix<double, 6, 6> blockRotation(const Eigen::Matrix3d& R) {
+  Eigen::Matrix<double, 6, 6> b = Eigen::Matrix<double, 6, 6>::Zero();
+  b.topLeftCorner<3, 3>() = R;
+  b.bottomRightCorner<3, 3>() = R;
+  return b;
+}
+
+cv::Mat toGray(const cv::Mat& img, const cv::Size& size, const char* which) {
+  if (img.empty()) throw std::invalid_argument(std::string("StereoTracker: empty ") + which + " image");
+  if (img.size() != size)
+    throw std::invalid_argument(std::string("StereoTracker: ") + which + " image is " + std::to_string(img.cols) + "x" +
+                                std::to_string(img.rows) + ", calibration says " + std::to_string(size.width) + "x" +
+                                std::to_string(size.height));
+  if (img.type() == CV_8UC1) return img;
+  cv::Mat gray;
+  if (img.type() == CV_8UC3)
+    cv::cvtColor(img, gray, cv::COLOR_BGR2GRAY);
+  else if (img.type() == CV_8UC4)
+    cv::cvtColor(img, gray, cv::COLOR_BGRA2GRAY);
+  else
+    throw std::invalid_argument(std::string("StereoTracker: ") + which + " image must be 8-bit grey or colour");
+  return gray;
+}
+
+}  // namespace
+
+Eigen::Vector3d TrackResult::rotationVector() const { return logSO3(rotation.toRotationMatrix()); }
+
+MotionPrior MotionPrior::fromFilter(const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Matrix6d& cov) {
+  MotionPrior p;
+  p.source = Source::Filter;
+  p.R = R;
+  p.t = t;
+  p.covariance = cov;
+  return p;
+}
+
+MotionPrior MotionPrior::fromImuRates(const Eigen::Vector3d& omega_imu, const Eigen::Matrix3d& R_imu_cam0, double dt_s,
+                                      double omega_sigma, const PriorParams& params) {
+  MotionPrior p;
+  p.source = Source::Imu;
+  const Eigen::Vector3d omega_cam = R_imu_cam0.transpose() * omega_imu;
+  p.R = expSO3(omega_cam * dt_s);
+  p.t.setZero();
+  p.covariance.setZero();
+  const double st = params.imu_translation_sigma_per_s * dt_s;
+  const double sr = std::hypot(omega_sigma * dt_s, params.imu_rotation_sigma);
+  p.covariance.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
+  return p;
+}
+
+StereoTracker::StereoTracker(const StereoCalibration& calib, const TrackerParams& params)
+    : params_(params), calib_(calib) {
+  if (calib.cam0.width <= 0 || calib.cam0.height <= 0 || calib.cam0.width != calib.cam1.width ||
+      calib.cam0.height != calib.cam1.height)
+    throw std::invalid_argument("StereoTracker: both cameras need the same positive image size");
+  if (!(calib.baseline() > 0)) throw std::invalid_argument("StereoTracker: zero baseline");
+  if (params.matcher.ncc_half_window < 1 || params.matcher.ncc_half_window > 15)
+    throw std::invalid_argument("StereoTracker: ncc_half_window must be in 1..15");
+  rect_ = computeRectification(calib, params.rectification_alpha);
+  stereo_.f = rect_.f;
+  stereo_.cx = rect_.cx;
+  stereo_.cy = rect_.cy;
+  stereo_.baseline = rect_.baseline;
+  if (!(stereo_.f > 0) || !(stereo_.baseline > 0))
+    throw std::invalid_argument("StereoTracker: rectification failed (check R_cam1_cam0, t_cam1_cam0)");
+  // Fixed-point tables remap several times faster than float maps, at 1/32 px interpolation steps.
+  cv::convertMaps(rect_.map0x, rect_.map0y, map0a_, map0b_, CV_16SC2);
+  cv::convertMaps(rect_.map1x, rect_.map1y, map1a_, map1b_, CV_16SC2);
+}
+
+void StereoTracker::reset() {
+  prev_ = Frame();
+  cur_ = Frame();
+  have_velocity_ = false;
+  stats_ = PredictionStats();
+}
+
+std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matrix6d& cov, bool have_prior) const {
+  const MatcherParams& mp = params_.matcher;
+  std::vector<Prediction> out(prev_.points.size());
+  // Image-space 1-sigma of the prediction: rotation moves every point by about f * angle, translation by
+  // f * shift / depth.
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot_eig(cov.bottomRightCorner<3, 3>(), Eigen::EigenvaluesOnly);
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tr_eig(cov.topLeftCorner<3, 3>(), Eigen::EigenvaluesOnly);
+  const double sigma_rot = std::sqrt(std::max(0.0, rot_eig.eigenvalues().maxCoeff()));
+  const double sigma_tr = std::sqrt(std::max(0.0, tr_eig.eigenvalues().maxCoeff()));
+  for (size_t i = 0; i < out.size(); ++i) {
+    const Eigen::Vector3d p = m.R.transpose() * (prev_.points[i] - m.t);
+    Prediction& q = out[i];
+    if (p.z() <= 0.05) {  // would be behind the camera: nothing to search
+      q.radius = 0;
+      continue;
+    }
+    const Eigen::Vector3d uv = stereo_.project(p);
+    q.xl = uv(0);
+    q.y = uv(1);
+    q.xr = uv(2);
+    if (!have_prior) {
+      q.radius = mp.window_max_px;
+    } else {
+      const double sigma_px = stereo_.f * (sigma_rot + sigma_tr / p.z());
+      q.radius = std::clamp(mp.window_min_px + mp.window_sigma_scale * sigma_px, double(mp.window_min_px),
+                            double(mp.window_max_px));
+    }
+  }
+  return out;
+}
+
+std::vector<Correspondence> StereoTracker::correspondences(const std::vector<InterMatch>& matches) const {
+  std::vector<Correspondence> out;
+  out.reserve(matches.size());
+  for (const InterMatch& m : matches) {
+    Correspondence c;
+    c.prev = m.prev_obs;
+    c.now = m.now_obs;
+    c.p_prev = prev_.points[m.prev];
+    c.p_now = stereo_.triangulate(c.now.xl, c.now.y, c.now.xr);
+    if (c.p_prev.z() > params_.motion.max_depth || c.p_now.z() > params_.motion.max_depth) continue;
+    out.push_back(c);
+  }
+  return out;
+}
+
+TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const cv::Mat& right_raw,
+                                   const MotionPrior* prior) {
+  const auto t_start = Clock::now();
+  const cv::Size size(calib_.cam0.width, calib_.cam0.height);
+  const cv::Mat left = toGray(left_raw, size, "left"), right = toGray(right_raw, size, "right");
+  TrackResult res;
+  res.utime = utime;
+
+  std::swap(prev_, cur_);
+  cur_ = Frame();
+  cur_.utime = utime;
+  auto t0 = Clock::now();
+  cv::remap(left, cur_.left, map0a_, map0b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::remap(right, cur_.right, map1a_, map1b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  res.times.rectify = msSince(t0);
+
+  t0 = Clock::now();
+  const int margin = params_.detector.border + params_.matcher.ncc_half_window + 1;
+  const std::vector<Corner> corners = detectCorners(cur_.left, params_.detector, margin);
+  res.num_features = int(corners.size());
+  res.times.detect = msSince(t0);
+
+  t0 = Clock::now();
+  cur_.features = matchAlongRows(cur_.left, cur_.right, corners, params_.matcher);
+  cur_.points.resize(cur_.features.size());
+  for (size_t i = 0; i < cur_.features.size(); ++i)
+    cur_.points[i] = stereo_.triangulate(cur_.features.xl[i], cur_.features.y[i], cur_.features.xr[i]);
+  cur_.valid = true;
+  res.num_intra_matches = int(cur_.features.size());
+  res.times.intra = msSince(t0);
+
+  if (!prev_.valid || utime <= prev_.utime) {
+    if (prev_.valid) IPS_WARN("tracker: image time " << utime << " does not follow " << prev_.utime << "; restarting");
+    have_velocity_ = false;
+    res.utime_prev = prev_.valid ? prev_.utime : 0;
+    res.times.total = msSince(t_start);
+    return res;
+  }
+  res.utime_prev = prev_.utime;
+  const double dt_s = double(utime - prev_.utime) * 1e-6;
+
+  // The prior, in the rectified frame.
+  MotionPrior used;
+  if (prior) {
+    used = *prior;
+  } else if (have_velocity_ && dt_s <= params_.prior.max_interval_s && last_dt_s_ > 0) {
+    const double scale = dt_s / last_dt_s_;
+    used.source = MotionPrior::Source::ConstantVelocity;
+    used.R = expSO3(scale * logSO3(last_delta_.R));
+    used.t = scale * last_delta_.t;
+    used.covariance.setZero();
+    const double st = params_.prior.cv_translation_sigma_per_s * dt_s;
+    const double sr = params_.prior.cv_rotation_sigma_per_s * dt_s;
+    used.covariance.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
+  }
+  const bool have_prior = used.source != MotionPrior::Source::None;
+  res.prior_source = used.source;
+  const Eigen::Matrix3d& Rr = rect_.R_rect0_cam0;
+  RigidMotion prior_rect;
+  prior_rect.R = Rr * used.R * Rr.transpose();
+  prior_rect.t = Rr * used.t;
+  const Matrix6d cov_rect = blockRotation(Rr) * used.covariance * blockRotation(Rr).transpose();
+
+  t0 = Clock::now();
+  std::vector<Prediction> pred = predict(prior_rect, cov_rect, have_prior);
+  std::vector<InterMatch> matches =
+      matchBetweenTimes(prev_.features, cur_.features, pred, cur_.left, cur_.right, params_.matcher);
+  res.times.inter = msSince(t0);
+  for (const InterMatch& m : matches) res.num_predictions_ok += m.prediction_ok ? 1 : 0;
+  res.prediction_ok_ratio = matches.empty() ? 0.0 : double(res.num_predictions_ok) / double(matches.size());
+  res.prior_ok = have_prior && !matches.empty() && res.prediction_ok_ratio >= params_.matcher.prior_ok_fraction;
+  if (have_prior) {
+    stats_.frames_with_prior++;
+    stats_.frames_prior_ok += res.prior_ok ? 1 : 0;
+    stats_.matches += int64_t(matches.size());
+    stats_.matches_ok += res.num_predictions_ok;
+  }
+
+  t0 = Clock::now();
+  std::vector<Correspondence> corr = correspondences(matches);
+  MotionEstimate est = estimateMotion(stereo_, corr, params_.motion);
+  res.num_inter_matches = int(matches.size());
+  res.times.motion = msSince(t0);
+
+  // A wide first window admits look-alikes and misses features that did not make the first pass's
+  // uniqueness test; matching again tightly around the first estimate recovers them.
+  double max_radius = 0;
+  for (const Prediction& q : pred) max_radius = std::max(max_radius, q.radius);
+  if (est.valid && max_radius > 2.0 * params_.matcher.guided_window_px) {
+    t0 = Clock::now();
+    Matrix6d tight = Matrix6d::Zero();
+    std::vector<Prediction> pred2 = predict(est.motion, tight, true);
+    for (Prediction& q : pred2)
+      if (q.radius > 0) q.radius = params_.matcher.guided_window_px;
+    std::vector<InterMatch> matches2 =
+        matchBetweenTimes(prev_.features, cur_.features, pred2, cur_.left, cur_.right, params_.matcher);
+    res.times.inter += msSince(t0);
+    t0 = Clock::now();
+    std::vector<Correspondence> corr2 = correspondences(matches2);
+    MotionEstimate est2 = estimateMotion(stereo_, corr2, params_.motion);
+    res.times.motion += msSince(t0);
+    res.guided_pass = true;
+    if (est2.valid && est2.inliers.size() >= est.inliers.size()) {
+      est = est2;
+      res.num_inter_matches = int(matches2.size());
+    }
+  }
+
+  res.valid = est.valid;
+  res.num_inliers = int(est.inliers.size());
+  if (est.valid) {
+    const Eigen::Matrix3d R_cam = Rr.transpose() * est.motion.R * Rr;
+    res.translation = Rr.transpose() * est.motion.t;
+    res.rotation = Eigen::Quaterniond(R_cam).normalized();
+    res.covariance = blockRotation(Rr.transpose()) * est.covariance * blockRotation(Rr);
+    res.residual_rms = est.residual_rms_m;
+    res.residual_rms_px = est.residual_rms_px;
+    have_velocity_ = true;
+    last_delta_.R = R_cam;
+    last_delta_.t = res.translation;
+    last_dt_s_ = dt_s;
+  } else {
+    have_velocity_ = false;
+  }
+  res.times.total = msSince(t_start);
+  return res;
+}
+
+}  // namespace ips::tracker

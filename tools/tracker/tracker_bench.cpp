@@ -1,0 +1,149 @@
+// Per-stage timing of the stereo tracker on ONE core (cv::setNumThreads(1)), on full-size 1360x1024 pairs.
+// Run it under the build lock so other builds do not disturb the figures:
+//   flock /tmp/ips-build.lock build/bin/tracker_bench [--repeat N] [--width 1360 --height 1024] [--params P]
+// Input: the EuRoC V1_01_easy frames (752x480, raw) resized to the requested size with the calibration
+// scaled accordingly, so the tracker does the full work of a camera of that size (rectification, corners,
+// matching, motion). Two cases:
+//   sequence: the 20 consecutive mav0 frames, constant-velocity prior (normal 20/30 Hz tracking);
+//   moving:   the two moving_pairs 0.5 s apart (0.32 m, 15.6 deg) without prior (wide window + guided pass).
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <iostream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <vector>
+
+#include "common.hpp"
+#include "ips/tracker/euroc_calibration.hpp"
+#include "ips/tracker/stereo_tracker.hpp"
+
+using namespace ips::tracker;
+
+namespace {
+
+struct Stats {
+  std::vector<double> rectify, detect, intra, inter, motion, total;
+  void add(const StageTimes& t) {
+    rectify.push_back(t.rectify);
+    detect.push_back(t.detect);
+    intra.push_back(t.intra);
+    inter.push_back(t.inter);
+    motion.push_back(t.motion);
+    total.push_back(t.total);
+  }
+};
+
+void printRow(const char* name, std::vector<double> v) {
+  if (v.empty()) return;
+  std::sort(v.begin(), v.end());
+  double mean = 0;
+  for (double x : v) mean += x;
+  mean /= double(v.size());
+  std::printf("  %-8s mean %7.2f  median %7.2f  max %7.2f ms\n", name, mean, v[v.size() / 2], v.back());
+}
+
+void printStats(const char* title, const Stats& s) {
+  std::printf("%s (%zu pairs)\n", title, s.total.size());
+  printRow("rectify", s.rectify);
+  printRow("detect", s.detect);
+  printRow("intra", s.intra);
+  printRow("inter", s.inter);
+  printRow("motion", s.motion);
+  printRow("total", s.total);
+}
+
+cv::Mat loadResized(const std::string& path, cv::Size size) {
+  cv::Mat img = tools::loadGray(path), out;
+  cv::resize(img, out, size, 0, 0, cv::INTER_LINEAR);
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    auto opts = tools::parseOptions(argc, argv, 1);
+    if (opts.count("help")) {
+      std::cout << "usage: tracker_bench [--repeat N (3)] [--width W (1360)] [--height H (1024)] [--params P]"
+                   " [--data DIR]\n";
+      return 0;
+    }
+    const int repeat = opts.count("repeat") ? std::stoi(opts["repeat"]) : 3;
+    const cv::Size size(opts.count("width") ? std::stoi(opts["width"]) : 1360,
+                        opts.count("height") ? std::stoi(opts["height"]) : 1024);
+    const std::string data = opts.count("data") ? opts["data"] : std::string(IPS_DATA_DIR);
+    const std::string euroc = data + "/euroc/V1_01_easy";
+    const TrackerParams params = opts.count("params") ? loadTrackerParams(opts["params"]) : TrackerParams();
+    cv::setNumThreads(1);
+
+    ips::StereoCalibration calib =
+        calibrationFromEuroc(euroc + "/mav0/cam0/sensor.yaml", euroc + "/mav0/cam1/sensor.yaml");
+    const double sx = double(size.width) / calib.cam0.width, sy = double(size.height) / calib.cam0.height;
+    for (ips::CameraIntrinsics* c : {&calib.cam0, &calib.cam1}) {
+      c->K.row(0) *= sx;
+      c->K.row(1) *= sy;
+      // Pixel centres scale as (u + 0.5), not u.
+      c->K(0, 2) += 0.5 * (sx - 1.0);
+      c->K(1, 2) += 0.5 * (sy - 1.0);
+      c->width = size.width;
+      c->height = size.height;
+    }
+    std::printf("tracker_bench: %dx%d, one thread, %d repetitions\n", size.width, size.height, repeat);
+
+    std::vector<std::string> stamps;
+    {
+      std::ifstream csv(euroc + "/mav0/cam0/data.csv");
+      std::string line;
+      while (std::getline(csv, line))
+        if (!line.empty() && line[0] != '#') stamps.push_back(line.substr(0, line.find(',')));
+    }
+    std::vector<cv::Mat> lefts, rights;
+    for (const auto& s : stamps) {
+      lefts.push_back(loadResized(euroc + "/mav0/cam0/data/" + s + ".png", size));
+      rights.push_back(loadResized(euroc + "/mav0/cam1/data/" + s + ".png", size));
+    }
+    Stats seq;
+    int seq_valid = 0, seq_pairs = 0;
+    double features = 0, intra = 0, inliers = 0;
+    for (int r = 0; r < repeat; ++r) {
+      StereoTracker tracker(calib, params);
+      for (size_t i = 0; i < lefts.size(); ++i) {
+        const int64_t utime = int64_t(i) * 50000;
+        TrackResult res = tracker.process(utime, lefts[i], rights[i]);
+        if (i == 0) continue;
+        seq.add(res.times);
+        ++seq_pairs;
+        seq_valid += res.valid;
+        features += res.num_features;
+        intra += res.num_intra_matches;
+        inliers += res.num_inliers;
+      }
+    }
+    printStats("sequence, constant-velocity prior", seq);
+    std::printf("  valid %d/%d, mean features %.0f, intra matches %.0f, inliers %.0f\n", seq_valid, seq_pairs,
+                features / seq_pairs, intra / seq_pairs, inliers / seq_pairs);
+
+    Stats mov;
+    const std::string mp = euroc + "/moving_pairs/";
+    const cv::Mat l0 = loadResized(mp + "1403715400262142976_left.png", size),
+                  r0 = loadResized(mp + "1403715400262142976_right.png", size),
+                  l1 = loadResized(mp + "1403715400762142976_left.png", size),
+                  r1 = loadResized(mp + "1403715400762142976_right.png", size);
+    int mov_valid = 0;
+    for (int r = 0; r < repeat; ++r) {
+      StereoTracker tracker(calib, params);
+      tracker.process(0, l0, r0);
+      TrackResult res = tracker.process(500000, l1, r1);
+      mov.add(res.times);
+      mov_valid += res.valid;
+    }
+    printStats("moving pair 0.5 s, no prior (wide window + guided pass)", mov);
+    std::printf("  valid %d/%d\n", mov_valid, repeat);
+    return 0;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "tracker_bench: %s\n", e.what());
+    return 1;
+  }
+}
