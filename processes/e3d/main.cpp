@@ -1,0 +1,223 @@
+// e3d: dense stereo as a process. Raw STEREO pairs in; rectification and Semi-Global Matching on the Vulkan
+// device; DISPARITY out. Matching runs in a worker thread: live, it always takes the newest pair and counts
+// the ones it skipped; for replay, --every-nth N picks pairs by sequence number and --queue keeps all of
+// them, so that a log replayed twice gives the same maps.
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <ips/disparity_map_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <mutex>
+#include <opencv2/imgproc.hpp>
+#include <thread>
+
+#include "ips/calibration.hpp"
+#include "ips/config.hpp"
+#include "ips/e3d/stereo_matcher.hpp"
+#include "ips/e3d/vulkan_context.hpp"
+#include "ips/framework/channels.hpp"
+#include "ips/framework/image.hpp"
+#include "ips/framework/node.hpp"
+#include "ips/framework/process.hpp"
+#include "ips/framework/validate.hpp"
+
+namespace {
+
+struct Job {
+  int64_t utime = 0;
+  int64_t seq = 0;
+  cv::Mat left, right;  // raw 8-bit copies
+};
+
+// The rectified geometry E3D matches in, optionally at a reduced resolution (the maps are scaled, so the
+// device still samples the raw images once).
+ips::StereoRectification scaledRectification(const ips::StereoCalibration& calib, double scale) {
+  ips::StereoRectification rect = ips::computeRectification(calib);
+  if (scale == 1.0) return rect;
+  const cv::Size size(static_cast<int>(std::lround(rect.size.width * scale)),
+                      static_cast<int>(std::lround(rect.size.height * scale)));
+  // Rectified pixel (u', v') at the reduced scale is (u' + 0.5) / s - 0.5 at full scale.
+  cv::Mat mx(size, CV_32FC1), my(size, CV_32FC1);
+  cv::Mat fx(size, CV_32FC1), fy(size, CV_32FC1);
+  for (int v = 0; v < size.height; ++v)
+    for (int u = 0; u < size.width; ++u) {
+      fx.at<float>(v, u) = static_cast<float>((u + 0.5) / scale - 0.5);
+      fy.at<float>(v, u) = static_cast<float>((v + 0.5) / scale - 0.5);
+    }
+  cv::remap(rect.map0x, mx, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(rect.map0y, my, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  rect.map0x = mx.clone();
+  rect.map0y = my.clone();
+  cv::remap(rect.map1x, mx, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  cv::remap(rect.map1y, my, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  rect.map1x = mx;
+  rect.map1y = my;
+  rect.f *= scale;
+  rect.cx = (rect.cx + 0.5) * scale - 0.5;
+  rect.cy = (rect.cy + 0.5) * scale - 0.5;
+  rect.size = size;
+  return rect;
+}
+
+class E3dProcess {
+ public:
+  E3dProcess(ips::fw::Node& node, const ips::StereoCalibration& calib, ips::e3d::StereoMatcher& matcher,
+             const ips::StereoRectification& rect, int every_nth, bool queue_all, size_t max_queue)
+      : node_(node),
+        calib_(calib),
+        matcher_(matcher),
+        rect_(rect),
+        every_nth_(every_nth),
+        queue_all_(queue_all),
+        max_queue_(max_queue) {
+    node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
+    worker_ = std::thread([this] { work(); });
+  }
+
+  ~E3dProcess() { stop(true); }
+
+  // Stops the worker; with drain, the queued pairs are matched first.
+  void stop(bool drain) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!drain) jobs_.clear();
+      stopping_ = true;
+    }
+    cv_.notify_all();
+    if (worker_.joinable()) worker_.join();
+  }
+
+ private:
+  void onStereo(const ips::stereo_pair_t& m) {
+    node_.health().received(m.utime);
+    ips::fw::Verdict v = ips::fw::validate(m);
+    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
+    if (m.width != calib_.cam0.width || m.height != calib_.cam0.height)
+      return node_.health().bad("bad_size", "stereo pair " + std::to_string(m.width) + "x" + std::to_string(m.height) +
+                                                " does not match the calibration");
+    auto order = order_.check(m.utime, m.seq);
+    if (!order.accept) return node_.health().bad("time_backwards", "stereo pair stamp not after the previous one");
+    if (order.gap > 0) node_.health().dropped("seq_gap", order.gap);
+    if (every_nth_ > 1 && m.seq % every_nth_ != 0) return;  // not selected: neither work nor loss
+    node_.health().accepted();
+    Job job{m.utime, m.seq, to8bit(ips::fw::leftImage(m)), to8bit(ips::fw::rightImage(m))};
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (!queue_all_) {
+        if (!jobs_.empty()) node_.health().dropped("superseded", static_cast<int64_t>(jobs_.size()));
+        jobs_.clear();
+      } else if (jobs_.size() >= max_queue_) {
+        jobs_.pop_front();
+        node_.health().dropped("queue_full");
+      }
+      jobs_.push_back(std::move(job));
+      node_.health().queueLength(static_cast<int>(jobs_.size()));
+    }
+    cv_.notify_one();
+  }
+
+  static cv::Mat to8bit(const cv::Mat& img) {
+    cv::Mat out;
+    if (img.type() == CV_16UC1)
+      img.convertTo(out, CV_8U, 1.0 / 256.0);
+    else
+      out = img.clone();
+    return out;
+  }
+
+  void work() {
+    for (;;) {
+      Job job;
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        cv_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
+        if (jobs_.empty()) return;
+        job = std::move(jobs_.front());
+        jobs_.pop_front();
+        node_.health().queueLength(static_cast<int>(jobs_.size()));
+      }
+      try {
+        ips::e3d::MatchOutput out = matcher_.matchRaw(job.left, job.right);
+        node_.health().latency(out.total_ms);
+        publish(job, out.disparity);
+      } catch (const std::exception& e) {
+        node_.health().bad("match_error", e.what());
+      }
+    }
+  }
+
+  void publish(const Job& job, const cv::Mat& disparity) {
+    ips::disparity_map_t m{};
+    m.utime = job.utime;
+    m.seq = job.seq;
+    m.width = disparity.cols;
+    m.height = disparity.rows;
+    m.subpixel_scale = ips::e3d::kSubpixelScale;
+    m.min_disparity = static_cast<int16_t>(matcher_.params().min_disparity);
+    m.num_disparities = static_cast<int16_t>(matcher_.params().num_disparities);
+    m.invalid_value = ips::e3d::kInvalidDisparity;
+    m.focal_px = rect_.f;
+    m.cx = rect_.cx;
+    m.cy = rect_.cy;
+    m.baseline_m = rect_.baseline;
+    m.data.resize(disparity.rows);
+    for (int r = 0; r < disparity.rows; ++r) {
+      const int16_t* row = disparity.ptr<int16_t>(r);
+      m.data[r].assign(row, row + disparity.cols);
+    }
+    m.confidence_size = 0;
+    node_.publish(ips::channels::kDisparity, m);
+  }
+
+  ips::fw::Node& node_;
+  ips::StereoCalibration calib_;
+  ips::e3d::StereoMatcher& matcher_;
+  ips::StereoRectification rect_;
+  int every_nth_;
+  bool queue_all_;
+  size_t max_queue_;
+  ips::fw::StreamOrder order_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  std::deque<Job> jobs_;
+  bool stopping_ = false;
+  std::thread worker_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return ips::fw::guardedMain("e3d", [&]() {
+    ips::Args args(argc, argv, "E3D dense stereo: raw STEREO pairs in, DISPARITY maps (rectified left view) out");
+    args.required("--calib", "FILE", "calibration of the stereo head (project format)")
+        .option("--device", "INDEX|NAME", "Vulkan device (default: $IPS_VK_DEVICE, else the best GPU, else lavapipe)")
+        .option("--every-nth", "N", "match only pairs whose sequence number is a multiple of N (overrides config)")
+        .flag("--queue", "keep every selected pair instead of only the newest (replay; overrides config)");
+    ips::fw::addCommonOptions(args, "config/e3d.yaml");
+    if (!args.parse()) return 0;
+    ips::fw::applyCommonOptions(args);
+    const ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
+    const ips::Config cfg(args.get("--config"));
+    const ips::e3d::SgmParams params = ips::e3d::SgmParams::fromConfig(cfg.has("sgm") ? cfg.section("sgm") : cfg);
+    const double scale = cfg.getDouble("process/output_scale", 1.0);
+    if (!(scale > 0 && scale <= 1))
+      throw ips::ConfigError(cfg.path() + ": key 'process/output_scale' must be in (0, 1]");
+    const int every_nth =
+        static_cast<int>(args.has("--every-nth") ? args.getInt("--every-nth") : cfg.getInt("process/every_nth", 1));
+    const bool queue_all = args.getFlag("--queue") || cfg.getBool("process/queue_all", false);
+    const size_t max_queue = static_cast<size_t>(cfg.getInt("process/max_queue", 16));
+
+    ips::e3d::VulkanContext ctx(args.get("--device"));
+    const ips::StereoRectification rect = scaledRectification(calib, scale);
+    ips::e3d::StereoMatcher matcher(ctx, rect.size, params);
+    matcher.setRectification(rect, cv::Size(calib.cam0.width, calib.cam0.height));
+    ips::fw::Node node("e3d", args.get("--lcm-url"));
+    E3dProcess process(node, calib, matcher, rect, every_nth, queue_all, max_queue);
+    IPS_INFO("matching " << rect.size.width << "x" << rect.size.height << " on " << ctx.info().name << ", "
+                         << params.describe());
+    const int rc = node.run();
+    process.stop(true);
+    node.publishHealth(1.0);
+    return rc;
+  });
+}

@@ -1,0 +1,191 @@
+// filter: the IPS state estimation as a process. IMU, TILT, STEREO (image times only) and TRACKER_DELTA in;
+// FILTER_STATE (a posteriori, at IMU rate or decimated) and FILTER_PRIOR (a priori at every image time, for the
+// tracker's window prediction) out. Time comes from the message stamps only.
+#include <ips/filter_state_t.hpp>
+#include <ips/imu_sample_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <ips/tilt_sample_t.hpp>
+#include <ips/tracker_delta_t.hpp>
+
+#include "ips/calibration.hpp"
+#include "ips/config.hpp"
+#include "ips/filter/estimator.hpp"
+#include "ips/filter/params.hpp"
+#include "ips/framework/channels.hpp"
+#include "ips/framework/node.hpp"
+#include "ips/framework/process.hpp"
+#include "ips/framework/validate.hpp"
+
+namespace {
+
+ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
+  ips::filter_state_t m{};
+  const ips::filter::NavState& s = out.state;
+  m.utime = s.utime;
+  m.filter_type = static_cast<int8_t>(out.type);
+  m.a_priori = out.a_priori;
+  for (int i = 0; i < 3; ++i) {
+    m.position[i] = s.position[i];
+    m.velocity[i] = s.velocity[i];
+    m.acceleration[i] = s.acceleration[i];
+    m.accel_bias[i] = s.accel_bias[i];
+    m.angular_rate[i] = s.angular_rate[i];
+    m.gyro_bias[i] = s.gyro_bias[i];
+  }
+  m.orientation[0] = s.orientation.w();
+  m.orientation[1] = s.orientation.x();
+  m.orientation[2] = s.orientation.y();
+  m.orientation[3] = s.orientation.z();
+  m.cov_dim = 21;
+  m.covariance.assign(21, std::vector<double>(21));
+  for (int r = 0; r < 21; ++r)
+    for (int c = 0; c < 21; ++c) m.covariance[r][c] = out.covariance(r, c);
+  for (const auto& sensor : out.sensors) {
+    if (!sensor.name || !*sensor.name) continue;
+    m.sensor_names.push_back(sensor.name);
+    m.accepted.push_back(sensor.accepted);
+    m.rejected.push_back(sensor.rejected);
+    m.too_late.push_back(sensor.too_late);
+  }
+  m.num_sensors = static_cast<int32_t>(m.sensor_names.size());
+  return m;
+}
+
+class FilterProcess {
+ public:
+  FilterProcess(ips::fw::Node& node, ips::filter::Estimator& estimator, std::string state_channel,
+                std::string prior_channel)
+      : node_(node),
+        est_(estimator),
+        state_channel_(std::move(state_channel)),
+        prior_channel_(std::move(prior_channel)) {
+    using namespace ips::channels;
+    node_.subscribe<ips::imu_sample_t>(kImu, [this](const ips::imu_sample_t& m) { onImu(m); });
+    node_.subscribe<ips::tilt_sample_t>(kTilt, [this](const ips::tilt_sample_t& m) { onTilt(m); });
+    node_.subscribe<ips::stereo_pair_t>(kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
+    node_.subscribe<ips::tracker_delta_t>(kTrackerDelta, [this](const ips::tracker_delta_t& m) { onDelta(m); });
+  }
+
+  void flush() {
+    est_.flush();
+    publishOutputs();
+  }
+
+ private:
+  template <class Msg>
+  bool check(const Msg& m, ips::fw::StreamOrder& order, const char* what) {
+    node_.health().received(m.utime);
+    ips::fw::Verdict v = ips::fw::validate(m);
+    if (!v.ok()) {
+      node_.health().bad(v.reason, v.detail);
+      return false;
+    }
+    // Across streams the estimator sorts (and counts what comes too late); within one stream a stamp that
+    // does not increase is a fault of the source.
+    auto r = order.check(m.utime, m.seq);
+    if (!r.accept) {
+      node_.health().bad("time_backwards", std::string(what) + " stamp not after the previous one");
+      return false;
+    }
+    if (r.gap > 0) node_.health().dropped(std::string(what) + "_seq_gap", r.gap);
+    node_.health().accepted();
+    return true;
+  }
+
+  void onImu(const ips::imu_sample_t& m) {
+    if (!check(m, imu_order_, "imu")) return;
+    ips::filter::ImuSample s;
+    s.utime = m.utime;
+    s.angular_rate = Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2]);
+    s.specific_force = Eigen::Vector3d(m.specific_force[0], m.specific_force[1], m.specific_force[2]);
+    est_.addImu(s);
+    publishOutputs();
+  }
+
+  void onTilt(const ips::tilt_sample_t& m) {
+    if (!check(m, tilt_order_, "tilt")) return;
+    est_.addTilt(ips::filter::TiltSample{m.utime, m.angle_x, m.angle_y});
+    publishOutputs();
+  }
+
+  void onStereo(const ips::stereo_pair_t& m) {
+    if (!check(m, stereo_order_, "stereo")) return;
+    auto prior = est_.addImageTime(m.utime);
+    if (prior && !prior_channel_.empty())
+      node_.publish(prior_channel_, toMessage(*prior));
+    else
+      node_.health().count("no_prior_yet");
+  }
+
+  void onDelta(const ips::tracker_delta_t& m) {
+    node_.health().received(m.utime);
+    ips::fw::Verdict v = ips::fw::validate(m);
+    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
+    node_.health().accepted();
+    if (!m.valid) return node_.health().count("tracker_invalid");
+    ips::filter::TrackerDelta d;
+    d.utime = m.utime;
+    d.utime_prev = m.utime_prev;
+    d.valid = true;
+    d.translation = Eigen::Vector3d(m.translation[0], m.translation[1], m.translation[2]);
+    d.rotation = Eigen::Quaterniond(m.rotation[0], m.rotation[1], m.rotation[2], m.rotation[3]).normalized();
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j) d.covariance(i, j) = m.covariance[i * 6 + j];
+    est_.addTrackerDelta(d);
+    publishOutputs();
+  }
+
+  void publishOutputs() {
+    for (const auto& out : est_.takeOutputs()) node_.publish(state_channel_, toMessage(out));
+    for (const auto& c : est_.counters()) {
+      if (!c.name || !*c.name) continue;
+      node_.health().set(std::string(c.name) + "_accepted", c.accepted);
+      node_.health().set(std::string(c.name) + "_rejected", c.rejected);
+      node_.health().set(std::string(c.name) + "_too_late", c.too_late);
+    }
+    node_.health().set("imu_gaps", est_.imuGaps());
+  }
+
+  ips::fw::Node& node_;
+  ips::filter::Estimator& est_;
+  std::string state_channel_, prior_channel_;
+  ips::fw::StreamOrder imu_order_, tilt_order_, stereo_order_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return ips::fw::guardedMain("filter", [&]() {
+    ips::Args args(argc, argv, "IPS navigation filter (EKF or scaled UKF): IMU, tilt and tracker deltas fused");
+    args.required("--calib", "FILE", "calibration of the sensor head (camera-IMU and camera-tilt mounting)")
+        .option("--filter", "TYPE", "override the config's filter type: ekf or ukf")
+        .option("--name", "NAME", "process name (health channel HEALTH_<NAME>), to run several filters side by side",
+                "filter")
+        .option("--state-channel", "CH", "channel of the a-posteriori states", ips::channels::kFilterState)
+        .option("--prior-channel", "CH", "channel of the a-priori states at image times ('none': do not publish)",
+                ips::channels::kFilterPrior);
+    ips::fw::addCommonOptions(args, "config/filter.yaml");
+    if (!args.parse()) return 0;
+    ips::fw::applyCommonOptions(args);
+    const ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
+    const ips::Config cfg(args.get("--config"));
+    ips::filter::FilterParams params = ips::filter::loadFilterParams(cfg.has("filter") ? cfg.section("filter") : cfg);
+    if (args.has("--filter")) {
+      const std::string t = args.get("--filter");
+      if (t == "ekf")
+        params.type = ips::filter::FilterType::Ekf;
+      else if (t == "ukf")
+        params.type = ips::filter::FilterType::Ukf;
+      else
+        throw ips::ArgError("--filter must be ekf or ukf");
+    }
+    ips::filter::Estimator estimator(params, calib);
+    ips::fw::Node node(args.get("--name"), args.get("--lcm-url"));
+    const std::string prior_channel = args.get("--prior-channel") == "none" ? "" : args.get("--prior-channel");
+    FilterProcess process(node, estimator, args.get("--state-channel"), prior_channel);
+    IPS_INFO("running the " << ips::filter::toString(params.type) << " filter");
+    const int rc = node.run();
+    process.flush();
+    return rc;
+  });
+}
