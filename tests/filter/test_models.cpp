@@ -201,7 +201,6 @@ TEST(FilterKalman, EkfAndUkfAgreeOnMildlyNonlinearCase) {
   const Eigen::VectorXd sigma = Pe.diagonal().cwiseSqrt();
   // Means agree to a small part of a standard deviation, covariances to a few percent.
   EXPECT_LT((diff.array() / sigma.array()).abs().maxCoeff(), 0.05);
-  std::printf("DBG mean %g cov %g m2 %g %g\n", (diff.array() / sigma.array()).abs().maxCoeff(), (Pu.diagonal().cwiseSqrt().array() / sigma.array() - 1.0).abs().maxCoeff(), m2_ekf, m2_ukf);
   EXPECT_LT((Pu.diagonal().cwiseSqrt().array() / sigma.array() - 1.0).abs().maxCoeff(), 0.03);
   EXPECT_NEAR(m2_ekf, m2_ukf, 0.02 * m2_ekf);
   // And the update did something: the delta reduced the clone uncertainty.

@@ -12,6 +12,15 @@ namespace {
 constexpr double kInf = std::numeric_limits<double>::infinity();
 }
 
+Matrix21d initialCovariance(const InitParams& ip) {
+  Vector21d sd;
+  sd << Eigen::Vector3d::Constant(ip.sigma_position), Eigen::Vector3d::Constant(ip.sigma_velocity),
+      Eigen::Vector3d::Constant(ip.sigma_acceleration), Eigen::Vector3d::Constant(ip.sigma_accel_bias),
+      Eigen::Vector3d::Constant(ip.sigma_angular_rate), Eigen::Vector3d::Constant(ip.sigma_gyro_bias),
+      ip.sigma_roll_pitch, ip.sigma_roll_pitch, ip.sigma_heading;
+  return sd.cwiseAbs2().asDiagonal();
+}
+
 Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
     : params_(params),
       T_imu_cam0_(calib.T_imu_cam0),
@@ -287,14 +296,7 @@ void Estimator::processInit(const Event& e) {
                   Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
                   Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
   s.gyro_bias = mean_w;
-  Vector21d sd;
-  const InitParams& ip = params_.init;
-  sd << Eigen::Vector3d::Constant(ip.sigma_position), Eigen::Vector3d::Constant(ip.sigma_velocity),
-      Eigen::Vector3d::Constant(ip.sigma_acceleration), Eigen::Vector3d::Constant(ip.sigma_accel_bias),
-      Eigen::Vector3d::Constant(ip.sigma_angular_rate), Eigen::Vector3d::Constant(ip.sigma_gyro_bias),
-      ip.sigma_roll_pitch, ip.sigma_roll_pitch, ip.sigma_heading;
-  const Matrix21d P = sd.cwiseAbs2().asDiagonal();
-  initialize(s, P);
+  initialize(s, initialCovariance(params_.init));
   // The tilt sensor's mean over the same time refines roll and pitch (and, against the accelerometer, its bias).
   if (!init_tilt_.empty()) {
     Eigen::Vector2d mean_tilt = Eigen::Vector2d::Zero();

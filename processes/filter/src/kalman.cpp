@@ -89,7 +89,8 @@ UpdateResult ExtendedKalmanFilter::update(const Measurement& m, double gate) {
   res.mahalanobis2 = r.dot(llt.solve(r));
   if (!(res.mahalanobis2 <= gate)) return res;
   const Eigen::MatrixXd K = llt.solve(PHt.transpose()).transpose();
-  x_ = boxplus(x_, K * r);
+  const Eigen::VectorXd dx = K * r;
+  boxplusInto(x_, dx, x_);
   P_.noalias() -= K * PHt.transpose();
   symmetrize();
   res.applied = true;
@@ -120,13 +121,30 @@ Eigen::MatrixXd UnscentedKalmanFilter::choleskyLower() {
   throw std::runtime_error("UKF: covariance is not positive definite");
 }
 
+Eigen::MatrixXd UnscentedKalmanFilter::choleskyCoreColumns() {
+  const int n = x_.errorDim();
+  Eigen::MatrixXd L(n, kCoreErrorDim);
+  for (int attempt = 0; attempt < 4; ++attempt) {
+    Eigen::LLT<Matrix21d> llt(P_.topLeftCorner<kCoreErrorDim, kCoreErrorDim>());
+    if (llt.info() == Eigen::Success) {
+      L.topRows<kCoreErrorDim>() = llt.matrixL();
+      if (n > kCoreErrorDim)
+        L.bottomRows(n - kCoreErrorDim) =
+            llt.matrixL().solve(P_.bottomLeftCorner(n - kCoreErrorDim, kCoreErrorDim).transpose()).transpose();
+      return L;
+    }
+    P_.diagonal().array() += 1e-12 * std::pow(100.0, attempt) * std::max(1.0, P_.diagonal().maxCoeff());
+  }
+  throw std::runtime_error("UKF: covariance is not positive definite");
+}
+
 void UnscentedKalmanFilter::predict(double dt) {
   if (!(dt >= 0)) throw std::invalid_argument("predict: negative time step");
   if (dt == 0) return;
   const int n = x_.errorDim();
   const int nc = n - kCoreErrorDim;
   const Weights w = weights(n);
-  const Eigen::MatrixXd L = choleskyLower();
+  const Eigen::MatrixXd L = choleskyCoreColumns();
   // Only the first 21 Cholesky columns move the navigation state (L is lower triangular); the process does
   // not change clones, so the sigma points of the other columns map exactly and need no evaluation.
   const NavState ref = propagateNav(x_.nav, dt);
@@ -145,10 +163,9 @@ void UnscentedKalmanFilter::predict(double dt) {
   P_.topLeftCorner<kCoreErrorDim, kCoreErrorDim>() = Pxx;
   if (nc > 0) {
     // Clone deviations of the sigma points are +-spread * L(clone rows, j).
-    Eigen::MatrixXd Pxc = Eigen::MatrixXd::Zero(kCoreErrorDim, nc);
-    for (int j = 0; j < kCoreErrorDim; ++j)
-      Pxc.noalias() +=
-          (w.other * w.spread) * (E.col(2 * j) - E.col(2 * j + 1)) * L.col(j).tail(nc).transpose();
+    Matrix21d Ediff;
+    for (int j = 0; j < kCoreErrorDim; ++j) Ediff.col(j) = E.col(2 * j) - E.col(2 * j + 1);
+    const Eigen::MatrixXd Pxc = (w.other * w.spread) * Ediff * L.bottomRows(nc).transpose();
     P_.topRightCorner(kCoreErrorDim, nc) = Pxc;
     P_.bottomLeftCorner(nc, kCoreErrorDim) = Pxc.transpose();
   }
@@ -160,8 +177,8 @@ UpdateResult UnscentedKalmanFilter::update(const Measurement& m, double gate) {
   const int n = x_.errorDim();
   const int md = m.dim();
   const Weights w = weights(n);
-  const Eigen::MatrixXd L = choleskyLower();
   const int cols = m.coreOnly() ? kCoreErrorDim : n;
+  const Eigen::MatrixXd L = m.coreOnly() ? choleskyCoreColumns() : choleskyLower();
 
   const MeasVector r0 = m.residual(x_);
   Eigen::MatrixXd Rp(md, cols), Rm(md, cols);
@@ -193,7 +210,8 @@ UpdateResult UnscentedKalmanFilter::update(const Measurement& m, double gate) {
   res.mahalanobis2 = rbar.dot(llt.solve(rbar));
   if (!(res.mahalanobis2 <= gate)) return res;
   const Eigen::MatrixXd K = llt.solve(Pxz.transpose()).transpose();
-  x_ = boxplus(x_, K * rbar);
+  const Eigen::VectorXd dx = K * rbar;
+  boxplusInto(x_, dx, x_);
   P_.noalias() -= K * Pzz * K.transpose();
   symmetrize();
   res.applied = true;

@@ -104,6 +104,13 @@ NavState SensorSim::truth(int64_t utime) const {
   return n;
 }
 
+NavState SensorSim::sampleAround(const NavState& truth, const Matrix21d& P) {
+  Vector21d z;
+  for (int i = 0; i < 21; ++i) z(i) = n01_(rng_);
+  const Matrix21d L = Eigen::LLT<Matrix21d>(P).matrixL();
+  return boxplus(truth, (L * z).eval());
+}
+
 ImuSample SensorSim::imu(int64_t utime) {
   const TruthSample s = walk_.at(utime * 1e-6);
   ImuSample m;
@@ -149,15 +156,7 @@ std::vector<FilterOutput> runSimulation(Estimator& est, SensorSim& sim, double t
   const int64_t t1 = static_cast<int64_t>(std::llround(t_end_s * 1e6));
   if (!P0.isZero()) {
     // Start from a sample of the initial distribution around the truth, so that the errors match P0.
-    std::mt19937 rng(static_cast<uint32_t>(t0 + 12345));
-    std::normal_distribution<double> n01(0.0, 1.0);
-    Vector21d z;
-    for (int i = 0; i < 21; ++i) z(i) = n01(rng);
-    const Matrix21d L = Eigen::LLT<Matrix21d>(P0).matrixL();
-    FullState x;
-    x.nav = sim.truth(t0);
-    const Vector21d dx = L * z;
-    est.initialize(boxplus(x.nav, dx), P0);
+    est.initialize(sim.sampleAround(sim.truth(t0), P0), P0);
   }
   const int64_t imu_dt = static_cast<int64_t>(std::llround(1e6 / sim.params().imu_rate_hz));
   const int64_t tilt_dt = static_cast<int64_t>(std::llround(1e6 / sim.params().tilt_rate_hz));

@@ -66,6 +66,10 @@ struct FilterOutput {
   std::array<SensorCounters, kNumSensors> sensors;
 };
 
+// Diagonal initial covariance from the configured standard deviations (attitude: roll/pitch about world x, y,
+// heading about z).
+Matrix21d initialCovariance(const InitParams& init);
+
 class Estimator {
  public:
   Estimator(const FilterParams& params, const StereoCalibration& calib);

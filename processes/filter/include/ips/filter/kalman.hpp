@@ -74,6 +74,9 @@ class UnscentedKalmanFilter : public KalmanFilter {
   Weights weights(int n) const;
   // Lower Cholesky factor of P_; adds a small jitter if P_ lost definiteness numerically.
   Eigen::MatrixXd choleskyLower();
+  // The first 21 columns of that factor (all rows), from the navigation block only: L11 = chol(P11),
+  // L21 = P21 L11^-T. Cheaper, and all that core-only functions need.
+  Eigen::MatrixXd choleskyCoreColumns();
   FullState scratch_;
 };
 

@@ -76,6 +76,8 @@ class SensorSim {
   // The exact navigation state (biases = the simulated constants).
   NavState truth(int64_t utime) const;
   const SensorSimParams& params() const { return p_; }
+  // A draw from N(truth, P) on the error state (for starting a Monte Carlo run consistently).
+  NavState sampleAround(const NavState& truth, const Matrix21d& P);
 
  private:
   const AnalyticWalk& walk_;
@@ -86,8 +88,8 @@ class SensorSim {
   Eigen::Vector3d noise3();
 };
 
-// Feeds a whole simulated run to an estimator in time order (IMU, tilt, images + deltas), starting at
-// t_start from the truth with the given covariance (or by the static initialisation if `from_rest`).
+// Feeds a whole simulated run to an estimator in time order (IMU, tilt, images + deltas). If P0 is not zero
+// the estimator starts at t_start from a draw of N(truth, P0), else it initialises itself (static start).
 // Returns the posterior outputs.
 std::vector<FilterOutput> runSimulation(Estimator& est, SensorSim& sim, double t_start_s, double t_end_s,
                                         bool use_tracker, bool use_tilt, const Matrix21d& P0);

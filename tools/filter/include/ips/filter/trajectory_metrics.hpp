@@ -1,0 +1,54 @@
+#pragma once
+// Trajectory evaluation: TUM files, SE(3) alignment, ATE, relative error per distance, end-point error as a
+// share of the distance travelled (the paper's figure), NEES, and a top-down plot.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "ips/filter/estimator.hpp"
+
+namespace ips::filter {
+
+struct TrajPoint {
+  double t = 0;  // [s]
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+};
+using Trajectory = std::vector<TrajPoint>;
+
+// TUM format: "t tx ty tz qx qy qz qw" per line, '#' comments. Throws std::runtime_error naming the file/line.
+Trajectory readTum(const std::string& path);
+void writeTum(const std::string& path, const Trajectory& traj);
+
+// The reference interpolated at the times of `est` (linear / slerp); estimate points outside the reference's
+// time span, or further than max_gap_s from a reference sample, are dropped. Returns the matched pairs.
+void associate(const Trajectory& est, const Trajectory& ref, double max_gap_s, Trajectory* est_out,
+               Trajectory* ref_out);
+
+// Rigid transform T (no scale) minimising sum |ref_i - T est_i|^2 (Umeyama / Horn). Needs >= 3 points.
+Eigen::Isometry3d alignSE3(const Trajectory& est, const Trajectory& ref);
+
+struct TrajectoryErrors {
+  size_t matched = 0;
+  double distance_m = 0;             // path length of the reference
+  double ate_rmse_m = 0;             // after SE(3) alignment
+  double rpe_percent = 0;            // mean translation error of segments of `segment_m` / segment length
+  double endpoint_error_m = 0;       // no alignment (both start in the same frame)
+  double endpoint_percent = 0;       // endpoint_error_m / distance_m * 100
+};
+// Both trajectories must already be associated (same length, same times).
+TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double segment_m);
+
+// NEES of the pose (position and attitude error, 6 dof) of one filter output against the truth.
+double poseNees(const FilterOutput& out, const NavState& truth);
+// NEES of the full 21-dimensional error state.
+double fullNees(const FilterOutput& out, const NavState& truth);
+
+Trajectory toTrajectory(const std::vector<FilterOutput>& outputs);
+
+// Top-down (x-y) plot of a reference and any number of estimates, written as PNG.
+void plotTopDown(const std::string& path, const Trajectory& ref, const std::vector<Trajectory>& estimates,
+                 const std::vector<std::string>& labels);
+
+}  // namespace ips::filter

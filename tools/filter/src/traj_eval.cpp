@@ -1,0 +1,217 @@
+// traj_eval: evaluates filter trajectories against ground truth.
+//
+//   traj_eval --est est.tum --gt gt.tum [--segment 10] [--plot out.png]
+//       ATE RMSE after SE(3) alignment, relative error per distance, end-point error (% of distance).
+//   traj_eval --simulate [--filter ekf|ukf|both] [--runs 10] [--seed 1] [--duration 120] [--config f.yaml]
+//             [--calib calib.yaml] [--no-tracker] [--no-tilt] [--image-hz 8] [--tracker-sigma-t 0.003]
+//             [--tracker-sigma-r 3e-4] [--segment 10] [--out-dir DIR]
+//       Monte Carlo runs of the fused filter on the analytic walk (the test bed; ips_sim once it exists):
+//       the same figures per filter plus NEES of the pose averaged over runs with its 95 % bounds; writes
+//       TUM files (ground truth and run 0 of each filter) and a PNG plot into DIR.
+// The last line summarises: for --simulate `ekf_endpoint_pct=.. ekf_anees=.. ukf_endpoint_pct=.. ukf_anees=..`.
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "ips/config.hpp"
+#include "ips/filter/models.hpp"
+#include "ips/filter/testbed.hpp"
+#include "ips/filter/trajectory_metrics.hpp"
+#include "ips/log.hpp"
+
+using namespace ips::filter;
+
+namespace {
+
+void usage() {
+  std::cerr << "usage: traj_eval --est est.tum --gt gt.tum [--segment m] [--plot out.png]\n"
+               "       traj_eval --simulate [--filter ekf|ukf|both] [--runs N] [--seed S] [--duration s]\n"
+               "                 [--config filter.yaml] [--calib calib.yaml] [--no-tracker] [--no-tilt]\n"
+               "                 [--image-hz f] [--tracker-sigma-t m] [--tracker-sigma-r rad] [--segment m]\n"
+               "                 [--out-dir DIR]\n";
+}
+
+struct Args {
+  std::string est, gt, plot, config, calib, out_dir = ".";
+  bool simulate = false, tracker = true, tilt = true;
+  std::string filter = "both";
+  int runs = 10;
+  unsigned seed = 1;
+  double duration = 120.0, segment = 10.0;
+  double image_hz = 8.0, sigma_t = 0.003, sigma_r = 3e-4;
+};
+
+Args parse(int argc, char** argv) {
+  Args a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument("missing value after " + k);
+      return argv[++i];
+    };
+    if (k == "--est") a.est = value();
+    else if (k == "--gt") a.gt = value();
+    else if (k == "--plot") a.plot = value();
+    else if (k == "--config") a.config = value();
+    else if (k == "--calib") a.calib = value();
+    else if (k == "--out-dir") a.out_dir = value();
+    else if (k == "--simulate") a.simulate = true;
+    else if (k == "--no-tracker") a.tracker = false;
+    else if (k == "--no-tilt") a.tilt = false;
+    else if (k == "--filter") a.filter = value();
+    else if (k == "--runs") a.runs = std::stoi(value());
+    else if (k == "--seed") a.seed = static_cast<unsigned>(std::stoul(value()));
+    else if (k == "--duration") a.duration = std::stod(value());
+    else if (k == "--segment") a.segment = std::stod(value());
+    else if (k == "--image-hz") a.image_hz = std::stod(value());
+    else if (k == "--tracker-sigma-t") a.sigma_t = std::stod(value());
+    else if (k == "--tracker-sigma-r") a.sigma_r = std::stod(value());
+    else if (k == "-h" || k == "--help") {
+      usage();
+      std::exit(0);
+    } else
+      throw std::invalid_argument("unknown option " + k);
+  }
+  if (a.runs < 1) throw std::invalid_argument("--runs must be >= 1");
+  if (a.filter != "ekf" && a.filter != "ukf" && a.filter != "both") throw std::invalid_argument("--filter ekf|ukf|both");
+  return a;
+}
+
+void printErrors(const std::string& name, const TrajectoryErrors& e) {
+  std::printf("%s matched=%zu distance_m=%.2f ate_rmse_m=%.4f rpe_pct=%.3f endpoint_m=%.4f endpoint_pct=%.4f\n",
+              name.c_str(), e.matched, e.distance_m, e.ate_rmse_m, e.rpe_percent, e.endpoint_error_m,
+              e.endpoint_percent);
+}
+
+int evaluateFiles(const Args& a) {
+  const Trajectory est = readTum(a.est), gt = readTum(a.gt);
+  Trajectory e, r;
+  associate(est, gt, 0.02, &e, &r);
+  if (e.size() < 3) throw std::runtime_error("fewer than 3 estimate poses overlap the ground truth in time");
+  const TrajectoryErrors err = evaluate(e, r, a.segment);
+  printErrors("estimate", err);
+  if (!a.plot.empty()) plotTopDown(a.plot, gt, {est}, {"estimate"});
+  return 0;
+}
+
+int simulate(const Args& a) {
+  FilterParams base;
+  if (!a.config.empty()) base = loadFilterParams(ips::Config(a.config).section("filter"));
+  const ips::StereoCalibration calib = a.calib.empty() ? testbedCalibration() : ips::loadCalibration(a.calib);
+  WalkParams wp;
+  wp.duration_s = a.duration;
+  const AnalyticWalk walk(wp);
+  SensorSimParams sp;
+  sp.image_rate_hz = a.image_hz;
+  sp.tracker_sigma_t = a.sigma_t;
+  sp.tracker_sigma_r = a.sigma_r;
+  sp.gravity = base.gravity;
+  std::filesystem::create_directories(a.out_dir);
+
+  std::vector<FilterType> types;
+  if (a.filter != "ukf") types.push_back(FilterType::Ekf);
+  if (a.filter != "ekf") types.push_back(FilterType::Ukf);
+  const double t_start = 0.0;
+  const Matrix21d P0 = initialCovariance(base.init);
+  std::string summary;
+  Trajectory gt_run0;
+  std::vector<Trajectory> plots;
+  std::vector<std::string> labels;
+  for (FilterType type : types) {
+    FilterParams params = base;
+    params.type = type;
+    const std::string name = toString(type);
+    // NEES of the pose averaged over runs, sampled once per second.
+    std::vector<double> nees_sum;
+    double endpoint_sum = 0, endpoint_max = 0, ate_sum = 0, rpe_sum = 0, dist = 0;
+    ips::filter::SensorCounters tracker{}, imu{};
+    for (int run = 0; run < a.runs; ++run) {
+      SensorSim sim(walk, sp, calib, a.seed + 1000u * static_cast<unsigned>(run));
+      Estimator est(params, calib);
+      const std::vector<FilterOutput> out = runSimulation(est, sim, t_start, a.duration, a.tracker, a.tilt, P0);
+      Trajectory e = toTrajectory(out), r;
+      for (const FilterOutput& o : out) {
+        const NavState t = sim.truth(o.state.utime);
+        r.push_back({o.state.utime * 1e-6, t.position, t.orientation});
+      }
+      const TrajectoryErrors err = evaluate(e, r, a.segment);
+      endpoint_sum += err.endpoint_percent;
+      endpoint_max = std::max(endpoint_max, err.endpoint_percent);
+      ate_sum += err.ate_rmse_m;
+      rpe_sum += err.rpe_percent;
+      dist = err.distance_m;
+      const int64_t step_us = 1'000'000;
+      int64_t next = static_cast<int64_t>(t_start * 1e6) + step_us;
+      size_t k = 0;
+      for (const FilterOutput& o : out) {
+        if (o.state.utime < next) continue;
+        next += step_us;
+        if (nees_sum.size() <= k) nees_sum.resize(k + 1, 0.0);
+        nees_sum[k++] += poseNees(o, sim.truth(o.state.utime));
+      }
+      tracker = est.counters()[kSensorTracker];
+      imu = est.counters()[kSensorImu];
+      if (run == 0) {
+        writeTum(a.out_dir + "/" + name + "_run0.tum", e);
+        if (gt_run0.empty()) {
+          gt_run0 = r;
+          writeTum(a.out_dir + "/ground_truth.tum", r);
+        }
+        plots.push_back(e);
+        labels.push_back(name);
+      }
+    }
+    double anees = 0;
+    int inside = 0;
+    const double lo = chiSquareQuantile(0.025, 6 * a.runs) / a.runs;
+    const double hi = chiSquareQuantile(0.975, 6 * a.runs) / a.runs;
+    for (double s : nees_sum) {
+      const double v = s / a.runs;
+      anees += v;
+      inside += (v >= lo && v <= hi);
+    }
+    anees /= std::max<size_t>(1, nees_sum.size());
+    // Bounds of the time average over all samples (runs x seconds x 6 dof), assuming independence in time.
+    const double n_all = static_cast<double>(a.runs) * nees_sum.size();
+    const double lo_all = chiSquareQuantile(0.025, static_cast<int>(6 * n_all)) / n_all;
+    const double hi_all = chiSquareQuantile(0.975, static_cast<int>(6 * n_all)) / n_all;
+    const double endpoint_mean = endpoint_sum / a.runs;
+    std::printf(
+        "filter=%s runs=%d distance_m=%.1f endpoint_pct_mean=%.4f endpoint_pct_max=%.4f ate_rmse_m=%.4f "
+        "rpe_pct=%.3f anees_pose=%.3f anees_bounds_per_time=[%.3f,%.3f] frac_in_bounds=%.2f "
+        "anees_bounds_overall=[%.3f,%.3f] last_run_tracker_accepted=%lld rejected=%lld too_late=%lld "
+        "imu_rejected=%lld\n",
+        name.c_str(), a.runs, dist, endpoint_mean, endpoint_max, ate_sum / a.runs, rpe_sum / a.runs, anees, lo, hi,
+        nees_sum.empty() ? 0.0 : static_cast<double>(inside) / nees_sum.size(), lo_all, hi_all,
+        static_cast<long long>(tracker.accepted), static_cast<long long>(tracker.rejected),
+        static_cast<long long>(tracker.too_late), static_cast<long long>(imu.rejected));
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%s%s_endpoint_pct=%.4f %s_anees=%.3f", summary.empty() ? "" : " ", name.c_str(),
+                  endpoint_mean, name.c_str(), anees);
+    summary += buf;
+  }
+  plotTopDown(a.out_dir + "/trajectory.png", gt_run0, plots, labels);
+  std::printf("%s\n", summary.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    ips::setLogLevel(ips::LogLevel::Warn);
+    const Args a = parse(argc, argv);
+    if (a.simulate) return simulate(a);
+    if (a.est.empty() || a.gt.empty()) {
+      usage();
+      return 2;
+    }
+    return evaluateFiles(a);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "traj_eval: %s\n", e.what());
+    return 1;
+  }
+}

@@ -1,0 +1,180 @@
+#include "ips/filter/trajectory_metrics.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <iomanip>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <stdexcept>
+
+namespace ips::filter {
+
+Trajectory readTum(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  Trajectory traj;
+  std::string line;
+  int line_no = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ss(line);
+    TrajPoint p;
+    double qx, qy, qz, qw;
+    if (!(ss >> p.t >> p.p.x() >> p.p.y() >> p.p.z() >> qx >> qy >> qz >> qw))
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": expected 't tx ty tz qx qy qz qw'");
+    p.q = Eigen::Quaterniond(qw, qx, qy, qz);
+    if (std::abs(p.q.norm() - 1.0) > 1e-2)
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": quaternion is not unit");
+    p.q.normalize();
+    if (!traj.empty() && p.t <= traj.back().t)
+      throw std::runtime_error(path + ":" + std::to_string(line_no) + ": time stamps must increase");
+    traj.push_back(p);
+  }
+  return traj;
+}
+
+void writeTum(const std::string& path, const Trajectory& traj) {
+  std::ofstream out(path);
+  if (!out) throw std::runtime_error(path + ": cannot write");
+  out << "# t tx ty tz qx qy qz qw\n" << std::fixed;
+  for (const TrajPoint& p : traj)
+    out << std::setprecision(6) << p.t << ' ' << std::setprecision(6) << p.p.x() << ' ' << p.p.y() << ' ' << p.p.z()
+        << ' ' << std::setprecision(9) << p.q.x() << ' ' << p.q.y() << ' ' << p.q.z() << ' ' << p.q.w() << '\n';
+}
+
+void associate(const Trajectory& est, const Trajectory& ref, double max_gap_s, Trajectory* est_out,
+               Trajectory* ref_out) {
+  est_out->clear();
+  ref_out->clear();
+  size_t j = 0;
+  for (const TrajPoint& e : est) {
+    while (j + 1 < ref.size() && ref[j + 1].t < e.t) ++j;
+    if (j + 1 >= ref.size() || e.t < ref[j].t) continue;
+    const TrajPoint& a = ref[j];
+    const TrajPoint& b = ref[j + 1];
+    if (b.t - a.t > 2 * max_gap_s && std::min(e.t - a.t, b.t - e.t) > max_gap_s) continue;
+    const double s = (b.t > a.t) ? (e.t - a.t) / (b.t - a.t) : 0.0;
+    TrajPoint r;
+    r.t = e.t;
+    r.p = (1 - s) * a.p + s * b.p;
+    r.q = a.q.slerp(s, b.q);
+    est_out->push_back(e);
+    ref_out->push_back(r);
+  }
+}
+
+Eigen::Isometry3d alignSE3(const Trajectory& est, const Trajectory& ref) {
+  if (est.size() != ref.size() || est.size() < 3) throw std::invalid_argument("alignSE3: need >= 3 matched points");
+  Eigen::Vector3d me = Eigen::Vector3d::Zero(), mr = Eigen::Vector3d::Zero();
+  for (size_t i = 0; i < est.size(); ++i) {
+    me += est[i].p;
+    mr += ref[i].p;
+  }
+  me /= static_cast<double>(est.size());
+  mr /= static_cast<double>(est.size());
+  Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < est.size(); ++i) C += (ref[i].p - mr) * (est[i].p - me).transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(C, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d S = Eigen::Matrix3d::Identity();
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) S(2, 2) = -1;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = svd.matrixU() * S * svd.matrixV().transpose();
+  T.translation() = mr - T.linear() * me;
+  return T;
+}
+
+TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double segment_m) {
+  if (est.size() != ref.size() || est.size() < 3) throw std::invalid_argument("evaluate: need >= 3 matched points");
+  TrajectoryErrors e;
+  e.matched = est.size();
+  std::vector<double> dist(ref.size(), 0.0);
+  for (size_t i = 1; i < ref.size(); ++i) dist[i] = dist[i - 1] + (ref[i].p - ref[i - 1].p).norm();
+  e.distance_m = dist.back();
+  const Eigen::Isometry3d T = alignSE3(est, ref);
+  double se = 0;
+  for (size_t i = 0; i < est.size(); ++i) se += (T * est[i].p - ref[i].p).squaredNorm();
+  e.ate_rmse_m = std::sqrt(se / static_cast<double>(est.size()));
+  e.endpoint_error_m = (est.back().p - ref.back().p).norm();
+  e.endpoint_percent = e.distance_m > 0 ? 100.0 * e.endpoint_error_m / e.distance_m : 0.0;
+  // Relative error: for each start, the first sample at least segment_m further along the reference.
+  double sum = 0;
+  int count = 0;
+  size_t j = 0;
+  for (size_t i = 0; i < ref.size(); ++i) {
+    j = std::max(j, i);
+    while (j < ref.size() && dist[j] - dist[i] < segment_m) ++j;
+    if (j >= ref.size()) break;
+    const Eigen::Vector3d dr = ref[i].q.conjugate() * (ref[j].p - ref[i].p);
+    const Eigen::Vector3d de = est[i].q.conjugate() * (est[j].p - est[i].p);
+    sum += (de - dr).norm() / (dist[j] - dist[i]);
+    ++count;
+  }
+  e.rpe_percent = count > 0 ? 100.0 * sum / count : 0.0;
+  return e;
+}
+
+double poseNees(const FilterOutput& out, const NavState& truth) {
+  Vector6d err;
+  err.head<3>() = truth.position - out.state.position;
+  err.tail<3>() = logQuat(truth.orientation * out.state.orientation.conjugate());
+  Matrix6d P;
+  const int idx[6] = {kErrP, kErrP + 1, kErrP + 2, kErrTh, kErrTh + 1, kErrTh + 2};
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 6; ++j) P(i, j) = out.covariance(idx[i], idx[j]);
+  return err.dot(P.ldlt().solve(err));
+}
+
+double fullNees(const FilterOutput& out, const NavState& truth) {
+  const Vector21d err = boxminus(truth, out.state);
+  return err.dot(out.covariance.ldlt().solve(err));
+}
+
+Trajectory toTrajectory(const std::vector<FilterOutput>& outputs) {
+  Trajectory t;
+  t.reserve(outputs.size());
+  for (const FilterOutput& o : outputs) t.push_back({o.state.utime * 1e-6, o.state.position, o.state.orientation});
+  return t;
+}
+
+void plotTopDown(const std::string& path, const Trajectory& ref, const std::vector<Trajectory>& estimates,
+                 const std::vector<std::string>& labels) {
+  const int size = 900, margin = 60;
+  double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+  auto grow = [&](const Trajectory& t) {
+    for (const TrajPoint& p : t) {
+      xmin = std::min(xmin, p.p.x()), xmax = std::max(xmax, p.p.x());
+      ymin = std::min(ymin, p.p.y()), ymax = std::max(ymax, p.p.y());
+    }
+  };
+  grow(ref);
+  for (const Trajectory& t : estimates) grow(t);
+  if (xmin > xmax) throw std::invalid_argument("plotTopDown: nothing to plot");
+  const double span = std::max({xmax - xmin, ymax - ymin, 1e-3});
+  const double scale = (size - 2 * margin) / span;
+  cv::Mat img(size, size, CV_8UC3, cv::Scalar(255, 255, 255));
+  auto px = [&](const Eigen::Vector3d& p) {
+    return cv::Point(static_cast<int>(margin + (p.x() - xmin) * scale),
+                     static_cast<int>(size - margin - (p.y() - ymin) * scale));
+  };
+  auto draw = [&](const Trajectory& t, const cv::Scalar& colour) {
+    for (size_t i = 1; i < t.size(); ++i) cv::line(img, px(t[i - 1].p), px(t[i].p), colour, 2, cv::LINE_AA);
+  };
+  const cv::Scalar colours[] = {{0, 0, 220}, {220, 0, 0}, {0, 160, 0}, {200, 0, 200}};
+  draw(ref, cv::Scalar(0, 0, 0));
+  cv::putText(img, "ground truth", cv::Point(10, 20), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(0, 0, 0), 1);
+  for (size_t k = 0; k < estimates.size(); ++k) {
+    draw(estimates[k], colours[k % 4]);
+    cv::putText(img, k < labels.size() ? labels[k] : "estimate", cv::Point(10, 45 + 25 * static_cast<int>(k)),
+                cv::FONT_HERSHEY_SIMPLEX, 0.6, colours[k % 4], 1);
+  }
+  std::ostringstream scale_text;
+  scale_text << "x-y, " << std::fixed << std::setprecision(1) << span << " m across";
+  cv::putText(img, scale_text.str(), cv::Point(10, size - 15), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(80, 80, 80), 1);
+  if (!cv::imwrite(path, img)) throw std::runtime_error(path + ": cannot write PNG");
+}
+
+}  // namespace ips::filter
