@@ -1,0 +1,104 @@
+#pragma once
+// Rendering of the world into cameras. A View holds, for every pixel, the direction of its ray (normalised
+// image coordinates x/z, y/z of the ideal pinhole), so a lens with distortion is rendered directly (no
+// resampling of an ideal image) and ground truth is exact per pixel. Each quad is rasterised over the 32x32
+// pixel tiles its projection can touch: per pixel one ray-plane intersection, a depth test, and then one
+// shading pass with trilinear mip-mapped texture lookup for the visible surface only. Both cores are used.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <vector>
+
+#include "ips/calibration.hpp"
+#include "ips/sim/scenario.hpp"
+#include "ips/sim/sensors.hpp"
+#include "ips/sim/trajectory.hpp"
+#include "ips/sim/world.hpp"
+
+namespace ips::sim {
+
+struct View {
+  int width = 0, height = 0;
+  double focal = 1;           // [px] for the texture level of detail
+  std::vector<float> rx, ry;  // per pixel: ray direction (rx, ry, 1) in the camera frame
+  static constexpr int kTile = 32;
+  int tiles_x = 0, tiles_y = 0;
+  std::vector<cv::Vec4f> tile_bounds;  // per tile: min x, max x, min y, max y of its rays
+
+  static View pinhole(const Eigen::Matrix3d& K, cv::Size size);
+  // A real lens: each pixel's ray from undistorting its centre (OpenCV model).
+  static View distorted(const CameraIntrinsics& camera);
+
+ private:
+  void computeTiles();
+};
+
+class SceneRenderer {
+ public:
+  explicit SceneRenderer(const World& world, double near_m = 0.05) : world_(world), near_(near_m) {}
+  // Any of radiance (CV_32F, grey levels before gain and noise) and depth (CV_32F, z [m] in the camera frame,
+  // 0 where nothing was hit) may be null. T_world_cam: camera pose (OpenCV camera frame).
+  void render(const View& view, const Eigen::Isometry3d& T_world_cam, cv::Mat* radiance, cv::Mat* depth) const;
+
+  struct Buffers {  // per view: depth and index of the visible quad
+    std::vector<float> z;
+    std::vector<int32_t> id;
+  };
+  struct CamQuad;
+  std::vector<CamQuad> prepare(const Eigen::Isometry3d& T_world_cam) const;
+  void raster(const View& view, const std::vector<CamQuad>& quads, Buffers& buf, int tile_row) const;
+  // Shades one row into `out` (grey levels): gain * radiance + noise (Irwin-Hall, per-row stream), rounded to
+  // 8 bit if out8 is set, else float radiance into out32.
+  void shadeRow(const View& view, const std::vector<CamQuad>& quads, const Buffers& buf, int row, float gain,
+                float noise_sigma, uint64_t noise_seed, uint8_t* out8, float* out32) const;
+
+ private:
+  const World& world_;
+  double near_;
+};
+
+struct SceneRenderer::CamQuad {
+  float n[3], c;   // plane n . X = c in the camera frame (n unit)
+  float e[3], s0;  // s = X . e - s0
+  float f[3], t0;  // t = X . f - t0
+  float size_s, size_t;
+  float bounds[4];  // min x, max x, min y, max y of the clipped projection (normalised coordinates)
+  float min_z;      // nearest depth of the clipped rectangle (quads are drawn front to back)
+  int index;        // into World::quads
+};
+
+struct StereoFrame {
+  int64_t seq = 0;
+  int64_t utime_true = 0;   // exposure mid-time
+  int64_t utime_stamp = 0;  // with the camera's latency and jitter
+  cv::Mat left, right;      // raw CV_8UC1, as the cameras deliver them
+  cv::Mat gt_disparity;     // CV_32F of the rectified left image, when asked for; 0 = nothing seen
+};
+
+class StereoRenderer {
+ public:
+  StereoRenderer(const Scenario& scenario, const World& world, const SensorHead& head, const Trajectory& trajectory);
+
+  // Frame k (at sampleUtime(start, k, camera rate)).
+  StereoFrame render(int64_t k, bool with_gt_disparity = false) const;
+  // Depth (z [m]) of the rectified camera 0 or 1 at time t [s] (for evaluation).
+  cv::Mat rectifiedDepth(double t, int camera) const;
+  // Disparity of the rectified left image from its depth: f * baseline / z (0 where z == 0).
+  cv::Mat disparityFromDepth(const cv::Mat& depth) const;
+
+  const StereoRectification& rectification() const { return rect_; }
+  float gain(int camera) const { return camera == 0 ? gain_[0] : gain_[1]; }
+
+ private:
+  const Scenario& scenario_;
+  const SensorHead& head_;
+  const Trajectory& trajectory_;
+  SceneRenderer scene_;
+  View raw_[2];
+  StereoRectification rect_;
+  View rect_view_;
+  float gain_[2];
+};
+
+}  // namespace ips::sim

@@ -1,0 +1,122 @@
+#pragma once
+// A simulation scenario: the sensor head's figures (camera, IMU, tilt sensor, timing), the motion and the
+// world. Scenario::defaults() is the paper's test (a person walking ~90 m through a building in ~2 min with the
+// DLR head); Scenario::load() reads a YAML file whose keys override those defaults (config/sim_*.yaml).
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace ips::sim {
+
+struct CameraFigures {
+  int width = 1360;
+  int height = 1024;
+  double focal_px = 744.19;  // 4.8 mm lens on 6.45 um pixels
+  double baseline_m = 0.2;
+  double rate_hz = 8.0;  // up to 30
+  // OpenCV k1 k2 p1 p2 k3 of the left and right lens.
+  Eigen::Matrix<double, 5, 1> distortion_left =
+      (Eigen::Matrix<double, 5, 1>() << -0.11, 0.045, 2e-4, -1e-4, -0.008).finished();
+  Eigen::Matrix<double, 5, 1> distortion_right =
+      (Eigen::Matrix<double, 5, 1>() << -0.105, 0.04, -1.5e-4, 2e-4, -0.007).finished();
+  Eigen::Vector2d principal_offset_left{4.0, -3.0};  // [px] from the image centre
+  Eigen::Vector2d principal_offset_right{-2.5, 5.0};
+  double focal_ratio_right = 1.004;                       // fx_right / fx_left
+  Eigen::Vector3d relative_rotation_deg{0.3, -0.5, 0.4};  // rotation vector of cam1 against cam0 [deg]
+  Eigen::Vector3d baseline_offset_m{0.0, 0.002, -0.003};  // y, z offset of cam1's centre besides the baseline
+  double noise_sigma = 1.5;                               // [grey levels] sensor noise of each pixel
+  double gain_left_db = 0.0;
+  double gain_right_db = 0.4;  // gain difference of the right camera
+  double exposure_us = 4000.0;
+  double latency_us = 0.0;  // stamp - true exposure mid-time
+  double jitter_us = 0.0;   // std dev of the stamp error
+  double near_m = 0.05;     // nearest rendered distance
+};
+
+struct ImuFigures {
+  double rate_hz = 200.0;
+  double gyro_arw_deg_sqrt_h = 0.3;           // angle random walk (white rate noise density)
+  double accel_vrw_mg_sqrt_hz = 0.5;          // velocity random walk (white acceleration noise density)
+  double gyro_bias_deg_s = 0.05;              // std dev of the constant (turn-on) gyro bias per axis
+  double accel_bias_mg = 5.0;                 // std dev of the constant accelerometer bias per axis
+  double gyro_bias_walk_deg_s_sqrt_s = 2e-4;  // bias random walk density
+  double accel_bias_walk_mg_sqrt_s = 0.02;
+  double gyro_lsb_deg_s = 0.0061;  // quantisation: 400 deg/s over 16 bits
+  double accel_lsb_mg = 0.305;     // 20 g over 16 bits
+  double gyro_range_deg_s = 200.0;
+  double accel_range_g = 10.0;
+  double misalignment_mrad = 5.0;                  // std dev per axis of the IMU's rotation against the head's axes
+  Eigen::Vector3d lever_arm_m{-0.05, 0.0, -0.06};  // camera 0 centre in the IMU frame
+  double latency_us = 0.0;
+  double jitter_us = 20.0;
+
+  // The same sensor without noise, biases, quantisation, misalignment or time errors.
+  static ImuFigures ideal();
+};
+
+struct TiltFigures {
+  double rate_hz = 14.0;
+  double resolution_deg = 0.1;
+  double accuracy_deg = 0.5;      // std dev of the constant offset of each angle
+  double noise_deg = 0.03;        // white noise before quantisation
+  double time_constant_s = 0.15;  // first-order response of the sensing element to specific force
+  double misalignment_deg = 1.0;  // std dev per axis of its mounting against the head's axes
+  double latency_us = 20000.0;
+  double jitter_us = 1000.0;
+
+  static TiltFigures ideal();
+};
+
+struct TrajectoryConfig {
+  std::string type = "walk";               // walk | vehicle | still (still: holds the first waypoint)
+  std::vector<Eigen::Vector2d> waypoints;  // [m] x y on the floor, polyline to follow
+  double speed_mps = 0.75;
+  double height_m = 1.45;        // IMU height above the floor
+  double knot_spacing_s = 1.0;   // of the cubic B-spline; larger = smoother corners
+  double still_duration_s = 60;  // duration of a 'still' scenario (and the hold at the end of the others)
+  double yaw_deg = 0;            // heading for 'still'
+  double pitch_down_deg = 6.0;   // constant pitch of the head
+  double roll_deg = 0.0;
+  // Gait (walk) or vibration (vehicle): vertical bounce, lateral sway and head wobble.
+  double step_frequency_hz = 1.7;
+  double bounce_m = 0.025;     // vertical amplitude at the step frequency
+  double sway_m = 0.02;        // lateral amplitude at half the step frequency
+  double nod_deg = 1.0;        // pitch amplitude at the step frequency
+  double roll_sway_deg = 1.5;  // roll amplitude at half the step frequency
+  double yaw_sway_deg = 1.5;   // yaw amplitude at half the step frequency
+  double ramp_s = 2.0;         // gait amplitude ramps up after start and down before stop
+
+  static std::vector<Eigen::Vector2d> defaultWaypoints();
+};
+
+struct WorldConfig {
+  std::string data_dir;  // photographs (stereo/*/left.png, ...); empty = IPS_DATA_DIR of the build
+  double wall_height_m = 2.8;
+  double corridor_width_m = 2.4;
+  Eigen::Vector2d building_size_m{30.0, 14.0};  // outer corridor ring
+  double weak_texture_share = 0.25;             // share of wall segments with weak (plaster) texture
+  double poster_spacing_m = 4.0;                // along the walls
+  double object_spacing_m = 6.0;                // cabinets and boxes along the walls
+  double texel_m = 0.004;                       // size of a procedural texel on the walls
+};
+
+struct Scenario {
+  std::string name = "walk";
+  std::string source = "built-in default";  // file it was read from
+  uint64_t seed = 1;
+  int64_t start_utime = 1'000'000;  // common-clock time of t = 0 [us]
+  double gravity = 9.81;
+  CameraFigures camera;
+  ImuFigures imu;
+  TiltFigures tilt;
+  TrajectoryConfig trajectory;
+  WorldConfig world;
+
+  static Scenario defaults();
+  // Keys present in the file override the defaults; a wrong key type throws ips::ConfigError naming file and key.
+  static Scenario load(const std::string& path);
+  void validate() const;  // throws std::invalid_argument on impossible figures
+};
+
+}  // namespace ips::sim

@@ -1,0 +1,198 @@
+#include "ips/sim/scenario.hpp"
+
+#include <stdexcept>
+
+#include "ips/config.hpp"
+
+namespace ips::sim {
+
+ImuFigures ImuFigures::ideal() {
+  ImuFigures f;
+  f.gyro_arw_deg_sqrt_h = 0;
+  f.accel_vrw_mg_sqrt_hz = 0;
+  f.gyro_bias_deg_s = 0;
+  f.accel_bias_mg = 0;
+  f.gyro_bias_walk_deg_s_sqrt_s = 0;
+  f.accel_bias_walk_mg_sqrt_s = 0;
+  f.gyro_lsb_deg_s = 0;
+  f.accel_lsb_mg = 0;
+  f.gyro_range_deg_s = 1e9;
+  f.accel_range_g = 1e9;
+  f.misalignment_mrad = 0;
+  f.latency_us = 0;
+  f.jitter_us = 0;
+  return f;
+}
+
+TiltFigures TiltFigures::ideal() {
+  TiltFigures f;
+  f.resolution_deg = 0;
+  f.accuracy_deg = 0;
+  f.noise_deg = 0;
+  f.time_constant_s = 0;
+  f.misalignment_deg = 0;
+  f.latency_us = 0;
+  f.jitter_us = 0;
+  return f;
+}
+
+std::vector<Eigen::Vector2d> TrajectoryConfig::defaultWaypoints() {
+  // Through the default building (WorldConfig): along the south corridor, a loop through the room south of it,
+  // then round the corridor ring anticlockwise. About 90 m.
+  return {{3.0, 1.2},   {12.9, 1.2}, {12.9, -1.2}, {14.3, -2.5}, {14.3, -4.5}, {11.5, -4.5}, {11.5, -2.5},
+          {12.9, -1.2}, {12.9, 1.2}, {28.8, 1.2},  {28.8, 12.8}, {1.2, 12.8},  {1.2, 3.0}};
+}
+
+Scenario Scenario::defaults() {
+  Scenario s;
+  s.trajectory.waypoints = TrajectoryConfig::defaultWaypoints();
+  return s;
+}
+
+namespace {
+
+void get(const Config& c, const std::string& key, double& v) { v = c.getDouble(key, v); }
+void get(const Config& c, const std::string& key, int& v) { v = c.getInt(key, v); }
+void get(const Config& c, const std::string& key, std::string& v) { v = c.getString(key, v); }
+template <int N>
+void get(const Config& c, const std::string& key, Eigen::Matrix<double, N, 1>& v) {
+  if (c.has(key)) v = c.getMatrix(key, N, 1);
+}
+
+}  // namespace
+
+Scenario Scenario::load(const std::string& path) {
+  Scenario s = defaults();
+  Config c(path);
+  s.source = path;
+  get(c, "name", s.name);
+  if (c.has("seed")) {
+    const int seed = c.getInt("seed");
+    if (seed < 0) throw ConfigError(path + ": key 'seed' must not be negative");
+    s.seed = static_cast<uint64_t>(seed);
+  }
+  if (c.has("start_utime")) s.start_utime = static_cast<int64_t>(c.getDouble("start_utime"));
+  get(c, "gravity", s.gravity);
+
+  CameraFigures& cam = s.camera;
+  get(c, "camera/width", cam.width);
+  get(c, "camera/height", cam.height);
+  get(c, "camera/focal_px", cam.focal_px);
+  get(c, "camera/baseline_m", cam.baseline_m);
+  get(c, "camera/rate_hz", cam.rate_hz);
+  get(c, "camera/distortion_left", cam.distortion_left);
+  get(c, "camera/distortion_right", cam.distortion_right);
+  get(c, "camera/principal_offset_left", cam.principal_offset_left);
+  get(c, "camera/principal_offset_right", cam.principal_offset_right);
+  get(c, "camera/focal_ratio_right", cam.focal_ratio_right);
+  get(c, "camera/relative_rotation_deg", cam.relative_rotation_deg);
+  get(c, "camera/baseline_offset_m", cam.baseline_offset_m);
+  get(c, "camera/noise_sigma", cam.noise_sigma);
+  get(c, "camera/gain_left_db", cam.gain_left_db);
+  get(c, "camera/gain_right_db", cam.gain_right_db);
+  get(c, "camera/exposure_us", cam.exposure_us);
+  get(c, "camera/latency_us", cam.latency_us);
+  get(c, "camera/jitter_us", cam.jitter_us);
+  get(c, "camera/near_m", cam.near_m);
+
+  ImuFigures& imu = s.imu;
+  get(c, "imu/rate_hz", imu.rate_hz);
+  get(c, "imu/gyro_arw_deg_sqrt_h", imu.gyro_arw_deg_sqrt_h);
+  get(c, "imu/accel_vrw_mg_sqrt_hz", imu.accel_vrw_mg_sqrt_hz);
+  get(c, "imu/gyro_bias_deg_s", imu.gyro_bias_deg_s);
+  get(c, "imu/accel_bias_mg", imu.accel_bias_mg);
+  get(c, "imu/gyro_bias_walk_deg_s_sqrt_s", imu.gyro_bias_walk_deg_s_sqrt_s);
+  get(c, "imu/accel_bias_walk_mg_sqrt_s", imu.accel_bias_walk_mg_sqrt_s);
+  get(c, "imu/gyro_lsb_deg_s", imu.gyro_lsb_deg_s);
+  get(c, "imu/accel_lsb_mg", imu.accel_lsb_mg);
+  get(c, "imu/gyro_range_deg_s", imu.gyro_range_deg_s);
+  get(c, "imu/accel_range_g", imu.accel_range_g);
+  get(c, "imu/misalignment_mrad", imu.misalignment_mrad);
+  get(c, "imu/lever_arm_m", imu.lever_arm_m);
+  get(c, "imu/latency_us", imu.latency_us);
+  get(c, "imu/jitter_us", imu.jitter_us);
+
+  TiltFigures& tilt = s.tilt;
+  get(c, "tilt/rate_hz", tilt.rate_hz);
+  get(c, "tilt/resolution_deg", tilt.resolution_deg);
+  get(c, "tilt/accuracy_deg", tilt.accuracy_deg);
+  get(c, "tilt/noise_deg", tilt.noise_deg);
+  get(c, "tilt/time_constant_s", tilt.time_constant_s);
+  get(c, "tilt/misalignment_deg", tilt.misalignment_deg);
+  get(c, "tilt/latency_us", tilt.latency_us);
+  get(c, "tilt/jitter_us", tilt.jitter_us);
+
+  TrajectoryConfig& tr = s.trajectory;
+  get(c, "trajectory/type", tr.type);
+  if (c.has("trajectory/waypoints")) {
+    cv::Mat w = c.getMat("trajectory/waypoints");
+    if (w.total() < 2 || w.total() % 2 != 0)
+      throw ConfigError(path + ": key 'trajectory/waypoints' must be a flat list x0, y0, x1, y1, ...");
+    w = w.reshape(1, 1);
+    tr.waypoints.clear();
+    for (size_t i = 0; i + 1 < w.total(); i += 2)
+      tr.waypoints.emplace_back(w.at<double>(0, static_cast<int>(i)), w.at<double>(0, static_cast<int>(i + 1)));
+  }
+  get(c, "trajectory/speed_mps", tr.speed_mps);
+  get(c, "trajectory/height_m", tr.height_m);
+  get(c, "trajectory/knot_spacing_s", tr.knot_spacing_s);
+  get(c, "trajectory/still_duration_s", tr.still_duration_s);
+  get(c, "trajectory/yaw_deg", tr.yaw_deg);
+  get(c, "trajectory/pitch_down_deg", tr.pitch_down_deg);
+  get(c, "trajectory/roll_deg", tr.roll_deg);
+  get(c, "trajectory/step_frequency_hz", tr.step_frequency_hz);
+  get(c, "trajectory/bounce_m", tr.bounce_m);
+  get(c, "trajectory/sway_m", tr.sway_m);
+  get(c, "trajectory/nod_deg", tr.nod_deg);
+  get(c, "trajectory/roll_sway_deg", tr.roll_sway_deg);
+  get(c, "trajectory/yaw_sway_deg", tr.yaw_sway_deg);
+  get(c, "trajectory/ramp_s", tr.ramp_s);
+
+  WorldConfig& w = s.world;
+  get(c, "world/data_dir", w.data_dir);
+  get(c, "world/wall_height_m", w.wall_height_m);
+  get(c, "world/corridor_width_m", w.corridor_width_m);
+  get(c, "world/building_size_m", w.building_size_m);
+  get(c, "world/weak_texture_share", w.weak_texture_share);
+  get(c, "world/poster_spacing_m", w.poster_spacing_m);
+  get(c, "world/object_spacing_m", w.object_spacing_m);
+  get(c, "world/texel_m", w.texel_m);
+
+  try {
+    s.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(path + ": " + e.what());
+  }
+  return s;
+}
+
+void Scenario::validate() const {
+  auto require = [](bool ok, const char* what) {
+    if (!ok) throw std::invalid_argument(what);
+  };
+  require(camera.width >= 16 && camera.height >= 16 && camera.width <= 8192 && camera.height <= 8192,
+          "camera/width, height must be in 16..8192");
+  require(camera.focal_px > 0, "camera/focal_px must be positive");
+  require(camera.baseline_m > 0, "camera/baseline_m must be positive");
+  require(camera.rate_hz > 0 && camera.rate_hz <= 120, "camera/rate_hz must be in (0, 120]");
+  require(camera.noise_sigma >= 0, "camera/noise_sigma must not be negative");
+  require(camera.near_m > 0, "camera/near_m must be positive");
+  require(imu.rate_hz > 0 && imu.rate_hz <= 10000, "imu/rate_hz must be in (0, 10000]");
+  require(tilt.rate_hz > 0 && tilt.rate_hz <= 1000, "tilt/rate_hz must be in (0, 1000]");
+  require(tilt.time_constant_s >= 0, "tilt/time_constant_s must not be negative");
+  require(trajectory.type == "walk" || trajectory.type == "vehicle" || trajectory.type == "still",
+          "trajectory/type must be walk, vehicle or still");
+  require(!trajectory.waypoints.empty(), "trajectory/waypoints must not be empty");
+  require(trajectory.speed_mps > 0, "trajectory/speed_mps must be positive");
+  require(trajectory.knot_spacing_s > 0, "trajectory/knot_spacing_s must be positive");
+  require(trajectory.still_duration_s >= 0, "trajectory/still_duration_s must not be negative");
+  require(world.wall_height_m > 0.5 && world.corridor_width_m > 0.5, "world/wall_height_m, corridor_width_m too small");
+  require(world.building_size_m.x() > 2 * world.corridor_width_m + 1 &&
+              world.building_size_m.y() > 2 * world.corridor_width_m + 1,
+          "world/building_size_m must leave room for the inner block");
+  require(world.texel_m > 0, "world/texel_m must be positive");
+  require(world.poster_spacing_m > 0 && world.object_spacing_m > 0,
+          "world/poster_spacing_m, object_spacing_m must be positive");
+}
+
+}  // namespace ips::sim

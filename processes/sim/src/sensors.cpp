@@ -1,0 +1,146 @@
+#include "ips/sim/sensors.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace ips::sim {
+
+namespace {
+
+constexpr double kDeg = M_PI / 180;
+constexpr double kMg = 9.80665e-3;  // 1 mg in m/s^2 (the datasheet's g)
+
+Eigen::Matrix3d smallRotation(Rng& rng, double sigma_rad) {
+  const Eigen::Vector3d r(rng.normal() * sigma_rad, rng.normal() * sigma_rad, rng.normal() * sigma_rad);
+  if (r.norm() == 0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
+}
+
+double quantize(double v, double lsb) { return lsb > 0 ? std::round(v / lsb) * lsb : v; }
+
+}  // namespace
+
+SensorHead SensorHead::make(const Scenario& s) {
+  const CameraFigures& c = s.camera;
+  SensorHead head;
+  StereoCalibration& cal = head.calibration;
+  cal.cam0.width = cal.cam1.width = c.width;
+  cal.cam0.height = cal.cam1.height = c.height;
+  cal.cam0.K << c.focal_px, 0, (c.width - 1) * 0.5 + c.principal_offset_left.x(), 0, c.focal_px,
+      (c.height - 1) * 0.5 + c.principal_offset_left.y(), 0, 0, 1;
+  const double f1 = c.focal_px * c.focal_ratio_right;
+  cal.cam1.K << f1, 0, (c.width - 1) * 0.5 + c.principal_offset_right.x(), 0, f1,
+      (c.height - 1) * 0.5 + c.principal_offset_right.y(), 0, 0, 1;
+  cal.cam0.distortion = c.distortion_left;
+  cal.cam1.distortion = c.distortion_right;
+  cal.cam0.serial = "SIM-LEFT";
+  cal.cam1.serial = "SIM-RIGHT";
+
+  const Eigen::Vector3d rv = c.relative_rotation_deg * kDeg;
+  const Eigen::Matrix3d R10 =
+      rv.norm() > 0 ? Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d c1_in_cam0 = Eigen::Vector3d(c.baseline_m, 0, 0) + c.baseline_offset_m;
+  cal.R_cam1_cam0 = R10;
+  cal.t_cam1_cam0 = -R10 * c1_in_cam0;
+  head.T_cam0_cam1.linear() = R10.transpose();
+  head.T_cam0_cam1.translation() = c1_in_cam0;
+
+  // Nominal mounting: camera z (forward) along body x, camera x (right) along body -y, camera y (down) along -z.
+  Eigen::Matrix3d R_head_cam;
+  R_head_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  Rng rng(streamSeed(s.seed, kStreamHead));
+  const Eigen::Matrix3d R_imu_head = smallRotation(rng, s.imu.misalignment_mrad * 1e-3);
+  head.T_imu_cam0.linear() = R_imu_head * R_head_cam;
+  head.T_imu_cam0.translation() = s.imu.lever_arm_m;
+  head.R_tilt_imu = smallRotation(rng, s.tilt.misalignment_deg * kDeg) * R_imu_head.transpose();
+  cal.T_imu_cam0 = head.T_imu_cam0;
+  cal.R_tilt_cam0 = head.R_tilt_imu * head.T_imu_cam0.linear();
+  return head;
+}
+
+ImuSimulator::ImuSimulator(const ImuFigures& f, const Trajectory& trajectory, int64_t start_utime, uint64_t seed)
+    : f_(f), traj_(trajectory), start_utime_(start_utime), rng_(streamSeed(seed, kStreamImu)) {
+  const double arw = f.gyro_arw_deg_sqrt_h * kDeg / 60.0;  // rad/s/sqrt(Hz) = rad/sqrt(s)
+  gyro_sigma_ = arw * std::sqrt(f.rate_hz);
+  accel_sigma_ = f.accel_vrw_mg_sqrt_hz * kMg * std::sqrt(f.rate_hz);
+  gyro_walk_ = f.gyro_bias_walk_deg_s_sqrt_s * kDeg / std::sqrt(f.rate_hz);
+  accel_walk_ = f.accel_bias_walk_mg_sqrt_s * kMg / std::sqrt(f.rate_hz);
+  for (int i = 0; i < 3; ++i) bg_[i] = rng_.normal() * f.gyro_bias_deg_s * kDeg;
+  for (int i = 0; i < 3; ++i) ba_[i] = rng_.normal() * f.accel_bias_mg * kMg;
+}
+
+ImuMeasurement ImuSimulator::next() {
+  ImuMeasurement m;
+  m.seq = k_;
+  m.utime_true = sampleUtime(start_utime_, k_, f_.rate_hz);
+  m.utime_stamp = m.utime_true + std::llround(f_.latency_us + f_.jitter_us * rng_.normal());
+  if (k_ > 0)
+    for (int i = 0; i < 3; ++i) {
+      bg_[i] += gyro_walk_ * rng_.normal();
+      ba_[i] += accel_walk_ * rng_.normal();
+    }
+  const TrajectoryState s = traj_.state((m.utime_true - start_utime_) * 1e-6);
+  const double gyro_max = f_.gyro_range_deg_s * kDeg, accel_max = f_.accel_range_g * 9.80665;
+  for (int i = 0; i < 3; ++i) {
+    const double w = s.angular_rate[i] + bg_[i] + gyro_sigma_ * rng_.normal();
+    const double a = s.specific_force[i] + ba_[i] + accel_sigma_ * rng_.normal();
+    m.angular_rate[i] = quantize(std::clamp(w, -gyro_max, gyro_max), f_.gyro_lsb_deg_s * kDeg);
+    m.specific_force[i] = quantize(std::clamp(a, -accel_max, accel_max), f_.accel_lsb_mg * kMg);
+  }
+  m.gyro_bias = bg_;
+  m.accel_bias = ba_;
+  ++k_;
+  return m;
+}
+
+Eigen::Vector2d inclination(const Eigen::Vector3d& f) {
+  return {std::atan2(f.x(), std::hypot(f.y(), f.z())), std::atan2(f.y(), std::hypot(f.x(), f.z()))};
+}
+
+TiltSimulator::TiltSimulator(const TiltFigures& f, const Trajectory& trajectory, const Eigen::Matrix3d& R_tilt_imu,
+                             int64_t start_utime, double gravity, uint64_t seed)
+    : f_(f),
+      traj_(trajectory),
+      R_tilt_imu_(R_tilt_imu),
+      start_utime_(start_utime),
+      gravity_(gravity),
+      rng_(streamSeed(seed, kStreamTilt)) {
+  offset_ = {rng_.normal() * f.accuracy_deg * kDeg, rng_.normal() * f.accuracy_deg * kDeg};
+  filtered_ = forceAt(0);  // settled at the start
+}
+
+Eigen::Vector3d TiltSimulator::forceAt(double t) const { return R_tilt_imu_ * traj_.state(t).specific_force; }
+
+TiltMeasurement TiltSimulator::next() {
+  TiltMeasurement m;
+  m.seq = k_;
+  m.utime_true = sampleUtime(start_utime_, k_, f_.rate_hz);
+  m.utime_stamp = m.utime_true + std::llround(f_.latency_us + f_.jitter_us * rng_.normal());
+  const double t = (m.utime_true - start_utime_) * 1e-6;
+  // The sensing element follows the specific force as a first-order low pass: exact step response over
+  // 1 ms sub-steps with the input held at the sub-step's mid-point.
+  if (f_.time_constant_s > 0) {
+    while (t_filter_ < t - 1e-12) {
+      const double dt = std::min(1e-3, t - t_filter_);
+      const double a = 1.0 - std::exp(-dt / f_.time_constant_s);
+      filtered_ += a * (forceAt(t_filter_ + 0.5 * dt) - filtered_);
+      t_filter_ += dt;
+    }
+  } else {
+    filtered_ = forceAt(t);
+    t_filter_ = t;
+  }
+  const Eigen::Vector2d angles = inclination(filtered_);
+  const TrajectoryState s = traj_.state(t);
+  const Eigen::Vector3d up_in_tilt = R_tilt_imu_ * (s.orientation.conjugate() * Eigen::Vector3d(0, 0, gravity_));
+  const Eigen::Vector2d truth = inclination(up_in_tilt);
+  const double res = f_.resolution_deg * kDeg;
+  m.angle_x = quantize(angles.x() + offset_.x() + f_.noise_deg * kDeg * rng_.normal(), res);
+  m.angle_y = quantize(angles.y() + offset_.y() + f_.noise_deg * kDeg * rng_.normal(), res);
+  m.true_angle_x = truth.x();
+  m.true_angle_y = truth.y();
+  ++k_;
+  return m;
+}
+
+}  // namespace ips::sim

@@ -1,0 +1,292 @@
+#include "ips/sim/world.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "ips/log.hpp"
+#include "ips/sim/rng.hpp"
+
+namespace ips::sim {
+
+namespace {
+
+int floorPow2(int v) {
+  int p = 1;
+  while (p * 2 <= v) p *= 2;
+  return p;
+}
+
+cv::Mat randomImage(int size, Rng& rng) {
+  cv::Mat m(size, size, CV_32F);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) m.at<float>(y, x) = static_cast<float>(rng.uniform());
+  return m;
+}
+
+// Smooth noise of `cells` cells across `size` pixels that tiles seamlessly (cubic interpolation over a wrapped grid).
+cv::Mat tiledNoise(int size, int cells, Rng& rng) {
+  cv::Mat small = randomImage(cells, rng), padded, big;
+  cv::copyMakeBorder(small, padded, 2, 2, 2, 2, cv::BORDER_WRAP);
+  const int scale = size / cells;
+  cv::resize(padded, big, cv::Size(padded.cols * scale, padded.rows * scale), 0, 0, cv::INTER_CUBIC);
+  return big(cv::Rect(2 * scale, 2 * scale, size, size)).clone();
+}
+
+cv::Mat toGrey8(const cv::Mat& f, double mean, double sigma) {
+  cv::Scalar m, s;
+  cv::meanStdDev(f, m, s);
+  cv::Mat out;
+  f.convertTo(out, CV_8U, sigma / std::max(1e-9, s[0]), mean - m[0] * sigma / std::max(1e-9, s[0]));
+  return out;
+}
+
+std::vector<std::string> photoPaths(const std::string& dir) {
+  std::vector<std::string> out;
+  namespace fs = std::filesystem;
+  for (const char* scene : {"tsukuba", "venus", "cones", "teddy", "motorcycle_q", "kitti2015_000046"})
+    out.push_back(dir + "/stereo/" + scene + "/left.png");
+  const fs::path pairs = fs::path(dir) / "euroc/V1_01_easy/moving_pairs";
+  std::error_code ec;
+  if (fs::is_directory(pairs, ec)) {
+    std::vector<std::string> found;
+    for (const auto& e : fs::directory_iterator(pairs, ec))
+      if (e.path().filename().string().find("_left.png") != std::string::npos) found.push_back(e.path().string());
+    std::sort(found.begin(), found.end());
+    out.insert(out.end(), found.begin(), found.end());
+  }
+  return out;
+}
+
+struct Builder {
+  World& world;
+  const WorldConfig& cfg;
+  Rng rng;
+  int rough = 0, tiles = 0, weak = 0, floor = 0, ceiling = 0, wood = 0;
+  std::vector<int> photos;
+
+  Quad& add(const Eigen::Vector3d& o, const Eigen::Vector3d& s, const Eigen::Vector3d& t, double ss, double st, int tex,
+            double texel) {
+    Quad q;
+    q.origin = o;
+    q.axis_s = s.normalized();
+    q.axis_t = t.normalized();
+    q.size_s = ss;
+    q.size_t = st;
+    q.texture = tex;
+    q.texel_s = q.texel_t = texel;
+    q.texture_offset = {rng.uniform() * 4096, rng.uniform() * 4096};
+    q.brightness = static_cast<float>(0.8 + 0.35 * rng.uniform());
+    world.quads.push_back(q);
+    return world.quads.back();
+  }
+
+  int wallMaterial() { return rng.uniform() < cfg.weak_texture_share ? weak : (rng.uniform() < 0.5 ? rough : tiles); }
+
+  // A vertical wall from a to b (floor plan), with door openings given as [from, to] along the wall, split into
+  // pieces of at most ~5 m, each with its own material.
+  void wall(const Eigen::Vector2d& a, const Eigen::Vector2d& b, std::vector<std::pair<double, double>> doors = {}) {
+    const double H = cfg.wall_height_m, door_h = std::min(2.1, H - 0.2);
+    const double len = (b - a).norm();
+    const Eigen::Vector3d s(b.x() - a.x(), b.y() - a.y(), 0), up(0, 0, 1);
+    const Eigen::Vector3d o(a.x(), a.y(), 0);
+    std::vector<double> cuts{0};
+    for (auto [d0, d1] : doors) {
+      cuts.push_back(d0);
+      cuts.push_back(d1);
+    }
+    cuts.push_back(len);
+    for (size_t i = 0; i + 1 < cuts.size(); ++i) {
+      const double c0 = cuts[i], c1 = cuts[i + 1];
+      if (c1 - c0 < 1e-6) continue;
+      const bool is_door = i % 2 == 1;
+      const Eigen::Vector3d sd = s.normalized();
+      if (is_door) {  // lintel above the opening
+        add(o + c0 * sd + Eigen::Vector3d(0, 0, door_h), sd, up, c1 - c0, H - door_h, tiles, cfg.texel_m);
+        continue;
+      }
+      const int pieces = std::max(1, static_cast<int>(std::ceil((c1 - c0) / 5.0)));
+      const double pl = (c1 - c0) / pieces;
+      for (int k = 0; k < pieces; ++k) {
+        const int mat = wallMaterial();
+        add(o + (c0 + k * pl) * sd, sd, up, pl, H, mat, cfg.texel_m);
+      }
+    }
+    posters(a, b, doors);
+  }
+
+  void posters(const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+               const std::vector<std::pair<double, double>>& doors) {
+    if (photos.empty()) return;
+    const double len = (b - a).norm();
+    const Eigen::Vector2d dir = (b - a) / len;
+    for (double pos = 1.0 + rng.uniform() * cfg.poster_spacing_m * 0.5; pos + 1.2 < len; pos += cfg.poster_spacing_m) {
+      bool blocked = false;
+      for (auto [d0, d1] : doors) blocked |= pos + 1.2 > d0 - 0.2 && pos < d1 + 0.2;
+      if (blocked) continue;
+      const int tex = photos[static_cast<size_t>(rng.uniform() * photos.size())];
+      const cv::Mat& img = world.textures[tex].levels[0];
+      const double w = 0.8 + 0.5 * rng.uniform();
+      const double h = w * img.rows / img.cols;
+      // Posters hang 5 mm in front of the side left of a->b. Seen from there, the viewer's right is -dir and
+      // image rows run down, so the texture's s axis is -dir from the top-left corner (the far end along dir).
+      const Eigen::Vector3d n(-dir.y(), dir.x(), 0), d3(dir.x(), dir.y(), 0);
+      const Eigen::Vector3d o = Eigen::Vector3d(a.x(), a.y(), 1.6 + h / 2) + (pos + w) * d3 + 0.005 * n;
+      Quad& q = add(o, -d3, Eigen::Vector3d(0, 0, -1), w, h, tex, w / img.cols);
+      q.texel_t = h / img.rows;
+      q.texture_offset = {0, 0};
+      q.brightness = 1.0f;
+    }
+  }
+
+  // Horizontal rectangle [x0,x1] x [y0,y1] at height z; `up` says which side faces the viewer.
+  void horizontal(double x0, double y0, double x1, double y1, double z, int tex, bool up) {
+    if (up)
+      add({x0, y0, z}, {1, 0, 0}, {0, 1, 0}, x1 - x0, y1 - y0, tex, cfg.texel_m * 1.5);
+    else
+      add({x0, y1, z}, {1, 0, 0}, {0, -1, 0}, x1 - x0, y1 - y0, tex, cfg.texel_m * 2);
+  }
+
+  // A closed box standing on the floor (one-sided faces pointing out).
+  void box(const Eigen::Vector2d& c, double sx, double sy, double h, int tex) {
+    const double x0 = c.x() - sx / 2, x1 = c.x() + sx / 2, y0 = c.y() - sy / 2, y1 = c.y() + sy / 2;
+    const Eigen::Vector3d up(0, 0, 1);
+    const double texel = cfg.texel_m * 0.75;
+    add({x0, y0, 0}, {1, 0, 0}, up, sx, h, tex, texel).one_sided = true;          // south face, normal -y
+    add({x1, y1, 0}, {-1, 0, 0}, up, sx, h, tex, texel).one_sided = true;         // north face, normal +y
+    add({x1, y0, 0}, {0, 1, 0}, up, sy, h, tex, texel).one_sided = true;          // east face, normal +x
+    add({x0, y1, 0}, {0, -1, 0}, up, sy, h, tex, texel).one_sided = true;         // west face, normal -x
+    add({x0, y0, h}, {1, 0, 0}, {0, 1, 0}, sx, sy, tex, texel).one_sided = true;  // top, normal +z
+  }
+};
+
+}  // namespace
+
+int World::addTexture(const std::string& name, const cv::Mat& grey8) {
+  CV_Assert(grey8.type() == CV_8UC1 && !grey8.empty());
+  Texture t;
+  t.name = name;
+  cv::Mat level;
+  cv::resize(grey8, level, cv::Size(floorPow2(grey8.cols), floorPow2(grey8.rows)), 0, 0, cv::INTER_AREA);
+  t.levels.push_back(level);
+  while (level.cols > 1 && level.rows > 1) {
+    cv::Mat next;
+    cv::resize(level, next, cv::Size(level.cols / 2, level.rows / 2), 0, 0, cv::INTER_AREA);
+    t.levels.push_back(next);
+    level = next;
+  }
+  textures.push_back(std::move(t));
+  return static_cast<int>(textures.size()) - 1;
+}
+
+cv::Mat makeRoughTexture(int size, uint64_t seed, double contrast) {
+  Rng rng(seed);
+  cv::Mat acc = cv::Mat::zeros(size, size, CV_32F);
+  double amp = 1.0;
+  for (int cells = 8; cells <= size / 2; cells *= 2, amp *= 0.85) acc += amp * tiledNoise(size, cells, rng);
+  return toGrey8(acc, 128, contrast);
+}
+
+cv::Mat makeTileTexture(int size, int tiles, uint64_t seed) {
+  Rng rng(seed);
+  cv::Mat acc = 0.5 * tiledNoise(size, size / 4, rng) + 0.3 * tiledNoise(size, size / 16, rng);
+  const int cell = size / tiles;
+  for (int ty = 0; ty < tiles; ++ty)
+    for (int tx = 0; tx < tiles; ++tx) {
+      const float shade = static_cast<float>(rng.uniform() * 1.5);
+      acc(cv::Rect(tx * cell, ty * cell, cell, cell)) += shade;
+      // Dark grout lines give corners at the tile crossings.
+      acc(cv::Rect(tx * cell, ty * cell, cell, 3)) -= 1.5f;
+      acc(cv::Rect(tx * cell, ty * cell, 3, cell)) -= 1.5f;
+    }
+  return toGrey8(acc, 120, 45);
+}
+
+cv::Mat makeSpeckleTexture(int size, uint64_t seed) {
+  Rng rng(seed);
+  cv::Mat acc = 0.6 * tiledNoise(size, size / 8, rng);
+  for (int i = 0; i < size * size / 60; ++i) {
+    const cv::Point p(static_cast<int>(rng.uniform() * size), static_cast<int>(rng.uniform() * size));
+    const double r = 1 + 3 * rng.uniform();
+    cv::circle(acc, p, static_cast<int>(r), cv::Scalar(rng.uniform() * 3 - 1.5), cv::FILLED);
+  }
+  return toGrey8(acc, 110, 40);
+}
+
+World World::build(const WorldConfig& cfg, uint64_t seed) {
+  World world;
+  Builder b{world, cfg, Rng(streamSeed(seed, kStreamWorld)), 0, 0, 0, 0, 0, 0, {}};
+  const uint64_t ts = streamSeed(seed, kStreamWorld, 1);
+  b.rough = world.addTexture("rough plaster", makeRoughTexture(1024, ts + 1, 40));
+  b.tiles = world.addTexture("tiles", makeTileTexture(1024, 8, ts + 2));
+  b.weak = world.addTexture("weak plaster", makeRoughTexture(512, ts + 3, 2.5));
+  b.floor = world.addTexture("terrazzo floor", makeSpeckleTexture(1024, ts + 4));
+  b.ceiling = world.addTexture("ceiling", makeRoughTexture(512, ts + 5, 6));
+  b.wood = world.addTexture("wood", makeTileTexture(512, 2, ts + 6));
+
+  const std::string dir = cfg.data_dir.empty() ? std::string(IPS_SIM_DEFAULT_DATA_DIR) : cfg.data_dir;
+  for (const std::string& path : photoPaths(dir)) {
+    cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    if (img.empty()) continue;
+    b.photos.push_back(world.addTexture(path, img));
+  }
+  world.photo_count = static_cast<int>(b.photos.size());
+  if (b.photos.empty()) {
+    IPS_WARN("sim: no photographs found under '" << dir << "' (stereo/*/left.png): posters get procedural texture");
+    for (int i = 0; i < 4; ++i)
+      b.photos.push_back(world.addTexture("poster", makeTileTexture(512, 4 + 2 * i, ts + 10 + i)));
+  }
+
+  const double X = cfg.building_size_m.x(), Y = cfg.building_size_m.y(), w = cfg.corridor_width_m;
+  const double H = cfg.wall_height_m;
+  // The room south of the ring: x in [rx0, rx0 + 6], y in [-6, 0], door in the ring's south wall.
+  const double rx0 = std::min(10.0, X - 8.0), room_w = 6.0, room_d = 6.0;
+  const double door0 = rx0 + 2.3, door1 = rx0 + 3.5;
+  // Outer walls of the ring (drawn so that the inside is on their left: posters face the corridor).
+  b.wall({0, 0}, {X, 0}, {{door0, door1}});
+  b.wall({X, 0}, {X, Y});
+  b.wall({X, Y}, {0, Y});
+  b.wall({0, Y}, {0, 0});
+  // Inner block, seen from the corridor (clockwise, so that the corridor is on the left).
+  b.wall({w, w}, {w, Y - w});
+  b.wall({w, Y - w}, {X - w, Y - w});
+  b.wall({X - w, Y - w}, {X - w, w});
+  b.wall({X - w, w}, {w, w});
+  // The room.
+  b.wall({rx0, 0}, {rx0, -room_d});
+  b.wall({rx0, -room_d}, {rx0 + room_w, -room_d});
+  b.wall({rx0 + room_w, -room_d}, {rx0 + room_w, 0});
+  // Door reveal (the wall's thickness is not modelled: the opening is a hole in a thin wall).
+  b.horizontal(0, 0, X, Y, 0, b.floor, true);
+  b.horizontal(0, 0, X, Y, H, b.ceiling, false);
+  b.horizontal(rx0, -room_d, rx0 + room_w, 0, 0, b.floor, true);
+  b.horizontal(rx0, -room_d, rx0 + room_w, 0, H, b.ceiling, false);
+
+  // Cabinets and boxes along the outer walls, away from the corners and the door.
+  auto furnish = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& c, const Eigen::Vector2d& inward) {
+    const double len = (c - a).norm();
+    const Eigen::Vector2d dir = (c - a) / len;
+    for (double pos = 3.0 + b.rng.uniform() * 2; pos < len - 3.0;
+         pos += cfg.object_spacing_m * (0.7 + 0.6 * b.rng.uniform())) {
+      const Eigen::Vector2d p = a + pos * dir;
+      if ((p - Eigen::Vector2d(0.5 * (door0 + door1), 0)).norm() < 2.0) continue;
+      const double width = 0.6 + 0.6 * b.rng.uniform(), depth = 0.3 + 0.15 * b.rng.uniform();
+      const double height = 0.7 + 1.2 * b.rng.uniform();
+      const Eigen::Vector2d centre = p + inward * (depth / 2 + 0.02);
+      const bool along_x = std::abs(dir.x()) > 0.5;
+      b.box(centre, along_x ? width : depth, along_x ? depth : width, height, b.rng.uniform() < 0.5 ? b.wood : b.tiles);
+    }
+  };
+  furnish({0, 0}, {X, 0}, {0, 1});
+  furnish({X, 0}, {X, Y}, {-1, 0});
+  furnish({0, Y}, {X, Y}, {0, -1});
+  furnish({0, 0}, {0, Y}, {1, 0});
+  // Room: a table in the middle and a shelf on the back wall.
+  b.box({rx0 + 2.9, -3.5}, 0.9, 0.6, 0.75, b.wood);
+  b.box({rx0 + room_w / 2, -room_d + 0.25}, 2.0, 0.4, 1.8, b.wood);
+  return world;
+}
+
+}  // namespace ips::sim
