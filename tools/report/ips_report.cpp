@@ -1,0 +1,396 @@
+// ips_report: the main job's report. Reads the LCM log recorded while the system ran (filter states, tracker
+// deltas, disparity maps, health, and the simulator's ground truth) and writes report.json with the figures
+// of the run, plus pictures: the trajectories against ground truth (top view), the position error over time
+// with the filter's 3-sigma bounds, and colour-mapped disparity maps beside their rectified images.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iomanip>
+#include <ips/disparity_map_t.hpp>
+#include <ips/filter_state_t.hpp>
+#include <ips/ground_truth_t.hpp>
+#include <ips/health_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <ips/tracker_delta_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+#include <sstream>
+
+#include "ips/calibration.hpp"
+#include "ips/filter/trajectory_metrics.hpp"
+#include "ips/framework/image.hpp"
+#include "ips/framework/process.hpp"
+
+namespace {
+
+using ips::filter::Trajectory;
+using ips::filter::TrajPoint;
+
+template <class Msg>
+bool decode(const lcm::LogEvent* e, Msg* m) {
+  return m->decode(e->data, 0, static_cast<int>(e->datalen)) >= 0;
+}
+
+struct FilterRun {
+  std::string channel;
+  int8_t type = 0;
+  std::vector<ips::filter_state_t> states;
+};
+
+struct ProcessFigures {
+  double rate_sum = 0;
+  int rate_n = 0;
+  double latency_sum = 0;
+  int latency_n = 0;
+  ips::health_t last;
+};
+
+struct DisparityScore {
+  int64_t seq = 0;
+  double bad2_pct = 0;
+  double density_pct = 0;
+  int64_t evaluated = 0;
+};
+
+TrajPoint toPoint(int64_t utime, const double* p, const double* q) {
+  TrajPoint t;
+  t.t = utime * 1e-6;
+  t.p = Eigen::Vector3d(p[0], p[1], p[2]);
+  t.q = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+  return t;
+}
+
+// The truth at time t by linear interpolation (position only), for error curves.
+Eigen::Vector3d truthAt(const Trajectory& gt, double t) {
+  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const TrajPoint& a, double v) { return a.t < v; });
+  if (it == gt.begin()) return gt.front().p;
+  if (it == gt.end()) return gt.back().p;
+  const TrajPoint& b = *it;
+  const TrajPoint& a = *(it - 1);
+  const double w = (t - a.t) / std::max(1e-12, b.t - a.t);
+  return a.p + w * (b.p - a.p);
+}
+
+// The estimate expressed in the truth's frame by the start pose (position and heading; roll and pitch are
+// observable from gravity and are not aligned): how a dead-reckoning system is judged, the start being known.
+Trajectory alignStart(const Trajectory& est, const Trajectory& gt) {
+  if (est.empty() || gt.empty()) return est;
+  const TrajPoint& e0 = est.front();
+  Eigen::Quaterniond qg = gt.front().q;
+  for (const auto& g : gt)
+    if (g.t >= e0.t) {
+      qg = g.q;
+      break;
+    }
+  const Eigen::Vector3d pg = truthAt(gt, e0.t);
+  auto yaw = [](const Eigen::Quaterniond& q) {
+    const Eigen::Vector3d x = q * Eigen::Vector3d::UnitX();
+    return std::atan2(x.y(), x.x());
+  };
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw(qg) - yaw(e0.q), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  Trajectory out = est;
+  for (auto& p : out) {
+    p.p = R * (p.p - e0.p) + pg;
+    p.q = Eigen::Quaterniond(R) * p.q;
+  }
+  return out;
+}
+
+void plotErrors(const std::string& path, const std::vector<FilterRun>& runs, const std::vector<Trajectory>& aligned,
+                const Trajectory& gt) {
+  const int w = 1200, h_panel = 220, margin = 60;
+  const int panels = 3;
+  cv::Mat img(panels * h_panel + 40, w, CV_8UC3, cv::Scalar(255, 255, 255));
+  const cv::Scalar colours[] = {{0, 0, 220}, {220, 0, 0}, {0, 150, 0}};
+  double t0 = 1e300, t1 = -1e300, emax = 1e-3;
+  std::vector<std::vector<std::array<double, 7>>> curves(runs.size());  // t, ex, ey, ez, 3sx, 3sy, 3sz
+  for (size_t k = 0; k < runs.size(); ++k) {
+    const size_t n = std::min(runs[k].states.size(), aligned[k].size());
+    const size_t step = std::max<size_t>(1, n / 2000);
+    for (size_t i = 0; i < n; i += step) {
+      const auto& s = runs[k].states[i];
+      const TrajPoint& p = aligned[k][i];
+      const Eigen::Vector3d e = p.p - truthAt(gt, p.t);
+      std::array<double, 7> c{p.t, e.x(), e.y(), e.z(), 0, 0, 0};
+      for (int a = 0; a < 3; ++a) c[4 + a] = s.cov_dim > a ? 3 * std::sqrt(std::max(0.0, s.covariance[a][a])) : 0;
+      curves[k].push_back(c);
+      t0 = std::min(t0, p.t), t1 = std::max(t1, p.t);
+      for (int a = 0; a < 3; ++a) emax = std::max({emax, std::fabs(c[1 + a]), c[4 + a]});
+    }
+  }
+  if (t0 >= t1) return;
+  emax = std::min(emax, 5.0);
+  const char* axis[] = {"x error [m]", "y error [m]", "z error [m]"};
+  for (int a = 0; a < panels; ++a) {
+    const int top = 20 + a * h_panel, mid = top + h_panel / 2;
+    auto X = [&](double t) { return static_cast<int>(margin + (t - t0) / (t1 - t0) * (w - 2 * margin)); };
+    auto Y = [&](double e) {
+      return static_cast<int>(mid - std::max(-1.0, std::min(1.0, e / emax)) * (h_panel / 2 - 15));
+    };
+    cv::line(img, {margin, mid}, {w - margin, mid}, cv::Scalar(180, 180, 180), 1);
+    cv::putText(img, axis[a], {5, top + 15}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1);
+    std::ostringstream lim;
+    lim << "+-" << std::setprecision(2) << emax << " m";
+    cv::putText(img, lim.str(), {5, top + 35}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(90, 90, 90), 1);
+    for (size_t k = 0; k < curves.size(); ++k) {
+      const auto& c = curves[k];
+      for (size_t i = 1; i < c.size(); ++i) {
+        cv::line(img, {X(c[i - 1][0]), Y(c[i - 1][1 + a])}, {X(c[i][0]), Y(c[i][1 + a])}, colours[k % 3], 1,
+                 cv::LINE_AA);
+        cv::line(img, {X(c[i - 1][0]), Y(c[i - 1][4 + a])}, {X(c[i][0]), Y(c[i][4 + a])},
+                 colours[k % 3] * 0.5 + cv::Scalar(120, 120, 120), 1);
+        cv::line(img, {X(c[i - 1][0]), Y(-c[i - 1][4 + a])}, {X(c[i][0]), Y(-c[i][4 + a])},
+                 colours[k % 3] * 0.5 + cv::Scalar(120, 120, 120), 1);
+      }
+    }
+  }
+  for (size_t k = 0; k < runs.size(); ++k)
+    cv::putText(img, runs[k].channel + " (error, grey: +-3 sigma)", {w - 420, 15 + 18 * static_cast<int>(k)},
+                cv::FONT_HERSHEY_SIMPLEX, 0.45, colours[k % 3], 1);
+  std::ostringstream tl;
+  tl << "time " << std::fixed << std::setprecision(1) << t0 << " .. " << t1 << " s";
+  cv::putText(img, tl.str(), {margin, img.rows - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1);
+  cv::imwrite(path, img);
+}
+
+cv::Mat disparityMat(const ips::disparity_map_t& m) {
+  cv::Mat d(m.height, m.width, CV_32FC1);
+  for (int r = 0; r < m.height; ++r)
+    for (int c = 0; c < m.width; ++c) {
+      const int16_t v = m.data[r][c];
+      d.at<float>(r, c) = v == m.invalid_value ? -1.f : static_cast<float>(v) / m.subpixel_scale;
+    }
+  return d;
+}
+
+DisparityScore score(const ips::disparity_map_t& est, const ips::disparity_map_t& gt_msg) {
+  cv::Mat e = disparityMat(est), g = disparityMat(gt_msg);
+  if (g.size() != e.size()) {  // E3D ran at a reduced resolution: compare at its scale
+    const double s = static_cast<double>(e.cols) / g.cols;
+    cv::resize(g, g, e.size(), 0, 0, cv::INTER_NEAREST);
+    g.setTo(-1.f, g < 0);
+    cv::Mat valid = g >= 0;
+    g = g * s;
+    g.setTo(-1.f, ~valid);
+  }
+  DisparityScore sc;
+  sc.seq = est.seq;
+  int64_t bad = 0, valid_est = 0;
+  for (int r = 0; r < e.rows; ++r)
+    for (int c = 0; c < e.cols; ++c) {
+      const float ev = e.at<float>(r, c), gv = g.at<float>(r, c);
+      if (ev >= 0) ++valid_est;
+      if (gv < 0) continue;
+      ++sc.evaluated;
+      if (ev < 0 || std::fabs(ev - gv) > 2.0f) ++bad;
+    }
+  sc.bad2_pct = sc.evaluated ? 100.0 * bad / sc.evaluated : 0;
+  sc.density_pct = 100.0 * valid_est / (static_cast<double>(e.rows) * e.cols);
+  return sc;
+}
+
+cv::Mat colourDisparity(const cv::Mat& d, float max_d) {
+  cv::Mat u8;
+  d.convertTo(u8, CV_8U, 255.0 / std::max(1.f, max_d));
+  cv::Mat colour;
+  cv::applyColorMap(u8, colour, cv::COLORMAP_JET);
+  colour.setTo(cv::Scalar(0, 0, 0), d < 0);
+  return colour;
+}
+
+std::string jsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream os;
+  os << std::setprecision(6) << v;
+  return os.str();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return ips::fw::guardedMain("ips_report", [&]() {
+    ips::Args args(argc, argv, "report of a run: trajectory errors, disparity quality, process figures");
+    args.required("--log", "FILE", "LCM log recorded during the run (filter states, deltas, disparity, health, GT)")
+        .option("--images", "FILE", "the input log with STEREO pairs (for the disparity pictures)")
+        .option("--calib", "FILE", "calibration (for rectifying the pictures' images)")
+        .option("--filters", "CH[,CH]", "filter state channels and their names", "FILTER_STATE,FILTER_STATE_UKF")
+        .option("--pictures", "N", "disparity maps to draw", "3")
+        .required("--out", "DIR", "output folder (report.json and PNG pictures)");
+    if (!args.parse()) return 0;
+    const std::string out = args.get("--out");
+
+    std::vector<FilterRun> runs;
+    {
+      std::stringstream ss(args.get("--filters"));
+      std::string ch;
+      while (std::getline(ss, ch, ',')) runs.push_back(FilterRun{ch, 0, {}});
+    }
+    Trajectory gt;
+    std::map<int64_t, ips::disparity_map_t> gt_disp, est_disp;  // by utime
+    std::map<std::string, ProcessFigures> procs;
+    int64_t deltas = 0, deltas_valid = 0;
+    lcm::LogFile log(args.get("--log"), "r");
+    if (!log.good()) throw std::runtime_error("cannot read " + args.get("--log"));
+    while (const lcm::LogEvent* e = log.readNextEvent()) {
+      const std::string& ch = e->channel;
+      if (ch == "GT_POSE") {
+        ips::ground_truth_t g;
+        if (decode(e, &g)) gt.push_back(toPoint(g.utime, g.position, g.orientation));
+      } else if (ch == "GT_DISPARITY" || ch == "DISPARITY") {
+        ips::disparity_map_t d;
+        if (!decode(e, &d)) continue;
+        (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
+      } else if (ch == "TRACKER_DELTA") {
+        ips::tracker_delta_t d;
+        if (decode(e, &d)) {
+          ++deltas;
+          deltas_valid += d.valid ? 1 : 0;
+        }
+      } else if (ch.rfind("HEALTH_", 0) == 0) {
+        ips::health_t h;
+        if (!decode(e, &h)) continue;
+        ProcessFigures& f = procs[h.process];
+        if (h.input_rate_hz > 0) f.rate_sum += h.input_rate_hz, ++f.rate_n;
+        if (h.latency_ms > 0) f.latency_sum += h.latency_ms, ++f.latency_n;
+        f.last = h;
+      } else {
+        for (auto& run : runs)
+          if (ch == run.channel) {
+            ips::filter_state_t s;
+            if (decode(e, &s) && !s.a_priori) {
+              run.type = s.filter_type;
+              run.states.push_back(std::move(s));
+            }
+          }
+      }
+    }
+    std::sort(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t < b.t; });
+    gt.erase(std::unique(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t == b.t; }),
+             gt.end());
+
+    std::ostringstream js;
+    js << "{\n";
+    double distance = 0;
+    for (size_t i = 1; i < gt.size(); ++i) distance += (gt[i].p - gt[i - 1].p).norm();
+    js << "  \"distance_m\": " << jsonNumber(distance) << ",\n";
+    js << "  \"duration_s\": " << jsonNumber(gt.empty() ? 0 : gt.back().t - gt.front().t) << ",\n";
+    js << "  \"tracker_deltas\": " << deltas << ",\n  \"tracker_deltas_valid\": " << deltas_valid << ",\n";
+    js << "  \"filters\": [\n";
+    std::vector<Trajectory> aligned_all;
+    std::vector<std::string> labels;
+    bool first_run = true;
+    double first_end_err = NAN, first_end_pct = NAN, first_ate = NAN;
+    for (auto& run : runs) {
+      Trajectory est;
+      for (const auto& s : run.states) est.push_back(toPoint(s.utime, s.position, s.orientation));
+      Trajectory aligned = alignStart(est, gt);
+      aligned_all.push_back(aligned);
+      const std::string name = run.type == ips::filter_state_t::FILTER_UKF ? "ukf" : "ekf";
+      labels.push_back(name + " (" + run.channel + ")");
+      double ate = NAN, end_err = NAN, end_pct = NAN;
+      if (est.size() >= 3 && gt.size() >= 3) {
+        Trajectory ea, ra;
+        ips::filter::associate(aligned, gt, 0.05, &ea, &ra);
+        if (ea.size() >= 3) {
+          ips::filter::Trajectory ealigned = ea;
+          const Eigen::Isometry3d T = ips::filter::alignSE3(ea, ra);
+          double se = 0;
+          for (size_t i = 0; i < ea.size(); ++i) se += (T * ea[i].p - ra[i].p).squaredNorm();
+          ate = std::sqrt(se / ea.size());
+          end_err = (ea.back().p - ra.back().p).norm();
+          end_pct = distance > 0 ? 100.0 * end_err / distance : NAN;
+        }
+      }
+      if (first_run) first_end_err = end_err, first_end_pct = end_pct, first_ate = ate;
+      js << (first_run ? "" : ",\n") << "    {\"channel\": \"" << run.channel << "\", \"filter\": \"" << name
+         << "\", \"states\": " << run.states.size() << ", \"end_error_m\": " << jsonNumber(end_err)
+         << ", \"end_error_pct\": " << jsonNumber(end_pct) << ", \"ate_rmse_m\": " << jsonNumber(ate) << "}";
+      first_run = false;
+      ips::filter::writeTum(out + "/trajectory_" + run.channel + ".tum", aligned);
+    }
+    js << "\n  ],\n";
+    js << "  \"end_error_m\": " << jsonNumber(first_end_err) << ",\n  \"end_error_pct\": " << jsonNumber(first_end_pct)
+       << ",\n  \"ate_rmse_m\": " << jsonNumber(first_ate) << ",\n";
+    if (!gt.empty()) ips::filter::writeTum(out + "/trajectory_ground_truth.tum", gt);
+    if (!gt.empty() && !aligned_all.empty()) {
+      std::vector<Trajectory> nonempty;
+      std::vector<std::string> nl;
+      for (size_t k = 0; k < aligned_all.size(); ++k)
+        if (!aligned_all[k].empty()) nonempty.push_back(aligned_all[k]), nl.push_back(labels[k]);
+      if (!nonempty.empty()) ips::filter::plotTopDown(out + "/trajectory_top.png", gt, nonempty, nl);
+      plotErrors(out + "/error_over_time.png", runs, aligned_all, gt);
+    }
+
+    // Disparity against the simulator's ground truth, for every map that has one.
+    std::vector<DisparityScore> scores;
+    for (const auto& kv : est_disp) {
+      auto g = gt_disp.find(kv.first);
+      if (g != gt_disp.end()) scores.push_back(score(kv.second, g->second));
+    }
+    double bad2 = 0, density = 0;
+    int64_t evaluated = 0;
+    for (const auto& s : scores) bad2 += s.bad2_pct * s.evaluated, density += s.density_pct, evaluated += s.evaluated;
+    js << "  \"disparity_maps\": " << est_disp.size() << ",\n  \"disparity_maps_with_ground_truth\": " << scores.size()
+       << ",\n";
+    js << "  \"disparity_bad2_pct\": " << jsonNumber(evaluated ? bad2 / evaluated : NAN) << ",\n";
+    js << "  \"disparity_density_pct\": " << jsonNumber(scores.empty() ? NAN : density / scores.size()) << ",\n";
+
+    // Pictures of a few maps beside their rectified left images.
+    if (args.has("--images") && args.has("--calib") && !scores.empty()) {
+      const ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
+      const ips::StereoRectification rect = ips::computeRectification(calib);
+      const int want = static_cast<int>(args.getInt("--pictures"));
+      std::set<int64_t> pick;
+      for (int i = 0; i < want && i < static_cast<int>(scores.size()); ++i)
+        pick.insert(scores[scores.size() * (2 * i + 1) / (2 * want)].seq);
+      lcm::LogFile images(args.get("--images"), "r");
+      int drawn = 0;
+      while (const lcm::LogEvent* e = images.good() ? images.readNextEvent() : nullptr) {
+        if (e->channel != "STEREO") continue;
+        ips::stereo_pair_t p;
+        if (!decode(e, &p) || !pick.count(p.seq) || !est_disp.count(p.utime)) continue;
+        cv::Mat r0, r1;
+        ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
+        const ips::disparity_map_t& dm = est_disp[p.utime];
+        cv::Mat d = disparityMat(dm);
+        cv::resize(r0, r0, d.size(), 0, 0, cv::INTER_AREA);
+        cv::Mat grey;
+        cv::cvtColor(r0, grey, cv::COLOR_GRAY2BGR);
+        cv::Mat row;
+        std::vector<cv::Mat> parts{grey, colourDisparity(d, static_cast<float>(dm.min_disparity + dm.num_disparities))};
+        if (gt_disp.count(p.utime)) {
+          cv::Mat g = disparityMat(gt_disp[p.utime]);
+          cv::Mat gs;
+          cv::resize(g, gs, d.size(), 0, 0, cv::INTER_NEAREST);
+          cv::Mat valid = gs >= 0;
+          gs = gs * (static_cast<double>(d.cols) / g.cols);
+          gs.setTo(-1.f, ~valid);
+          parts.push_back(colourDisparity(gs, static_cast<float>(dm.min_disparity + dm.num_disparities)));
+        }
+        cv::hconcat(parts, row);
+        cv::imwrite(out + "/disparity_" + std::to_string(p.seq) + ".png", row);
+        ++drawn;
+      }
+      js << "  \"disparity_pictures\": " << drawn << ",\n";
+    }
+
+    js << "  \"processes\": {";
+    bool first_proc = true;
+    for (const auto& kv : procs) {
+      const ProcessFigures& f = kv.second;
+      js << (first_proc ? "\n" : ",\n") << "    \"" << kv.first
+         << "\": {\"rate_hz\": " << jsonNumber(f.rate_n ? f.rate_sum / f.rate_n : 0)
+         << ", \"latency_ms\": " << jsonNumber(f.latency_n ? f.latency_sum / f.latency_n : 0)
+         << ", \"received\": " << f.last.received << ", \"published\": " << f.last.published
+         << ", \"dropped\": " << f.last.dropped << ", \"bad\": " << f.last.bad << "}";
+      first_proc = false;
+    }
+    js << "\n  }\n}\n";
+    std::ofstream(out + "/report.json") << js.str();
+    std::fputs(js.str().c_str(), stdout);
+    return 0;
+  });
+}
