@@ -16,9 +16,39 @@ cv::Mat cornerResponse(const cv::Mat& gray8, const DetectorParams& p) {
   return response;
 }
 
+namespace {
+
+std::vector<Corner> detectAtLevel(const cv::Mat& gray8, const DetectorParams& p, int margin);
+
+}  // namespace
+
 std::vector<Corner> detectCorners(const cv::Mat& gray8, const DetectorParams& p, int margin) {
-  if (p.grid_cols < 1 || p.grid_rows < 1 || p.max_per_cell < 1)
-    throw std::invalid_argument("detectCorners: grid and max_per_cell must be positive");
+  if (p.grid_cols < 1 || p.grid_rows < 1 || p.max_per_cell < 1 || p.max_detection_width < 16)
+    throw std::invalid_argument("detectCorners: grid, max_per_cell and max_detection_width must be positive");
+  if (gray8.empty() || gray8.type() != CV_8UC1) throw std::invalid_argument("detectCorners: need an 8-bit grey image");
+  cv::Mat level = gray8;
+  int scale = 1;
+  while (level.cols > p.max_detection_width) {
+    cv::Mat down;
+    cv::pyrDown(level, down);
+    level = down;
+    scale *= 2;
+  }
+  if (scale == 1) return detectAtLevel(gray8, p, margin);
+  // pyrDown's pixel i is centred on full-resolution pixel 2i.
+  std::vector<Corner> corners = detectAtLevel(level, p, (margin + scale - 1) / scale + 1);
+  for (Corner& c : corners) {
+    c.x *= float(scale);
+    c.y *= float(scale);
+    c.xi = std::clamp(int(std::lround(c.x)), margin, gray8.cols - 1 - margin);
+    c.yi = std::clamp(int(std::lround(c.y)), margin, gray8.rows - 1 - margin);
+  }
+  return corners;
+}
+
+namespace {
+
+std::vector<Corner> detectAtLevel(const cv::Mat& gray8, const DetectorParams& p, int margin) {
   const cv::Mat response = cornerResponse(gray8, p);
   const int w = response.cols, h = response.rows;
   margin = std::max(margin, 1);  // the 3x3 maximum test and the subpixel fit need one pixel around
@@ -68,5 +98,7 @@ std::vector<Corner> detectCorners(const cv::Mat& gray8, const DetectorParams& p,
   }
   return out;
 }
+
+}  // namespace
 
 }  // namespace ips::tracker

@@ -169,7 +169,7 @@ RigidMotion refineWithCovariances(const RectifiedStereo& cam, const std::vector<
     if (!delta.allFinite()) break;
     m.t += delta.head<3>();
     m.R = m.R * expSO3(delta.tail<3>());
-    if (delta.norm() < 1e-10) iterations = iter + 1;  // converged: one more pass for J at the estimate
+    if (delta.norm() < 1e-9) iterations = iter + 1;  // converged: one more pass for J at the estimate
   }
   const size_t num_res = use.size() * 3;
   if (rms_px) *rms_px = num_res ? std::sqrt(sum_raw2 / double(num_res)) : 0.0;

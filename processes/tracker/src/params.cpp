@@ -38,6 +38,7 @@ TrackerParams loadTrackerParams(const Config& c) {
   readInt(c, "detector/max_per_cell", d.max_per_cell, 1);
   readDouble(c, "detector/quality_level", d.quality_level, 0.0);
   readInt(c, "detector/border", d.border, 0);
+  readInt(c, "detector/max_detection_width", d.max_detection_width, 16);
 
   MatcherParams& m = p.matcher;
   readInt(c, "matcher/ncc_half_window", m.ncc_half_window, 1);

@@ -17,7 +17,8 @@ struct Corner {
 cv::Mat cornerResponse(const cv::Mat& gray8, const DetectorParams& params);
 
 // Local 3x3 maxima of the response, at least `margin` pixels from every edge, above quality_level times
-// the strongest, at most max_per_cell per grid cell (the strongest), sorted by cell. Throws
+// the strongest, at most max_per_cell per grid cell (the strongest), sorted by cell. Images wider than
+// max_detection_width are searched on a pyramid level (positions given at full resolution). Throws
 // std::invalid_argument on an empty or non-8-bit image.
 std::vector<Corner> detectCorners(const cv::Mat& gray8, const DetectorParams& params, int margin);
 
