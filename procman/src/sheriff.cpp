@@ -72,12 +72,12 @@ CommandStatus commandStatus(const SheriffCommand& c) {
 }
 
 std::string describeWaitStatus(int32_t status) {
-  if (WIFEXITED(status)) return WEXITSTATUS(status) == 0 ? "0" : "exit " + std::to_string(WEXITSTATUS(status));
+  if (WIFEXITED(status)) return WEXITSTATUS(status) == 0 ? "0" : "exit(" + std::to_string(WEXITSTATUS(status)) + ")";
   if (WIFSIGNALED(status)) {
     const char* abbrev = sigabbrev_np(WTERMSIG(status));
-    return abbrev ? std::string("SIG") + abbrev : "signal " + std::to_string(WTERMSIG(status));
+    return abbrev ? std::string("SIG") + abbrev : "signal(" + std::to_string(WTERMSIG(status)) + ")";
   }
-  return "status " + std::to_string(status);
+  return "status(" + std::to_string(status) + ")";
 }
 
 Sheriff::Sheriff(SheriffConfig config, SheriffOptions options) : opt_(std::move(options)), config_(std::move(config)) {

@@ -301,7 +301,7 @@ TEST(SheriffStatus, FollowsDesiredAndReportedState) {
   c.exit_code = 0;
   EXPECT_EQ(pm::commandStatus(c), pm::CommandStatus::kStoppedOk);
   EXPECT_EQ(pm::describeWaitStatus(0), "0");
-  EXPECT_EQ(pm::describeWaitStatus(3 << 8), "exit 3");
+  EXPECT_EQ(pm::describeWaitStatus(3 << 8), "exit(3)");
   EXPECT_EQ(pm::describeWaitStatus(SIGKILL), "SIGKILL");
 }
 

@@ -38,7 +38,7 @@ struct SheriffCommand {
 
 // Status as the upstream sheriff derives it from desired and reported state.
 CommandStatus commandStatus(const SheriffCommand& c);
-// "0", "exit 3", "SIGTERM", ... for a raw wait status.
+// "0", "exit(3)", "SIGTERM", ... for a raw wait status (one word, for the status table).
 std::string describeWaitStatus(int32_t status);
 
 struct DeputyView {
