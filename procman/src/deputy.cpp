@@ -337,6 +337,7 @@ void Deputy::startCommand(Command& cmd, int32_t runid) {
     sigprocmask(SIG_SETMASK, &none, nullptr);
     for (int s = 1; s < NSIG; ++s) signal(s, SIG_DFL);
     for (auto& [name, value] : spec.env) setenv(name.c_str(), value.c_str(), 1);
+    close_range(3, ~0U, 0);  // the deputy's LCM sockets and other descriptors are not the command's business
     execvp(argv[0], argv.data());
     std::fprintf(stderr, "procman-deputy: cannot run '%s': %s\n", argv[0], std::strerror(errno));
     _exit(127);

@@ -202,7 +202,7 @@ std::vector<std::string> Sheriff::waitForDeputies(const std::vector<std::string>
   };
   const int64_t deadline = nowUs() + static_cast<int64_t>(timeout_s * 1e6);
   int64_t next_discovery = nowUs() + 1000000;
-  while (!missing().empty() && nowUs() < deadline) {
+  while (!missing().empty() && nowUs() < deadline && !(interrupted_ && interrupted_->load())) {
     handle(50);
     if (nowUs() >= next_discovery) {  // a deputy that was still starting did not hear the first one
       msg.utime = nowUs();
@@ -254,6 +254,7 @@ void Sheriff::restart(const std::vector<SheriffCommand*>& cmds) {
 bool Sheriff::spinUntil(const std::function<bool()>& done, double timeout_s) {
   const int64_t deadline = nowUs() + static_cast<int64_t>(timeout_s * 1e6);
   while (!done()) {
+    if (interrupted_ && interrupted_->load()) return false;
     const int64_t left_ms = (deadline - nowUs()) / 1000;
     if (left_ms <= 0) return done();
     handle(static_cast<int>(std::min<int64_t>(left_ms, 50)));

@@ -241,6 +241,7 @@ int main(int argc, char** argv) {
     ips::procman::Sheriff sheriff(config, options);
     std::signal(SIGINT, onSignal);
     std::signal(SIGTERM, onSignal);
+    sheriff.setInterruptFlag(&g_stop);
 
     // Take over the deputies' state first (only those the actions need; all of them for --status).
     std::vector<std::string> wanted = sheriff.configuredDeputies();
@@ -346,6 +347,7 @@ int main(int argc, char** argv) {
         }
       }
       if (stop_on_exit) {
+        g_stop = false;  // a second SIGINT/SIGTERM abandons the stop
         auto all = sheriff.select("everything", "");
         sheriff.stop(all);
         ok = waitAll(all, &Sheriff::isStopped, "stopped") && ok;

@@ -113,6 +113,14 @@ check "once ran" test "$(col once 4 "$WORK/s6.txt")" = "Stopped(OK)"
 check "ticker stopped by the script" test "$(col ticker 4 "$WORK/s6.txt")" = "Stopped(OK)"
 check "ticker was started again by the script (run 2)" test "$(col ticker 6 "$WORK/s6.txt")" = 2
 
+# Staying: orders every second, the table every 0.5 s, and everything stopped on the way out.
+sheriff --start ticker --keep-running --duration 1.6 --status-period 0.5 --stop-on-exit > "$WORK/keep.txt"
+check "keep-running: exit 0" test $? -eq 0
+check "keep-running prints the table periodically" test "$(grep -c '^DEPUTY  *COMMAND' "$WORK/keep.txt")" -ge 2
+check "keep-running showed ticker running" grep -Eq '^cli +ticker +g +Running ' "$WORK/keep.txt"
+"$BIN/procman-sheriff" --status > "$WORK/s6b.txt"
+check "stop-on-exit stopped everything" test "$(col sleeper 5 "$WORK/s6b.txt")" = 0
+
 # Unknown names are errors.
 sheriff --start nosuch 2> "$WORK/nosuch.txt"
 check "unknown command: exit 1" test $? -eq 1

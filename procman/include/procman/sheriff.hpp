@@ -5,6 +5,7 @@
 // Taking over: a sheriff starting up adopts what each deputy reports (desired run id = actual run id, stopped
 // commands stay stopped), and only then sends that deputy orders, so that starting a sheriff (or running one
 // command line after another) never restarts or stops anything by itself.
+#include <atomic>
 #include <functional>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
@@ -76,12 +77,14 @@ class Sheriff {
   void stop(const std::vector<SheriffCommand*>& cmds);
   void restart(const std::vector<SheriffCommand*>& cmds);
 
-  // Handles LCM and sends orders every period until `done()` is true or the time is up; returns done().
+  // Handles LCM and sends orders every period until `done()` is true, the time is up or `interrupted`
+  // (if set, e.g. by a signal handler) becomes true; returns done().
   bool spinUntil(const std::function<bool()>& done, double timeout_s);
   void spinFor(double seconds) {
     spinUntil([] { return false; }, seconds);
   }
   void sendOrders();
+  void setInterruptFlag(const std::atomic<bool>* interrupted) { interrupted_ = interrupted; }
 
   // Runs a script of the configuration; each wait in it may last up to `wait_timeout_s`. Throws
   // std::runtime_error naming the action that timed out.
@@ -123,6 +126,7 @@ class Sheriff {
   int64_t last_orders_us_ = 0;
   bool orders_dirty_ = false;
   std::function<void(const std::string&, const std::string&, const std::string&)> output_handler_;
+  const std::atomic<bool>* interrupted_ = nullptr;
 };
 
 }  // namespace ips::procman
