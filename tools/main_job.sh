@@ -1,40 +1,84 @@
 #!/usr/bin/env bash
-# Runs the built system on the default input and writes out/<run>/ (out/latest points at it).
+# The main job on the built system: simulates the default walk (sim writes an LCM log), starts a procman
+# deputy on this machine and has the sheriff run procman/main_job.pmd (tracker, EKF and UKF filters, e3d and
+# lcm-logger, with lcm-logplayer playing the walk through them), then writes the report to out/<run>/
+# (out/latest points at it).
+# Environment: IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_REPLAY_SPEED (default 1),
+# IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), LCM_DEFAULT_URL.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-BIN=build/bin
-run=out/$(date -u +%Y%m%dT%H%M%SZ)
+ROOT=$PWD
+BIN=$ROOT/build/bin
+export PATH="$BIN:$PATH"
+run=$ROOT/out/$(date -u +%Y%m%dT%H%M%SZ)
 mkdir -p "$run"
-ln -sfn "$(basename "$run")" out/latest
-echo "main job: output in $run"
+ln -sfn "$(basename "$run")" "$ROOT/out/latest"
+started=$(date +%s)
+say() { printf '[main job %4ds] %s\n' $(( $(date +%s) - started )) "$*"; }
+say "output in $run"
 
-ran=()
-missing=()
-for exe in sim tracker filter e3d; do
-  if [ -x "$BIN/$exe" ]; then ran+=("$exe"); else missing+=("$exe"); fi
-done
-
-U="udpm://239.255.76.67:7667?ttl=0"
-if [ -x "$BIN/sim" ]; then
-  echo "main job: simulating the default walk"
-  "$BIN/sim" --duration "${IPS_DURATION:-120}" --out "$run/walk.lcmlog"
+# 1. The sensor head: the simulator's default walk, as fast as it can render it.
+if [ -n "${IPS_SIM_LOG:-}" ]; then
+  say "1/4 using the simulated log $IPS_SIM_LOG"
+  ln -sf "$(realpath "$IPS_SIM_LOG")" "$run/walk.lcmlog"
+  cp "$IPS_SIM_LOG.calib.yaml" "$run/walk.lcmlog.calib.yaml"
 else
-  echo "main job: no simulator yet; playing the real EuRoC stereo frames from ../shared/data over LCM instead"
-  "$BIN/bus_monitor" --lcm-url "$U" --channels STEREO --duration 6 > "$run/bus.txt" &
-  mon=$!
-  sleep 0.5
-  "$BIN/stereo_player" --lcm-url "$U" --euroc ../shared/data/euroc/V1_01_easy/mav0 --rate 20 | tee "$run/player.txt"
-  wait $mon
-  cat "$run/bus.txt"
-  received=$(sed -n 's/^channel=STEREO received=\([0-9]*\).*/\1/p' "$run/bus.txt")
-  cat > "$run/report.json" <<JSON
-{
-  "input": "euroc V1_01_easy stereo frames (20 pairs) over LCM",
-  "stereo_pairs_received": ${received:-0},
-  "stages_run": "$(IFS=,; echo "${ran[*]:-}")",
-  "stages_missing": "$(IFS=,; echo "${missing[*]:-}")"
-}
-JSON
+  say "1/4 simulating the default walk (build/bin/sim; the paper's 90 m, 2 min indoor walk)"
+  sim_args=(--out "$run/walk.lcmlog" --gt-disparity-every 8 --seed "${IPS_SEED:-1}")
+  [ -n "${IPS_DURATION:-}" ] && sim_args+=(--duration "$IPS_DURATION")
+  sim "${sim_args[@]}" 2>&1 | sed -u 's/^/    /'
 fi
-echo "main job: stages available: ${ran[*]:-none}; not yet built: ${missing[*]:-none}"
-echo "main job: report: $run/report.json"
+walk_s=$(lcm-logplayer --help >/dev/null 2>&1; python3 - "$run/walk.lcmlog" <<'PY' 2>/dev/null || echo 0
+import struct, sys
+f = open(sys.argv[1], 'rb'); first = last = None
+while True:
+    h = f.read(28)
+    if len(h) < 28: break
+    sync, num, t, clen, dlen = struct.unpack('>IqqII', h)
+    f.seek(clen + dlen, 1)
+    first = t if first is None else first; last = t
+print(int((last - first) / 1e6) if first else 0)
+PY
+)
+
+# 2. A deputy on this machine, private to this run (its own id), on the run's LCM URL.
+export LCM_DEFAULT_URL=${LCM_DEFAULT_URL:-udpm://239.255.76.67:7667?ttl=0}
+export IPS_RUN_DIR=$run IPS_CONFIG=$ROOT/config IPS_REPLAY_SPEED=${IPS_REPLAY_SPEED:-1.0}
+deputy_id="mainjob-$$"
+say "2/4 starting procman-deputy '$deputy_id' on $LCM_DEFAULT_URL"
+procman-deputy --id "$deputy_id" > "$run/deputy.log" 2>&1 &
+deputy=$!
+trap 'kill -TERM $deputy 2>/dev/null || true; wait $deputy 2>/dev/null || true' EXIT
+
+# 3. The sheriff runs the processing stages over the walk; progress every 15 s.
+say "3/4 replaying ${walk_s} s of sensor data through tracker, filters (EKF, UKF) and e3d (procman/main_job.pmd)"
+procman-sheriff --config procman/main_job.pmd --default-deputy "$deputy_id" --timeout 1800 --script run \
+  > "$run/sheriff.log" 2>&1 &
+sheriff=$!
+while kill -0 $sheriff 2>/dev/null; do
+  for _ in $(seq 15); do kill -0 $sheriff 2>/dev/null && sleep 1; done
+  kill -0 $sheriff 2>/dev/null || break
+  say "    replaying... (walk: ${walk_s} s at speed ${IPS_REPLAY_SPEED})"
+  procman-sheriff --status --timeout 3 2>/dev/null | grep -E "^(DEPUTY|$deputy_id)" | awk '{printf "      %-10s %-9s %-15s %6s %6s\n", $2, $3, $4, $8, $9}' || true
+done
+if ! wait $sheriff; then
+  say "the sheriff failed; its log:"; cat "$run/sheriff.log"; exit 1
+fi
+kill -TERM $deputy; wait $deputy 2>/dev/null || true
+trap - EXIT
+
+# 4. The report.
+say "4/4 writing the report"
+ips_report --log "$run/results.lcmlog" --images "$run/walk.lcmlog" --calib "$run/walk.lcmlog.calib.yaml" \
+  --out "$run" > "$run/report.txt"
+python3 - "$run/report.json" <<'PY'
+import json, sys
+r = json.load(open(sys.argv[1]))
+print(f"  walk: {r['distance_m']:.1f} m in {r['duration_s']:.0f} s; tracker deltas {r['tracker_deltas_valid']}/{r['tracker_deltas']} valid")
+for f in r['filters']:
+    print(f"  {f['filter']}: end error {f['end_error_m']} m ({f['end_error_pct']} % of the distance), ATE RMSE {f['ate_rmse_m']} m")
+print(f"  disparity: bad 2.0 {r['disparity_bad2_pct']} %, density {r['disparity_density_pct']} % ({r['disparity_maps_with_ground_truth']} maps with ground truth)")
+for name, p in sorted(r['processes'].items()):
+    print(f"  {name:12s} rate {p['rate_hz']:.2f} Hz, latency {p['latency_ms']:.1f} ms, dropped {p['dropped']}, bad {p['bad']}")
+PY
+say "done: $run/report.json and pictures (trajectory_top.png, error_over_time.png, disparity_*.png)"
