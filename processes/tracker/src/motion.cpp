@@ -97,11 +97,12 @@ namespace {
 // Whitened forward residual: L^-1 r with S = L L^T the residual's covariance. Returns r^T S^-1 r.
 double whitenedForward(const RectifiedStereo& cam, const Correspondence& c, const Eigen::Matrix3d& R,
                        const Eigen::Vector3d& t, const Eigen::Matrix3d& cov_prev, double sigma, Eigen::Vector3d* white,
-                       Eigen::Vector3d* raw) {
+                       Eigen::Vector3d* raw, Eigen::Matrix<double, 3, 6>* jac = nullptr) {
   const Eigen::Vector3d p = R.transpose() * (c.p_prev - t);
   if (p.z() < kMinProjectionDepth) {
     if (white) white->setConstant(1e6);
     if (raw) raw->setConstant(1e6);
+    if (jac) jac->setZero();
     return 1e12;
   }
   const Eigen::Vector3d r = cam.project(p) - Eigen::Vector3d(c.now.xl, c.now.y, c.now.xr);
@@ -111,6 +112,13 @@ double whitenedForward(const RectifiedStereo& cam, const Correspondence& c, cons
   const Eigen::Vector3d w = llt.matrixL().solve(r);
   if (white) *white = w;
   if (raw) *raw = r;
+  if (jac) {
+    // p = R^T (P - t): dp/dt = -R^T; with R -> R exp([dr]x), dp/dr = [p]x. The weights are held fixed.
+    Eigen::Matrix<double, 3, 6> dp;
+    dp.leftCols<3>() = -R.transpose();
+    dp.rightCols<3>() << 0, -p.z(), p.y(), p.z(), 0, -p.x(), -p.y(), p.x(), 0;
+    *jac = llt.matrixL().solve(cam.projectJacobian(p) * dp);
+  }
   return w.squaredNorm();
 }
 
@@ -136,7 +144,6 @@ RigidMotion refineWithCovariances(const RectifiedStereo& cam, const std::vector<
                                   const RigidMotion& initial, int iterations, double sigma, Matrix6d* covariance,
                                   double* rms_px) {
   RigidMotion m = initial;
-  const double eps = 1e-6;
   Matrix6d jtj = Matrix6d::Zero();
   double chi2 = 0, sum_raw2 = 0;
   for (int iter = 0; iter <= iterations; ++iter) {
@@ -147,20 +154,9 @@ RigidMotion refineWithCovariances(const RectifiedStereo& cam, const std::vector<
     for (int idx : use) {
       const Correspondence& c = corr[idx];
       Eigen::Vector3d w0, raw;
-      chi2 += whitenedForward(cam, c, m.R, m.t, cov_prev[idx], sigma, &w0, &raw);
+      Eigen::Matrix<double, 3, 6> J;  // whitened residual by [dt, dr]
+      chi2 += whitenedForward(cam, c, m.R, m.t, cov_prev[idx], sigma, &w0, &raw, &J);
       sum_raw2 += raw.squaredNorm();
-      Eigen::Matrix<double, 3, 6> J;  // whitened residual by [dt, dr]; weights held at the estimate
-      for (int k = 0; k < 6; ++k) {
-        Eigen::Vector3d dt = Eigen::Vector3d::Zero(), dr = Eigen::Vector3d::Zero();
-        if (k < 3)
-          dt(k) = eps;
-        else
-          dr(k - 3) = eps;
-        Eigen::Vector3d wp, wm;
-        whitenedForward(cam, c, m.R * expSO3(dr), m.t + dt, cov_prev[idx], sigma, &wp, nullptr);
-        whitenedForward(cam, c, m.R * expSO3(-dr), m.t - dt, cov_prev[idx], sigma, &wm, nullptr);
-        J.col(k) = (wp - wm) / (2 * eps);
-      }
       jtj += J.transpose() * J;
       jtr += J.transpose() * w0;
     }

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -89,15 +90,15 @@ StereoTracker::StereoTracker(const StereoCalibration& calib, const TrackerParams
 }
 
 void StereoTracker::reset() {
-  prev_ = Frame();
-  cur_ = Frame();
+  ref_.reset();
+  cur_ = std::make_shared<Frame>();
   have_velocity_ = false;
   stats_ = PredictionStats();
 }
 
 std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matrix6d& cov, bool have_prior) const {
   const MatcherParams& mp = params_.matcher;
-  std::vector<Prediction> out(prev_.points.size());
+  std::vector<Prediction> out(ref_->points.size());
   // Image-space 1-sigma of the prediction: rotation moves every point by about f * angle, translation by
   // f * shift / depth.
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot_eig(cov.bottomRightCorner<3, 3>(), Eigen::EigenvaluesOnly);
@@ -105,7 +106,7 @@ std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matri
   const double sigma_rot = std::sqrt(std::max(0.0, rot_eig.eigenvalues().maxCoeff()));
   const double sigma_tr = std::sqrt(std::max(0.0, tr_eig.eigenvalues().maxCoeff()));
   for (size_t i = 0; i < out.size(); ++i) {
-    const Eigen::Vector3d p = m.R.transpose() * (prev_.points[i] - m.t);
+    const Eigen::Vector3d p = m.R.transpose() * (ref_->points[i] - m.t);
     Prediction& q = out[i];
     if (p.z() <= 0.05) {  // would be behind the camera: nothing to search
       q.radius = 0;
@@ -133,7 +134,7 @@ std::vector<Correspondence> StereoTracker::correspondences(const std::vector<Int
     Correspondence c;
     c.prev = m.prev_obs;
     c.now = m.now_obs;
-    c.p_prev = prev_.points[m.prev];
+    c.p_prev = ref_->points[m.prev];
     c.p_now = stereo_.triangulate(c.now.xl, c.now.y, c.now.xr);
     if (c.p_prev.z() > params_.motion.max_depth || c.p_now.z() > params_.motion.max_depth) continue;
     out.push_back(c);
@@ -149,38 +150,46 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   TrackResult res;
   res.utime = utime;
 
-  std::swap(prev_, cur_);
-  cur_ = Frame();
-  cur_.utime = utime;
+  cur_ = std::make_shared<Frame>();
+  cur_->utime = utime;
   auto t0 = Clock::now();
-  cv::remap(left, cur_.left, map0a_, map0b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
-  cv::remap(right, cur_.right, map1a_, map1b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::remap(left, cur_->left, map0a_, map0b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::remap(right, cur_->right, map1a_, map1b_, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
   res.times.rectify = msSince(t0);
 
   t0 = Clock::now();
   const int margin = params_.detector.border + params_.matcher.ncc_half_window + 1;
-  const std::vector<Corner> corners = detectCorners(cur_.left, params_.detector, margin);
+  const std::vector<Corner> corners = detectCorners(cur_->left, params_.detector, margin);
   res.num_features = int(corners.size());
   res.times.detect = msSince(t0);
 
   t0 = Clock::now();
-  cur_.features = matchAlongRows(cur_.left, cur_.right, corners, params_.matcher);
-  cur_.points.resize(cur_.features.size());
-  for (size_t i = 0; i < cur_.features.size(); ++i)
-    cur_.points[i] = stereo_.triangulate(cur_.features.xl[i], cur_.features.y[i], cur_.features.xr[i]);
-  cur_.valid = true;
-  res.num_intra_matches = int(cur_.features.size());
+  cur_->features = matchAlongRows(cur_->left, cur_->right, corners, params_.matcher);
+  cur_->points.resize(cur_->features.size());
+  for (size_t i = 0; i < cur_->features.size(); ++i)
+    cur_->points[i] = stereo_.triangulate(cur_->features.xl[i], cur_->features.y[i], cur_->features.xr[i]);
+  cur_->valid = true;
+  res.num_intra_matches = int(cur_->features.size());
   res.times.intra = msSince(t0);
 
-  if (!prev_.valid || utime <= prev_.utime) {
-    if (prev_.valid) IPS_WARN("tracker: image time " << utime << " does not follow " << prev_.utime << "; restarting");
+  // A pair with too few stereo features (blur, a blank wall, a dropped exposure) cannot be a reference:
+  // the previous reference stays, and the next good pair is measured against it (utime_prev says so).
+  const bool usable = int(cur_->features.size()) >= params_.motion.min_inliers;
+  if (!ref_ || utime <= ref_->utime) {
+    if (ref_) IPS_WARN("tracker: image time " << utime << " does not follow " << ref_->utime << "; restarting");
     have_velocity_ = false;
-    res.utime_prev = prev_.valid ? prev_.utime : 0;
+    res.utime_prev = ref_ ? ref_->utime : 0;
+    if (usable || (ref_ && utime <= ref_->utime)) ref_ = usable ? cur_ : nullptr;
     res.times.total = msSince(t_start);
     return res;
   }
-  res.utime_prev = prev_.utime;
-  const double dt_s = double(utime - prev_.utime) * 1e-6;
+  if (!usable) {
+    res.utime_prev = ref_->utime;
+    res.times.total = msSince(t_start);
+    return res;
+  }
+  res.utime_prev = ref_->utime;
+  const double dt_s = double(utime - ref_->utime) * 1e-6;
 
   // The prior, in the rectified frame.
   MotionPrior used;
@@ -207,7 +216,7 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   t0 = Clock::now();
   std::vector<Prediction> pred = predict(prior_rect, cov_rect, have_prior);
   std::vector<InterMatch> matches =
-      matchBetweenTimes(prev_.features, cur_.features, pred, cur_.left, cur_.right, params_.matcher);
+      matchBetweenTimes(ref_->features, cur_->features, pred, cur_->left, cur_->right, params_.matcher);
   res.times.inter = msSince(t0);
   for (const InterMatch& m : matches) res.num_predictions_ok += m.prediction_ok ? 1 : 0;
   res.prediction_ok_ratio = matches.empty() ? 0.0 : double(res.num_predictions_ok) / double(matches.size());
@@ -236,7 +245,7 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
     for (Prediction& q : pred2)
       if (q.radius > 0) q.radius = params_.matcher.guided_window_px;
     std::vector<InterMatch> matches2 =
-        matchBetweenTimes(prev_.features, cur_.features, pred2, cur_.left, cur_.right, params_.matcher);
+        matchBetweenTimes(ref_->features, cur_->features, pred2, cur_->left, cur_->right, params_.matcher);
     res.times.inter += msSince(t0);
     t0 = Clock::now();
     std::vector<Correspondence> corr2 = correspondences(matches2);
@@ -265,6 +274,7 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   } else {
     have_velocity_ = false;
   }
+  ref_ = cur_;  // the new pair is the reference for the next, also after a failed match: it recovers there
   res.times.total = msSince(t_start);
   return res;
 }

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <memory>
 #include <opencv2/core.hpp>
 
 #include "ips/calibration.hpp"
@@ -81,7 +82,9 @@ class StereoTracker {
   // Raw (distorted, unrectified) 8-bit grey pair of the calibration's size (3-channel images are converted).
   // prior == nullptr: constant velocity from the last valid delta when there is one, else no prior.
   // The first pair, a time that does not increase, or too few inliers give valid == false; the new pair is
-  // then the reference for the next one. Throws std::invalid_argument on empty or wrongly sized images.
+  // then the reference for the next one, unless it has too few stereo features to be one (then the old
+  // reference stays and utime_prev of the next result names it). Throws std::invalid_argument on empty or wrongly sized
+  // images.
   TrackResult process(int64_t utime, const cv::Mat& left_raw, const cv::Mat& right_raw,
                       const MotionPrior* prior = nullptr);
 
@@ -91,10 +94,12 @@ class StereoTracker {
   const PredictionStats& predictionStats() const { return stats_; }
   const TrackerParams& params() const { return params_; }
 
-  // The last rectified pair and its features (for tools and tests).
-  const cv::Mat& rectifiedLeft() const { return cur_.left; }
-  const cv::Mat& rectifiedRight() const { return cur_.right; }
-  const StereoFeatures& features() const { return cur_.features; }
+  // The last processed rectified pair and its stereo features (for tools and tests).
+  const cv::Mat& rectifiedLeft() const { return cur_->left; }
+  const cv::Mat& rectifiedRight() const { return cur_->right; }
+  const StereoFeatures& features() const { return cur_->features; }
+  // Time of the pair the next one will be measured against (0 when there is none).
+  int64_t referenceTime() const { return ref_ ? ref_->utime : 0; }
 
  private:
   struct Frame {
@@ -112,7 +117,8 @@ class StereoTracker {
   StereoRectification rect_;
   RectifiedStereo stereo_;
   cv::Mat map0a_, map0b_, map1a_, map1b_;  // fixed-point remap tables
-  Frame prev_, cur_;
+  std::shared_ptr<Frame> ref_;             // the older pair of the next delta
+  std::shared_ptr<Frame> cur_ = std::make_shared<Frame>();
   bool have_velocity_ = false;
   RigidMotion last_delta_;  // camera 0 frame
   double last_dt_s_ = 0;
