@@ -13,7 +13,7 @@ PACKAGES=(
   libaravis-dev libusb-1.0-0-dev aravis-tools-cli
   libgtest-dev googletest
   default-jdk-headless libjchart2d-java
-  iproute2 procps
+  iproute2 procps nftables
 )
 
 SUDO=""
