@@ -39,10 +39,13 @@ export IPS_RUN_DIR=$W IPS_CONFIG=$SRC/config IPS_TEST_DIR=$SRC/tests/system
 ip netns exec $A procman-deputy --id sensors > "$W/deputy_sensors.log" 2>&1 &
 ip netns exec $B procman-deputy --id processing > "$W/deputy_processing.log" 2>&1 &
 
+# One run of the system; the monitors' reports are kept under the phase's name.
 phase() {
-  export IPS_PHASE=$1
   ip netns exec $A procman-sheriff --config "$SRC/tests/system/two_hosts.pmd" --id test-sheriff --timeout 240 \
     --script run > "$W/sheriff_$1.log" 2>&1 || { echo "FAIL: sheriff ($1)"; cat "$W/sheriff_$1.log"; exit 1; }
+  ip netns exec $A procman-sheriff --status --timeout 3 > "$W/status_$1.log" 2>&1 || true
+  mv "$W/monitor_processing.txt" "$W/monitor_processing_$1.txt"
+  mv "$W/monitor_sensors.txt" "$W/monitor_sensors_$1.txt"
 }
 count() { sed -n "s/^channel=$2 received=\([0-9]*\).*/\1/p" "$W/$1"; }
 field() { sed -n "s/^channel=$2 .*$3=\([0-9]*\).*/\1/p" "$W/$1"; }
@@ -81,5 +84,5 @@ gaps=$(field monitor_processing_lossy.txt STEREO gaps)
 # e3d on the processing host counted the pairs it never got in its health message (seen by the monitor there).
 grep -qE "e3d\.seq_gap=[1-9]" "$W/monitor_processing_lossy.txt" || { echo "FAIL: e3d did not count lost pairs"; exit 1; }
 # Every process ran to the end: none left with an error status.
-if grep -q "Stopped(Error)" "$W/sheriff_lossy.log"; then echo "FAIL: a process died under loss"; cat "$W/sheriff_lossy.log"; exit 1; fi
+if grep -q "Stopped(Error)" "$W/status_lossy.log"; then echo "FAIL: a process died under loss"; cat "$W/status_lossy.log"; exit 1; fi
 echo "PASS: under 5 % loss $lossy_pairs of the pairs and $lossy_states filter states arrived; $gaps pairs counted lost"
