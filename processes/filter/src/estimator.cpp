@@ -26,6 +26,7 @@ Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
       T_imu_cam0_(calib.T_imu_cam0),
       R_body_tilt_(calib.T_imu_cam0.linear() * calib.R_tilt_cam0.transpose()) {
   run_.kf = makeKalmanFilter(params_);
+  run_.counts = true;
   gyro_sigma_ = params_.imu.gyro_noise_density * std::sqrt(params_.imu.rate_hz);
   accel_sigma_ = params_.imu.accel_noise_density * std::sqrt(params_.imu.rate_hz);
   gate2_ = chiSquareQuantile(params_.gate_probability, 2);
@@ -40,6 +41,7 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
   run_.kf->reset(x, covariance);
   run_.last_imu_time = state.utime;
   run_.consecutive_rejects.fill(0);
+  run_.in_gap = false;
   initialized_ = true;
   processed_time_ = std::max(processed_time_, state.utime);
   // Anything buffered from before the start is dropped silently.
@@ -109,6 +111,7 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
   ahead.kf = run_.kf->copy();
   ahead.last_imu_time = run_.last_imu_time;
   ahead.consecutive_rejects = run_.consecutive_rejects;
+  ahead.in_gap = run_.in_gap;
   for (auto it = buffer_.begin(); it != buffer_.end() && it->first <= t; ++it)
     if (it->second.sensor == kSensorImu || it->second.sensor == kSensorTilt) applyMeasurement(ahead, it->second, nullptr);
   predictTo(ahead, t);
@@ -149,9 +152,27 @@ void Estimator::release(int64_t up_to) {
 }
 
 void Estimator::predictTo(Runner& run, int64_t t) {
-  const int64_t now = run.kf->state().nav.utime;
+  KalmanFilter& kf = *run.kf;
+  const int64_t now = kf.state().nav.utime;
   if (t <= now) return;
-  run.kf->predict(static_cast<double>(t - now) * 1e-6);
+  const int64_t gap_us = static_cast<int64_t>(params_.imu_gap_s * 1e6);
+  if (!run.in_gap && run.last_imu_time != INT64_MIN && t - run.last_imu_time >= gap_us) {
+    // The held acceleration and rate are stale: fall back to "no motion" with wide uncertainty.
+    run.in_gap = true;
+    NavState& n = kf.mutableNav();
+    n.acceleration.setZero();
+    n.angular_rate.setZero();
+    kf.resetErrorBlock(kErrA, 3, params_.gap_sigma_acceleration * params_.gap_sigma_acceleration);
+    kf.resetErrorBlock(kErrW, 3, params_.gap_sigma_angular_rate * params_.gap_sigma_angular_rate);
+    if (run.counts) {
+      ++imu_gaps_;
+      IPS_WARN("filter: no IMU data since t=" << run.last_imu_time << " us: rates reset, covariance inflated");
+    }
+  }
+  if (run.in_gap)
+    kf.predict(static_cast<double>(t - now) * 1e-6, params_.gap_process);
+  else
+    kf.predict(static_cast<double>(t - now) * 1e-6);
 }
 
 double Estimator::gateFor(Runner& run, Sensor s, int dof, bool enabled) const {
@@ -167,20 +188,8 @@ bool Estimator::applyMeasurement(Runner& run, const Event& e, std::array<SensorC
     return false;
   }
   if (e.sensor == kSensorImu) {
-    if (run.last_imu_time != INT64_MIN && e.time - run.last_imu_time >= params_.imu_gap_s * 1e6) {
-      // After a gap the held acceleration and rate are stale: fall back to "no motion" with the initial
-      // uncertainty; the process noise over the gap inflates velocity, position and attitude.
-      NavState& n = kf.mutableNav();
-      n.acceleration.setZero();
-      n.angular_rate.setZero();
-      kf.resetErrorBlock(kErrA, 3, std::pow(params_.init.sigma_acceleration, 2) + params_.process.jerk_psd);
-      kf.resetErrorBlock(kErrW, 3, std::pow(params_.init.sigma_angular_rate, 2) + params_.process.angular_accel_psd);
-      if (counters) {
-        ++imu_gaps_;
-        IPS_WARN("filter: IMU gap of " << (e.time - run.last_imu_time) * 1e-6 << " s, covariance inflated");
-      }
-    }
     predictTo(run, e.time);
+    run.in_gap = false;
     const ImuMeasurement m(e.imu.angular_rate, e.imu.specific_force, params_.gravity, gyro_sigma_, accel_sigma_);
     r = kf.update(m, gateFor(run, kSensorImu, 6, params_.gate_imu));
     run.last_imu_time = e.time;
@@ -296,7 +305,9 @@ void Estimator::processInit(const Event& e) {
                   Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
                   Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
   s.gyro_bias = mean_w;
-  initialize(s, initialCovariance(params_.init));
+  InitParams ip = params_.init;
+  ip.sigma_gyro_bias = std::max(ip.sigma_gyro_bias, std::sqrt(var_w / 3.0 / n));
+  initialize(s, initialCovariance(ip));
   // The tilt sensor's mean over the same time refines roll and pitch (and, against the accelerometer, its bias).
   if (!init_tilt_.empty()) {
     Eigen::Vector2d mean_tilt = Eigen::Vector2d::Zero();

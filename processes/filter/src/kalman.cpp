@@ -62,7 +62,7 @@ void KalmanFilter::resetErrorBlock(int offset, int size, double variance) {
 
 // ---------------------------------------------------------------------------------------------- EKF
 
-void ExtendedKalmanFilter::predict(double dt) {
+void ExtendedKalmanFilter::predict(double dt, const ProcessNoise& q) {
   if (!(dt >= 0)) throw std::invalid_argument("predict: negative time step");
   if (dt == 0) return;
   const Matrix21d F = processJacobian(x_.nav, dt);
@@ -70,7 +70,7 @@ void ExtendedKalmanFilter::predict(double dt) {
   const int n = x_.errorDim();
   const int nc = n - kCoreErrorDim;
   const Matrix21d Pxx = P_.topLeftCorner<kCoreErrorDim, kCoreErrorDim>();
-  P_.topLeftCorner<kCoreErrorDim, kCoreErrorDim>() = F * Pxx * F.transpose() + processNoise(x_.nav, dt, params_.process);
+  P_.topLeftCorner<kCoreErrorDim, kCoreErrorDim>() = F * Pxx * F.transpose() + processNoise(x_.nav, dt, q);
   if (nc > 0) {
     const Eigen::MatrixXd Pxc = F * P_.topRightCorner(kCoreErrorDim, nc);
     P_.topRightCorner(kCoreErrorDim, nc) = Pxc;
@@ -138,7 +138,7 @@ Eigen::MatrixXd UnscentedKalmanFilter::choleskyCoreColumns() {
   throw std::runtime_error("UKF: covariance is not positive definite");
 }
 
-void UnscentedKalmanFilter::predict(double dt) {
+void UnscentedKalmanFilter::predict(double dt, const ProcessNoise& q) {
   if (!(dt >= 0)) throw std::invalid_argument("predict: negative time step");
   if (dt == 0) return;
   const int n = x_.errorDim();
@@ -159,7 +159,7 @@ void UnscentedKalmanFilter::predict(double dt) {
   E.colwise() -= mean;
   Matrix21d Pxx = w.other * E * E.transpose();
   Pxx += (w.cov0 + 2.0 * (n - kCoreErrorDim) * w.other) * mean * mean.transpose();
-  Pxx += processNoise(x_.nav, dt, params_.process);
+  Pxx += processNoise(x_.nav, dt, q);
   P_.topLeftCorner<kCoreErrorDim, kCoreErrorDim>() = Pxx;
   if (nc > 0) {
     // Clone deviations of the sigma points are +-spread * L(clone rows, j).

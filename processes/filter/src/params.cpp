@@ -75,6 +75,16 @@ FilterParams loadFilterParams(const Config& c) {
 
   p.imu_gap_s = c.getDouble("imu_gap_s", p.imu_gap_s);
   positive(c, "imu_gap_s", p.imu_gap_s);
+  p.gap_sigma_acceleration = c.getDouble("gap/sigma_acceleration", p.gap_sigma_acceleration);
+  p.gap_sigma_angular_rate = c.getDouble("gap/sigma_angular_rate", p.gap_sigma_angular_rate);
+  p.gap_process.jerk_psd = c.getDouble("gap/jerk_psd", p.gap_process.jerk_psd);
+  p.gap_process.angular_accel_psd = c.getDouble("gap/angular_accel_psd", p.gap_process.angular_accel_psd);
+  positive(c, "gap/sigma_acceleration", p.gap_sigma_acceleration);
+  positive(c, "gap/sigma_angular_rate", p.gap_sigma_angular_rate);
+  positive(c, "gap/jerk_psd", p.gap_process.jerk_psd);
+  positive(c, "gap/angular_accel_psd", p.gap_process.angular_accel_psd);
+  p.gap_process.accel_bias_psd = p.process.accel_bias_psd;
+  p.gap_process.gyro_bias_psd = p.process.gyro_bias_psd;
   p.output_decimation = c.getInt("output_decimation", p.output_decimation);
   if (p.output_decimation < 1) throw ConfigError(c.path() + ": key 'output_decimation' must be >= 1");
 

@@ -107,6 +107,8 @@ class Estimator {
     std::unique_ptr<KalmanFilter> kf;
     int64_t last_imu_time = INT64_MIN;
     std::array<int, kNumSensors> consecutive_rejects{};
+    bool in_gap = false;   // no IMU data for imu_gap_s: rates reset, milder process noise
+    bool counts = false;   // the estimator's own runner (not a look-ahead copy): counts and logs
   };
 
   void insert(Event&& e);
@@ -115,6 +117,7 @@ class Estimator {
   void processInit(const Event& e);
   // Applies an IMU or tilt event to a runner; returns true if the measurement was applied.
   bool applyMeasurement(Runner& run, const Event& e, std::array<SensorCounters, kNumSensors>* counters);
+  // Time update to t; enters the gap mode if the IMU has been silent for imu_gap_s by then.
   void predictTo(Runner& run, int64_t t);
   double gateFor(Runner& run, Sensor s, int dof, bool enabled) const;
   FilterOutput makeOutput(const KalmanFilter& kf, bool a_priori) const;

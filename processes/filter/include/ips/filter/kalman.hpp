@@ -25,8 +25,10 @@ class KalmanFilter {
   const FullState& state() const { return x_; }
   const Eigen::MatrixXd& covariance() const { return P_; }
 
-  // Time update over dt >= 0 seconds (the state's utime advances by dt).
-  virtual void predict(double dt) = 0;
+  // Time update over dt >= 0 seconds (the state's utime advances by dt), with the configured process noise
+  // or another one (e.g. the milder one used while IMU data are missing).
+  void predict(double dt) { predict(dt, params_.process); }
+  virtual void predict(double dt, const ProcessNoise& q) = 0;
   // Measurement update; rejected (not applied) when the squared Mahalanobis distance exceeds `gate`
   // (pass infinity to disable the gate).
   virtual UpdateResult update(const Measurement& m, double gate) = 0;
@@ -55,7 +57,8 @@ class ExtendedKalmanFilter : public KalmanFilter {
   explicit ExtendedKalmanFilter(const FilterParams& params) : KalmanFilter(params) {}
   FilterType type() const override { return FilterType::Ekf; }
   std::unique_ptr<KalmanFilter> copy() const override { return std::make_unique<ExtendedKalmanFilter>(*this); }
-  void predict(double dt) override;
+  using KalmanFilter::predict;
+  void predict(double dt, const ProcessNoise& q) override;
   UpdateResult update(const Measurement& m, double gate) override;
 };
 
@@ -64,7 +67,8 @@ class UnscentedKalmanFilter : public KalmanFilter {
   explicit UnscentedKalmanFilter(const FilterParams& params) : KalmanFilter(params) {}
   FilterType type() const override { return FilterType::Ukf; }
   std::unique_ptr<KalmanFilter> copy() const override { return std::make_unique<UnscentedKalmanFilter>(*this); }
-  void predict(double dt) override;
+  using KalmanFilter::predict;
+  void predict(double dt, const ProcessNoise& q) override;
   UpdateResult update(const Measurement& m, double gate) override;
 
  private:

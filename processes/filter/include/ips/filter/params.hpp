@@ -14,7 +14,7 @@ enum class FilterType { Ekf = 1, Ukf = 2 };  // values as filter_state_t.FILTER_
 struct ProcessNoise {
   // The kinematic model holds acceleration and angular rate as states driven by white noise.
   double jerk_psd = 4.0;            // [m^2/s^5] spectral density of the jerk driving the acceleration
-  double angular_accel_psd = 1.0;   // [rad^2/s^3] spectral density of the angular acceleration
+  double angular_accel_psd = 20.0;  // [rad^2/s^3] spectral density of the angular acceleration (head motion)
   double accel_bias_psd = 1e-8;     // [m^2/s^5] accelerometer bias random walk
   double gyro_bias_psd = 1e-12;     // [rad^2/s^3] gyro bias random walk
 };
@@ -27,9 +27,9 @@ struct ImuNoise {
 };
 
 struct InitParams {
-  double duration_s = 1.0;         // time at rest averaged for the static initialisation
-  double max_accel_std = 0.05;     // [m/s^2] above this the head is not at rest: the window restarts
-  double max_gyro_std = 0.005;     // [rad/s]
+  double duration_s = 2.0;         // time at rest averaged for the static initialisation
+  double max_accel_std = 0.3;      // [m/s^2] above this the head is not at rest: the window restarts
+  double max_gyro_std = 0.02;      // [rad/s]  (MMQ-50 noise alone: 0.07 m/s^2, 1.2e-3 rad/s per sample)
   double heading_rad = 0.0;        // yaw of the body x axis about world z (the IMU cannot observe it)
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   // Initial standard deviations of the error state.
@@ -38,7 +38,7 @@ struct InitParams {
   double sigma_acceleration = 0.05;   // [m/s^2]
   double sigma_accel_bias = 0.02;     // [m/s^2]
   double sigma_angular_rate = 0.005;  // [rad/s]
-  double sigma_gyro_bias = 0.002;     // [rad/s]
+  double sigma_gyro_bias = 2e-4;      // [rad/s] (static start: at least the mean's own uncertainty)
   double sigma_roll_pitch = 0.01;     // [rad]
   double sigma_heading = 1e-3;        // [rad] heading is a convention (from config), so small
 };
@@ -72,7 +72,13 @@ struct FilterParams {
   bool gate_tracker = true;
   int max_consecutive_rejects = 20;    // then the next measurement is applied anyway (re-capture)
 
-  double imu_gap_s = 0.1;  // a longer pause between IMU samples inflates the covariance
+  // IMU gap: a longer pause between IMU samples resets acceleration and angular rate to zero with these
+  // uncertainties, and the time update runs with the milder process noise `gap_process` until IMU data return
+  // (the usual one, tuned for 200 Hz updates, would explode over a second).
+  double imu_gap_s = 0.1;
+  double gap_sigma_acceleration = 3.0;  // [m/s^2] (walking: ~3 m/s^2 vertical at the step frequency)
+  double gap_sigma_angular_rate = 0.5;  // [rad/s]
+  ProcessNoise gap_process{20.0, 2.0, 1e-8, 1e-12};
   int output_decimation = 1;  // one posterior output per this many IMU samples
 
   InitParams init;

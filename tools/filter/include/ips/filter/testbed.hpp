@@ -15,11 +15,17 @@
 
 namespace ips::filter {
 
+// An open meander (not a closed loop, so heading drift shows in the end point): x = forward_speed * s +
+// amp_x sin(W s), y = amp_y (1 - cos(W s)) in the path time s, which stands still for rest_s and ramps up
+// smoothly (C2) over ramp_s: ~90 m in 2 minutes of walking.
 struct WalkParams {
-  double duration_s = 120.0;   // the paper's 2-minute walk
-  double loop_period_s = 60.0; // one lap of an ellipse
-  double semi_axis_x = 8.0;    // [m]
-  double semi_axis_y = 5.5;    // [m] ~ 90 m travelled in 2 minutes
+  double duration_s = 125.0;   // rest + the paper's 2-minute walk
+  double rest_s = 3.0;         // standing still at the start (static initialisation)
+  double ramp_s = 2.0;         // smooth start
+  double forward_speed = 0.6;  // [m/s]
+  double period_s = 40.0;      // of the meander
+  double amp_x = 2.0;          // [m]
+  double amp_y = 4.0;          // [m]
   double step_hz = 1.8;        // gait: vertical bounce and sway
   double bounce_m = 0.025;
   double sway_m = 0.02;
@@ -40,6 +46,8 @@ struct TruthSample {
 class AnalyticWalk {
  public:
   explicit AnalyticWalk(const WalkParams& p = {}) : p_(p) {}
+  // Path time s(t) and its first two derivatives.
+  void pathTime(double t, double* s, double* ds, double* dds) const;
   TruthSample at(double t_s) const;
   const WalkParams& params() const { return p_; }
   // Path length between t0 and t1 (numerically, 1 ms steps).
@@ -58,8 +66,8 @@ struct SensorSimParams {
   double tilt_rate_hz = 14.0;
   double tilt_sigma = 1.75e-3;  // [rad]
   double image_rate_hz = 8.0;
-  double tracker_sigma_t = 0.003;  // [m] per axis per delta
-  double tracker_sigma_r = 3e-4;   // [rad] per axis per delta
+  double tracker_sigma_t = 0.002;  // [m] per axis per delta
+  double tracker_sigma_r = 1e-4;   // [rad] per axis per delta
   double gravity = 9.81;
 };
 

@@ -1,0 +1,307 @@
+// The estimator on the analytic walk with simulated sensors (MMQ-50 figures): static initialisation,
+// reordering, late measurements, the gate, an IMU gap, and the fused accuracy and consistency of both filters.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <random>
+
+#include "ips/filter/models.hpp"
+#include "ips/filter/testbed.hpp"
+#include "ips/filter/trajectory_metrics.hpp"
+#include "ips/log.hpp"
+
+using namespace ips::filter;
+
+namespace {
+
+struct Msg {
+  int64_t arrival;  // when it reaches the estimator
+  int kind;         // 0 imu, 1 tilt, 2 image, 3 delta
+  ImuSample imu;
+  TiltSample tilt;
+  int64_t image = 0;
+  TrackerDelta delta;
+};
+
+// All messages of [t0, t1] in sensor time order, arrival = sensor time.
+std::vector<Msg> makeMessages(SensorSim& sim, int64_t t0, int64_t t1) {
+  std::vector<Msg> m;
+  int64_t last_img = -1;
+  for (int64_t t = t0 + 1; t <= t1; ++t) {
+    if ((t - t0) % 5000 == 0) m.push_back({t, 0, sim.imu(t), {}, 0, {}});
+    if ((t - t0) % 71000 == 0) m.push_back({t, 1, {}, sim.tilt(t), 0, {}});
+    if ((t - t0) % 125000 == 0) {
+      m.push_back({t, 2, {}, {}, t, {}});
+      if (last_img >= 0) m.push_back({t, 3, {}, {}, 0, sim.delta(last_img, t)});
+      last_img = t;
+    }
+  }
+  return m;
+}
+
+void feed(Estimator& est, const std::vector<Msg>& msgs) {
+  for (const Msg& m : msgs) {
+    if (m.kind == 0) est.addImu(m.imu);
+    if (m.kind == 1) est.addTilt(m.tilt);
+    if (m.kind == 2) est.addImageTime(m.image);
+    if (m.kind == 3) est.addTrackerDelta(m.delta);
+  }
+}
+
+FilterParams paramsFor(FilterType type) {
+  FilterParams p;
+  p.type = type;
+  return p;
+}
+
+class Quiet : public ::testing::Environment {
+ public:
+  void SetUp() override { ips::setLogLevel(ips::LogLevel::Error); }
+};
+const auto* const kQuiet = ::testing::AddGlobalTestEnvironment(new Quiet);
+
+}  // namespace
+
+TEST(FilterEstimator, StaticInitialisationFromAccelerometerAndTilt) {
+  WalkParams wp;
+  wp.at_rest = true;
+  wp.rest_roll_rad = 0.05;
+  wp.rest_pitch_rad = -0.08;
+  wp.rest_yaw_rad = 0.7;
+  const AnalyticWalk walk(wp);
+  const ips::StereoCalibration calib = testbedCalibration();
+  SensorSimParams sp;
+  sp.accel_bias.setZero();  // roll and pitch from the accelerometer are then exact up to noise
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, sp, calib, 11);
+    FilterParams p = paramsFor(type);
+    p.init.heading_rad = 0.7;
+    Estimator est(p, calib);
+    const std::vector<Msg> msgs = makeMessages(sim, 0, 2'500'000);
+    feed(est, msgs);
+    est.flush();
+    ASSERT_TRUE(est.initialized());
+    const NavState s = est.current().state;
+    const NavState truth = sim.truth(s.utime);
+    const Eigen::Vector3d att_err = logQuat(truth.orientation * s.orientation.conjugate());
+    // Roll/pitch to the accelerometer's noise over 1 s (~0.1 mrad) plus the tilt noise; heading from config.
+    EXPECT_LT(att_err.head<2>().norm(), 1e-3) << att_err.transpose();
+    EXPECT_LT(std::abs(att_err.z()), 1e-3);
+    // Gyro bias: mean of 200 samples with sigma 1.2e-3 rad/s -> 9e-5 rad/s per axis.
+    EXPECT_LT((s.gyro_bias - sp.gyro_bias).cwiseAbs().maxCoeff(), 4e-4);
+    EXPECT_LT(s.velocity.norm(), 0.02);
+    EXPECT_EQ(est.counters()[kSensorImu].rejected, 0);
+  }
+}
+
+TEST(FilterEstimator, DoesNotInitialiseWhileMoving) {
+  WalkParams wp;
+  wp.rest_s = 0.0;  // walking from t = 0
+  wp.ramp_s = 0.01;
+  const AnalyticWalk walk(wp);
+  const ips::StereoCalibration calib = testbedCalibration();
+  SensorSim sim(walk, SensorSimParams{}, calib, 12);
+  Estimator est(paramsFor(FilterType::Ekf), calib);
+  feed(est, makeMessages(sim, 0, 3'000'000));
+  est.flush();
+  EXPECT_FALSE(est.initialized());
+  EXPECT_FALSE(est.addImageTime(3'100'000).has_value());
+}
+
+TEST(FilterEstimator, ReorderingWithinTheWindowGivesTheSameResult) {
+  const AnalyticWalk walk;
+  const ips::StereoCalibration calib = testbedCalibration();
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, SensorSimParams{}, calib, 13);
+    const int64_t t0 = 2'000'000;
+    const std::vector<Msg> ordered = makeMessages(sim, t0, t0 + 4'000'000);
+    // Arrivals: IMU in bursts of 4, tilt 30 ms late, images on time and deltas 40 ms after their image time
+    // (all within the 50 ms window; deltas keep their place relative to the other deltas).
+    std::vector<Msg> shuffled = ordered;
+    for (Msg& m : shuffled) {
+      if (m.kind == 0) m.arrival = (m.arrival / 20000 + 1) * 20000;
+      if (m.kind == 1) m.arrival += 30000;
+      if (m.kind == 3) m.arrival += 40000;
+    }
+    std::stable_sort(shuffled.begin(), shuffled.end(), [](const Msg& a, const Msg& b) { return a.arrival < b.arrival; });
+    int moved = 0;
+    for (size_t i = 0; i < ordered.size(); ++i) moved += shuffled[i].kind != ordered[i].kind;
+    ASSERT_GT(moved, 50);  // the order really differs
+    const FilterParams p = paramsFor(type);
+    const Matrix21d P0 = initialCovariance(p.init);
+    Estimator a(p, calib), b(p, calib);
+    a.initialize(sim.truth(t0), P0);
+    b.initialize(sim.truth(t0), P0);
+    // The in-order reference still sees deltas 40 ms late, as the tracker delivers them.
+    std::vector<Msg> ref = ordered;
+    for (Msg& m : ref)
+      if (m.kind == 3) m.arrival += 40000;
+    std::stable_sort(ref.begin(), ref.end(), [](const Msg& x, const Msg& y) { return x.arrival < y.arrival; });
+    feed(a, ref);
+    feed(b, shuffled);
+    a.flush();
+    b.flush();
+    const FilterOutput oa = a.current(), ob = b.current();
+    Vector21d d = boxminus(oa.state, ob.state);
+    EXPECT_LT(d.norm(), 1e-9) << toString(type);
+    EXPECT_LT((oa.covariance - ob.covariance).cwiseAbs().maxCoeff(), 1e-12);
+    for (int s = 0; s < kNumSensors; ++s) {
+      EXPECT_EQ(a.counters()[s].accepted, b.counters()[s].accepted) << s;
+      EXPECT_EQ(b.counters()[s].too_late, 0) << s;
+    }
+    EXPECT_EQ(b.counters()[kSensorTracker].accepted, 31);
+    EXPECT_GT(b.counters()[kSensorImu].accepted, 790);
+
+    // A sample older than the window is refused and counted, and changes nothing.
+    const FilterOutput before = b.current();
+    ImuSample old = ordered[10].imu;
+    old.specific_force.x() += 5.0;
+    b.addImu(old);
+    b.flush();
+    EXPECT_EQ(b.counters()[kSensorImu].too_late, 1);
+    EXPECT_LT(boxminus(b.current().state, before.state).norm(), 1e-15);
+  }
+}
+
+TEST(FilterEstimator, LateDeltaIsStillFusedThroughItsClones) {
+  const AnalyticWalk walk;
+  const ips::StereoCalibration calib = testbedCalibration();
+  SensorSim sim(walk, SensorSimParams{}, calib, 14);
+  FilterParams p = paramsFor(FilterType::Ekf);
+  Estimator est(p, calib);
+  est.initialize(sim.truth(0), initialCovariance(p.init));
+  std::vector<Msg> msgs = makeMessages(sim, 0, 1'000'000);
+  // Every delta arrives 200 ms (more than a frame) late.
+  for (Msg& m : msgs)
+    if (m.kind == 3) m.arrival += 200000;
+  std::stable_sort(msgs.begin(), msgs.end(), [](const Msg& a, const Msg& b) { return a.arrival < b.arrival; });
+  feed(est, msgs);
+  est.flush();
+  EXPECT_EQ(est.counters()[kSensorTracker].accepted, 7);
+  EXPECT_EQ(est.counters()[kSensorTracker].too_late, 0);
+  // A delta whose clones are long gone is counted too late.
+  est.addTrackerDelta(sim.delta(125000, 250000));
+  EXPECT_EQ(est.counters()[kSensorTracker].too_late, 1);
+}
+
+TEST(FilterEstimator, GateRejectsOutliersAndCountsThem) {
+  const AnalyticWalk walk;
+  const ips::StereoCalibration calib = testbedCalibration();
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, SensorSimParams{}, calib, 15);
+    FilterParams p = paramsFor(type);
+    Estimator est(p, calib);
+    est.initialize(sim.truth(0), initialCovariance(p.init));
+    std::vector<Msg> msgs = makeMessages(sim, 0, 3'000'000);
+    int corrupted_deltas = 0, corrupted_tilts = 0;
+    for (Msg& m : msgs) {
+      if (m.kind == 3 && m.delta.utime == 2'000'000) {
+        m.delta.translation += Eigen::Vector3d(0.3, 0, 0);  // 30 cm wrong: a bad RANSAC result
+        ++corrupted_deltas;
+      }
+      if (m.kind == 1 && m.tilt.utime == 2'130'000) {
+        m.tilt.angle_x += 0.1;  // 6 degrees off
+        ++corrupted_tilts;
+      }
+    }
+    ASSERT_EQ(corrupted_deltas, 1);
+    ASSERT_EQ(corrupted_tilts, 1);
+    feed(est, msgs);
+    est.flush();
+    EXPECT_EQ(est.counters()[kSensorTracker].rejected, 1) << toString(type);
+    EXPECT_EQ(est.counters()[kSensorTilt].rejected, 1) << toString(type);
+    EXPECT_EQ(est.counters()[kSensorImu].rejected, 0) << toString(type);
+    // And the outliers did not pull the estimate away: the position error stays within its 3-dof 99.9 % bound.
+    const FilterOutput o = est.current();
+    const NavState truth = sim.truth(o.state.utime);
+    const Eigen::Vector3d e = o.state.position - truth.position;
+    EXPECT_LT(e.dot(o.covariance.topLeftCorner<3, 3>().ldlt().solve(e)), chiSquareQuantile(0.999, 3));
+    // Bad input never crashes: NaN samples are refused and counted.
+    ImuSample bad;
+    bad.utime = 3'100'000;
+    bad.angular_rate.x() = std::nan("");
+    est.addImu(bad);
+    EXPECT_EQ(est.counters()[kSensorImu].rejected, 1);
+  }
+}
+
+TEST(FilterEstimator, RecoversFromAnImuGap) {
+  const AnalyticWalk walk;
+  const ips::StereoCalibration calib = testbedCalibration();
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, SensorSimParams{}, calib, 16);
+    FilterParams p = paramsFor(type);
+    Estimator est(p, calib), reference(p, calib);
+    est.initialize(sim.truth(0), initialCovariance(p.init));
+    reference.initialize(sim.truth(0), initialCovariance(p.init));
+    std::vector<Msg> msgs = makeMessages(sim, 0, 20'000'000);
+    feed(reference, msgs);
+    reference.flush();
+    const FilterOutput ref_end = reference.current();
+    // No IMU between 8.0 and 9.5 s (tilt and camera go on).
+    msgs.erase(std::remove_if(msgs.begin(), msgs.end(),
+                              [](const Msg& m) { return m.kind == 0 && m.imu.utime > 8'000'000 && m.imu.utime < 9'500'000; }),
+               msgs.end());
+    std::vector<FilterOutput> out;
+    for (const Msg& m : msgs) {
+      feed(est, {m});
+      for (FilterOutput& o : est.takeOutputs()) out.push_back(std::move(o));
+    }
+    est.flush();
+    for (FilterOutput& o : est.takeOutputs()) out.push_back(std::move(o));
+    EXPECT_EQ(est.imuGaps(), 1);
+    auto at = [&](int64_t t) {
+      return *std::find_if(out.begin(), out.end(), [&](const FilterOutput& o) { return o.state.utime >= t; });
+    };
+    const FilterOutput before = at(7'990'000), after = at(9'500'000), end = out.back();
+    ASSERT_EQ(end.state.utime, ref_end.state.utime);
+    // The gap inflated the uncertainty of velocity and the rates ...
+    EXPECT_GT(after.covariance(kErrV, kErrV), 10 * before.covariance(kErrV, kErrV));
+    EXPECT_GT(after.covariance(kErrTh + 2, kErrTh + 2), 10 * before.covariance(kErrTh + 2, kErrTh + 2));
+    // ... and it recovered: 10 s later velocity and rates are about as certain as without the gap.
+    EXPECT_LT(end.covariance(kErrV, kErrV), 2 * ref_end.covariance(kErrV, kErrV));
+    EXPECT_LT(end.covariance(kErrW, kErrW), 2 * ref_end.covariance(kErrW, kErrW));
+    double nees = 0;
+    int n = 0;
+    for (const FilterOutput& o : out)
+      if (o.state.utime > 12'000'000 && o.state.utime % 1'000'000 == 0) {
+        nees += fullNees(o, sim.truth(o.state.utime));
+        ++n;
+      }
+    ASSERT_GT(n, 5);
+    // Average 21-dof NEES well inside a generous bound (single run, correlated in time).
+    EXPECT_LT(nees / n, 3 * 21.0) << toString(type);
+    EXPECT_LT((end.state.position - sim.truth(end.state.utime).position).norm(), 0.2);
+  }
+}
+
+TEST(FilterEstimator, FusedWalkIsAccurateAndConsistentForBothFilters) {
+  WalkParams wp;
+  const AnalyticWalk walk(wp);
+  const ips::StereoCalibration calib = testbedCalibration();
+  const double duration = 63.0;  // 3 s at rest (static initialisation), then 60 s walking
+  const double distance = walk.distance(0.0, duration);
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, SensorSimParams{}, calib, 17);
+    FilterParams p = paramsFor(type);
+    Estimator est(p, calib);
+    const std::vector<FilterOutput> out = runSimulation(est, sim, 0.0, duration, true, true, Matrix21d::Zero());
+    ASSERT_TRUE(est.initialized());
+    const FilterOutput& last = out.back();
+    const NavState truth = sim.truth(last.state.utime);
+    const double endpoint_pct = 100.0 * (last.state.position - truth.position).norm() / distance;
+    EXPECT_LT(endpoint_pct, 0.25) << toString(type);
+    double nees = 0;
+    int n = 0;
+    for (size_t i = 200; i < out.size(); i += 200) {
+      nees += poseNees(out[i], sim.truth(out[i].state.utime));
+      ++n;
+    }
+    // 6-dof pose NEES averaged over one run: expectation 6; generous bounds for a single correlated run.
+    EXPECT_GT(nees / n, 1.0) << toString(type);
+    EXPECT_LT(nees / n, 15.0) << toString(type);
+    EXPECT_EQ(est.counters()[kSensorImu].rejected, 0);
+    EXPECT_GT(est.counters()[kSensorTracker].accepted, 470);
+  }
+}
