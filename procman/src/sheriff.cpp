@@ -93,6 +93,7 @@ Sheriff::Sheriff(SheriffConfig config, SheriffOptions options) : opt_(std::move(
     if (c.config.deputy == opt_.sheriff_id)
       throw ConfigError("sheriff id '" + opt_.sheriff_id + "' equals a deputy id; choose another --id");
     deputies_[c.config.deputy].id = c.config.deputy;
+    deputies_[c.config.deputy].configured = true;
   }
   lcm_ = std::make_unique<lcm::LCM>(opt_.lcm_url);
   if (!lcm_->good()) throw std::runtime_error("procman-sheriff: cannot initialise LCM with URL '" + opt_.lcm_url + "'");
@@ -156,7 +157,9 @@ void Sheriff::sendOrders() {
   if (opt_.observe_only) return;
   const int64_t now = nowUs();
   for (const auto& [deputy_id, d] : deputies_) {
-    if (!d.adopted) continue;  // never order a deputy whose state we have not taken over
+    // Never order a deputy whose state we have not taken over, nor one outside our configuration (empty
+    // orders would stop everything it runs for another sheriff).
+    if (!d.adopted || !d.configured) continue;
     procman_lcm::orders_t orders;
     orders.utime = now;
     orders.deputy_id = deputy_id;

@@ -11,6 +11,7 @@ WORK=$(mktemp -d /tmp/procman_cli.XXXXXX)
 DEPUTY_PID=
 cleanup() {
   [ -n "$DEPUTY_PID" ] && kill -KILL "$DEPUTY_PID" 2>/dev/null
+  [ -n "${OTHER_PID:-}" ] && kill -KILL "$OTHER_PID" 2>/dev/null
   rm -rf "$WORK"
 }
 trap cleanup EXIT
@@ -66,6 +67,12 @@ check "missing deputy: named" grep -q "deputy cli" "$WORK/missing.txt"
 
 "$BIN/procman-deputy" --id cli > "$WORK/deputy.log" 2>&1 &
 DEPUTY_PID=$!
+# Another deputy, run by another configuration: our sheriff must never order it.
+"$BIN/procman-deputy" --id other > "$WORK/other.log" 2>&1 &
+OTHER_PID=$!
+printf 'cmd "foreign" { exec = "sleep 60"; deputy = "other"; }\n' > "$WORK/other.pmd"
+"$BIN/procman-sheriff" --config "$WORK/other.pmd" --timeout 10 --start-all --wait running
+check "other configuration started on deputy other" test $? -eq 0
 
 # Start a group (with its subgroup); the deputy starts as soon as its discovery period is over.
 sheriff --start g --wait running --status > "$WORK/s1.txt"
@@ -133,6 +140,10 @@ for c in ticker sleeper crasher once; do
   check "$c stopped" test "$(col "$c" 5 "$WORK/s7.txt")" = 0
 done
 check "deputy still running" kill -0 "$DEPUTY_PID"
+"$BIN/procman-sheriff" --status > "$WORK/s8.txt"
+check "the other deputy's command survived all of it" grep -Eq '^other +foreign +- +Running\* ' "$WORK/s8.txt"
+kill -TERM "$OTHER_PID"
+wait "$OTHER_PID"
 
 kill -TERM "$DEPUTY_PID"
 wait "$DEPUTY_PID"

@@ -45,7 +45,8 @@ std::string describeWaitStatus(int32_t status);
 struct DeputyView {
   std::string id;
   bool seen = false;
-  bool adopted = false;  // state taken over; orders may be sent
+  bool configured = false;  // has commands in our configuration: the only deputies we ever send orders
+  bool adopted = false;     // state taken over; orders may be sent
   int64_t last_info_us = 0;
   float cpu_load = 0.f;
   int64_t mem_total_bytes = 0, mem_free_bytes = 0;
