@@ -3,6 +3,7 @@
 // left image, and the right image's disparity by the diagonal search min_k S(xr + d_min + k, y, k).
 // One workgroup (= one subgroup) per row; lane l owns disparities l*K .. l*K+K-1 as in sgm_aggregate.
 #extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "e3d_common.glsl"
@@ -29,12 +30,12 @@ void main() {
   barrier();
   for (int x = 0; x < W; ++x) {
     uint s[K];
-    for (int k = 0; k < K; ++k) s[k] = 0u;
+    [[unroll]] for (int k = 0; k < K; ++k) s[k] = 0u;
     for (int p = 0; p < pc.num_paths; ++p) {
       const int g = p * H + y;
       const int chunk = g / pc.rows_per_chunk;
       const int base = (g - chunk * pc.rows_per_chunk) * pc.row_words + x * (K / 4) * int(SG) + int(lane) * (K / 4);
-      for (int j = 0; j < K / 4; ++j) {
+      [[unroll]] for (int j = 0; j < K / 4; ++j) {
         const uint word = volume[chunk].v[base + j];
         s[4 * j] += word & 0xFFu;
         s[4 * j + 1] += (word >> 8) & 0xFFu;
@@ -43,13 +44,13 @@ void main() {
       }
     }
     uint local_key = 0xFFFFFFFFu;
-    for (int k = 0; k < K; ++k)
+    [[unroll]] for (int k = 0; k < K; ++k)
       if (k0 + k < pc.num_disp) local_key = min(local_key, (s[k] << 8) | uint(k0 + k));
     const uint key = subgroupMin(local_key);
     const int best = int(key & 0xFFu);
     const uint best_cost = key >> 8;
     uint local_second = 0xFFFFFFFFu, local_c0 = 0u, local_c2 = 0u;
-    for (int k = 0; k < K; ++k) {
+    [[unroll]] for (int k = 0; k < K; ++k) {
       const int d = k0 + k;
       if (d >= pc.num_disp) continue;
       if (abs(d - best) > 1) local_second = min(local_second, s[k]);

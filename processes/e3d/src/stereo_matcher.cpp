@@ -56,7 +56,7 @@ struct StereoMatcher::Impl {
   bool has_rect = false;
 
   VkDescriptorPool pool = VK_NULL_HANDLE;
-  Stage census_stage, aggregate_stage, wta_stage, median_stage, lr_stage, rectify_stage;
+  Stage census_stage, cost_stage, aggregate_stage, wta_stage, median_stage, lr_stage, rectify_stage;
   VkCommandPool cmd_pool = VK_NULL_HANDLE;
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   VkFence fence = VK_NULL_HANDLE;
@@ -190,7 +190,7 @@ struct StereoMatcher::Impl {
     row_words = static_cast<int>(row_bytes / 4);
     const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
     if (row_bytes > max_range) throw std::invalid_argument("StereoMatcher: one row of path costs exceeds a buffer");
-    const int total_rows = params.paths * H;
+    const int total_rows = (params.paths + 1) * H;  // path slices, then the matching-cost slice
     const int max_rows = static_cast<int>(max_range / row_bytes);
     num_chunks = (total_rows + max_rows - 1) / max_rows;
     if (num_chunks > kMaxChunks)
@@ -211,18 +211,18 @@ struct StereoMatcher::Impl {
       volume.push_back(createBuffer(static_cast<uint64_t>(rows) * row_bytes, false));
     }
 
-    VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 + 27 + 26 + 4 + 3 + 5};
+    VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 + 26 + 25 + 26 + 4 + 3 + 5};
     VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     pi.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
-    pi.maxSets = 6;
+    pi.maxSets = 7;
     pi.poolSizeCount = 1;
     pi.pPoolSizes = &ps;
     vkCheck(vkCreateDescriptorPool(dev, &pi, nullptr, &pool), "vkCreateDescriptorPool");
 
     census_stage =
         createStage("census5x5", {{0, {&image[0]}}, {1, {&image[1]}}, {2, {&census[0]}}, {3, {&census[1]}}}, 8, false);
-    aggregate_stage = createStage(
-        "sgm_aggregate", {{0, {&image[0]}}, {2, {&census[0]}}, {3, {&census[1]}}, {4, volumeArray()}}, 48, true);
+    cost_stage = createStage("cost_census", {{2, {&census[0]}}, {3, {&census[1]}}, {4, volumeArray()}}, 28, true);
+    aggregate_stage = createStage("sgm_aggregate", {{0, {&image[0]}}, {4, volumeArray()}}, 52, true);
     wta_stage = createStage("sgm_wta", {{4, volumeArray()}, {5, {&disp[0]}}, {6, {&disp[1]}}}, 36, true);
     median_stage =
         createStage("median3x3", {{0, {&disp[0]}}, {1, {&disp[1]}}, {2, {&median[0]}}, {3, {&median[1]}}}, 8, false);
@@ -251,7 +251,8 @@ struct StereoMatcher::Impl {
   ~Impl() {
     if (dev == VK_NULL_HANDLE) return;
     vkDeviceWaitIdle(dev);
-    for (Stage* s : {&census_stage, &aggregate_stage, &wta_stage, &median_stage, &lr_stage, &rectify_stage})
+    for (Stage* s :
+         {&census_stage, &cost_stage, &aggregate_stage, &wta_stage, &median_stage, &lr_stage, &rectify_stage})
       destroyStage(*s);
     if (pool) vkDestroyDescriptorPool(dev, pool, nullptr);
     if (queries) vkDestroyQueryPool(dev, queries, nullptr);
@@ -318,13 +319,23 @@ struct StereoMatcher::Impl {
       timestamp("census");
     }
     {
+      bind(cost_stage);
+      const int32_t pc[7] = {W,        H, params.num_disparities, params.min_disparity, params.paths, rows_per_chunk,
+                             row_words};
+      push(cost_stage, pc);
+      vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
+      barrier(cmd);
+      timestamp("cost");
+    }
+    {
       bind(aggregate_stage);
       const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
       for (int r = 0; r < params.paths; ++r) {
         const int dx = dirs[r][0], dy = dirs[r][1];
-        const int32_t pc[12] = {W,         H,         params.num_disparities, params.min_disparity,
-                                params.p1, params.p2, params.p2_slope,        r,
-                                dx,        dy,        rows_per_chunk,         row_words};
+        const int32_t pc[13] = {W,           H,         params.num_disparities, params.min_disparity,
+                                params.p1,   params.p2, params.p2_slope,        r,
+                                dx,          dy,        rows_per_chunk,         row_words,
+                                params.paths};
         push(aggregate_stage, pc);
         const int lines = dy == 0 ? H : (dx == 0 ? W : W + H - 1);
         vkCmdDispatch(cmd, static_cast<uint32_t>(lines), 1, 1);
