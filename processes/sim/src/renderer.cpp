@@ -192,9 +192,13 @@ namespace {
 
 inline float bilinearWrap(const cv::Mat& img, float u, float v) {
   const int w = img.cols, h = img.rows;
-  const float fu = std::floor(u), fv = std::floor(v);
+  // floor without a library call (no SSE4.1 in the baseline instruction set)
+  int iu0 = static_cast<int>(u), iv0 = static_cast<int>(v);
+  iu0 -= u < static_cast<float>(iu0);
+  iv0 -= v < static_cast<float>(iv0);
+  const float fu = static_cast<float>(iu0), fv = static_cast<float>(iv0);
   const float a = u - fu, b = v - fv;
-  const int iu = static_cast<int>(fu) & (w - 1), iv = static_cast<int>(fv) & (h - 1);
+  const int iu = iu0 & (w - 1), iv = iv0 & (h - 1);
   const int iu1 = (iu + 1) & (w - 1), iv1 = (iv + 1) & (h - 1);
   const uint8_t* r0 = img.ptr<uint8_t>(iv);
   const uint8_t* r1 = img.ptr<uint8_t>(iv1);
@@ -258,11 +262,13 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
       lod = std::clamp(lod, 0.0f, max_level);
       const int l0 = static_cast<int>(lod);
       const int l1 = std::min(l0 + 1, static_cast<int>(max_level));
-      const float frac = lod - static_cast<float>(l0);
+      // "Brilinear": blend two levels only in the middle of the level interval, a third of the texture lookups
+      // of full trilinear filtering for nearly the same smoothness across level changes.
+      const float frac = std::clamp((lod - static_cast<float>(l0) - 0.35f) * (1.0f / 0.3f), 0.0f, 1.0f);
       const float u = s * inv_texel_s + off_u, v = t * inv_texel_t + off_v;
       const float sc0 = 1.0f / static_cast<float>(1 << l0), sc1 = 0.5f * sc0;
-      const float a = bilinearWrap(tex->levels[l0], u * sc0 - 0.5f, v * sc0 - 0.5f);
-      const float b = frac > 0.01f ? bilinearWrap(tex->levels[l1], u * sc1 - 0.5f, v * sc1 - 0.5f) : a;
+      const float a = frac < 1.0f ? bilinearWrap(tex->levels[l0], u * sc0 - 0.5f, v * sc0 - 0.5f) : 0.0f;
+      const float b = frac > 0.0f ? bilinearWrap(tex->levels[l1], u * sc1 - 0.5f, v * sc1 - 0.5f) : a;
       value = brightness * (a + frac * (b - a));
     }
     if (out32) {
@@ -324,7 +330,8 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   frame.utime_true = sampleUtime(scenario_.start_utime, k, scenario_.camera.rate_hz);
   Rng rng(streamSeed(scenario_.seed, kStreamCamera, static_cast<uint64_t>(k)));
   frame.utime_stamp =
-      frame.utime_true + std::llround(scenario_.camera.latency_us + scenario_.camera.jitter_us * rng.normal());
+      frame.utime_true + std::llround(scenario_.camera.stamp_offset_us + scenario_.camera.jitter_us * rng.normal());
+  frame.utime_arrival = frame.utime_true + std::llround(scenario_.camera.latency_us);
   const double t = (frame.utime_true - scenario_.start_utime) * 1e-6;
   const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
   const std::vector<SceneRenderer::CamQuad> quads[2] = {scene_.prepare(head_.cam0InWorld(T_world_imu)),

@@ -20,6 +20,7 @@ ImuFigures ImuFigures::ideal() {
   f.accel_range_g = 1e9;
   f.misalignment_mrad = 0;
   f.latency_us = 0;
+  f.stamp_offset_us = 0;
   f.jitter_us = 0;
   return f;
 }
@@ -32,6 +33,7 @@ TiltFigures TiltFigures::ideal() {
   f.time_constant_s = 0;
   f.misalignment_deg = 0;
   f.latency_us = 0;
+  f.stamp_offset_us = 0;
   f.jitter_us = 0;
   return f;
 }
@@ -92,6 +94,7 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "camera/gain_right_db", cam.gain_right_db);
   get(c, "camera/exposure_us", cam.exposure_us);
   get(c, "camera/latency_us", cam.latency_us);
+  get(c, "camera/stamp_offset_us", cam.stamp_offset_us);
   get(c, "camera/jitter_us", cam.jitter_us);
   get(c, "camera/near_m", cam.near_m);
 
@@ -110,6 +113,7 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "imu/misalignment_mrad", imu.misalignment_mrad);
   get(c, "imu/lever_arm_m", imu.lever_arm_m);
   get(c, "imu/latency_us", imu.latency_us);
+  get(c, "imu/stamp_offset_us", imu.stamp_offset_us);
   get(c, "imu/jitter_us", imu.jitter_us);
 
   TiltFigures& tilt = s.tilt;
@@ -120,6 +124,7 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "tilt/time_constant_s", tilt.time_constant_s);
   get(c, "tilt/misalignment_deg", tilt.misalignment_deg);
   get(c, "tilt/latency_us", tilt.latency_us);
+  get(c, "tilt/stamp_offset_us", tilt.stamp_offset_us);
   get(c, "tilt/jitter_us", tilt.jitter_us);
 
   TrajectoryConfig& tr = s.trajectory;
@@ -176,6 +181,7 @@ void Scenario::validate() const {
   require(camera.baseline_m > 0, "camera/baseline_m must be positive");
   require(camera.rate_hz > 0 && camera.rate_hz <= 120, "camera/rate_hz must be in (0, 120]");
   require(camera.noise_sigma >= 0, "camera/noise_sigma must not be negative");
+  require(camera.latency_us >= 0 && imu.latency_us >= 0 && tilt.latency_us >= 0, "latency_us must not be negative");
   require(camera.near_m > 0, "camera/near_m must be positive");
   require(imu.rate_hz > 0 && imu.rate_hz <= 10000, "imu/rate_hz must be in (0, 10000]");
   require(tilt.rate_hz > 0 && tilt.rate_hz <= 1000, "tilt/rate_hz must be in (0, 1000]");

@@ -73,7 +73,8 @@ ImuMeasurement ImuSimulator::next() {
   ImuMeasurement m;
   m.seq = k_;
   m.utime_true = sampleUtime(start_utime_, k_, f_.rate_hz);
-  m.utime_stamp = m.utime_true + std::llround(f_.latency_us + f_.jitter_us * rng_.normal());
+  m.utime_stamp = m.utime_true + std::llround(f_.stamp_offset_us + f_.jitter_us * rng_.normal());
+  m.utime_arrival = m.utime_true + std::llround(f_.latency_us);
   if (k_ > 0)
     for (int i = 0; i < 3; ++i) {
       bg_[i] += gyro_walk_ * rng_.normal();
@@ -115,7 +116,8 @@ TiltMeasurement TiltSimulator::next() {
   TiltMeasurement m;
   m.seq = k_;
   m.utime_true = sampleUtime(start_utime_, k_, f_.rate_hz);
-  m.utime_stamp = m.utime_true + std::llround(f_.latency_us + f_.jitter_us * rng_.normal());
+  m.utime_stamp = m.utime_true + std::llround(f_.stamp_offset_us + f_.jitter_us * rng_.normal());
+  m.utime_arrival = m.utime_true + std::llround(f_.latency_us);
   const double t = (m.utime_true - start_utime_) * 1e-6;
   // The sensing element follows the specific force as a first-order low pass: exact step response over
   // 1 ms sub-steps with the input held at the sub-step's mid-point.

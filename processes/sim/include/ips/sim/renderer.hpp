@@ -70,10 +70,11 @@ struct SceneRenderer::CamQuad {
 
 struct StereoFrame {
   int64_t seq = 0;
-  int64_t utime_true = 0;   // exposure mid-time
-  int64_t utime_stamp = 0;  // with the camera's latency and jitter
-  cv::Mat left, right;      // raw CV_8UC1, as the cameras deliver them
-  cv::Mat gt_disparity;     // CV_32F of the rectified left image, when asked for; 0 = nothing seen
+  int64_t utime_true = 0;     // exposure mid-time
+  int64_t utime_stamp = 0;    // with the camera's stamp offset and jitter
+  int64_t utime_arrival = 0;  // delivered after the camera's latency
+  cv::Mat left, right;        // raw CV_8UC1, as the cameras deliver them
+  cv::Mat gt_disparity;       // CV_32F of the rectified left image, when asked for; 0 = nothing seen
 };
 
 class StereoRenderer {

@@ -29,9 +29,12 @@ struct CameraFigures {
   double gain_left_db = 0.0;
   double gain_right_db = 0.4;  // gain difference of the right camera
   double exposure_us = 4000.0;
-  double latency_us = 0.0;  // stamp - true exposure mid-time
-  double jitter_us = 0.0;   // std dev of the stamp error
-  double near_m = 0.05;     // nearest rendered distance
+  // Timing of every sensor: latency = delivery delay after the true sample time (the order in which messages
+  // arrive, e.g. image transfer); the stamp = true time + stamp_offset + N(0, jitter) (clock errors).
+  double latency_us = 30000.0;
+  double stamp_offset_us = 0.0;
+  double jitter_us = 0.0;
+  double near_m = 0.05;  // nearest rendered distance
 };
 
 struct ImuFigures {
@@ -48,7 +51,8 @@ struct ImuFigures {
   double accel_range_g = 10.0;
   double misalignment_mrad = 5.0;                  // std dev per axis of the IMU's rotation against the head's axes
   Eigen::Vector3d lever_arm_m{-0.05, 0.0, -0.06};  // camera 0 centre in the IMU frame
-  double latency_us = 0.0;
+  double latency_us = 2000.0;
+  double stamp_offset_us = 0.0;
   double jitter_us = 20.0;
 
   // The same sensor without noise, biases, quantisation, misalignment or time errors.
@@ -62,7 +66,8 @@ struct TiltFigures {
   double noise_deg = 0.03;        // white noise before quantisation
   double time_constant_s = 0.15;  // first-order response of the sensing element to specific force
   double misalignment_deg = 1.0;  // std dev per axis of its mounting against the head's axes
-  double latency_us = 20000.0;
+  double latency_us = 40000.0;    // a slow serial inclinometer
+  double stamp_offset_us = 0.0;
   double jitter_us = 1000.0;
 
   static TiltFigures ideal();

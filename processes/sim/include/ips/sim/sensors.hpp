@@ -35,12 +35,13 @@ inline int64_t sampleUtime(int64_t start_utime, int64_t k, double rate_hz) {
 
 struct ImuMeasurement {
   int64_t seq = 0;
-  int64_t utime_true = 0;          // when the sample was taken
-  int64_t utime_stamp = 0;         // what the sensor's time stamp says (latency and jitter)
-  Eigen::Vector3d angular_rate;    // [rad/s] measured, IMU frame
-  Eigen::Vector3d specific_force;  // [m/s^2] measured, IMU frame
-  Eigen::Vector3d gyro_bias;       // [rad/s] true bias in this sample
-  Eigen::Vector3d accel_bias;      // [m/s^2]
+  int64_t utime_true = 0;                                    // when the sample was taken
+  int64_t utime_stamp = 0;                                   // what the sensor's time stamp says (offset and jitter)
+  int64_t utime_arrival = 0;                                 // when the message is delivered (latency)
+  Eigen::Vector3d angular_rate = Eigen::Vector3d::Zero();    // [rad/s] measured, IMU frame
+  Eigen::Vector3d specific_force = Eigen::Vector3d::Zero();  // [m/s^2] measured, IMU frame
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();       // [rad/s] true bias in this sample
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();      // [m/s^2]
 };
 
 class ImuSimulator {
@@ -66,6 +67,7 @@ struct TiltMeasurement {
   int64_t seq = 0;
   int64_t utime_true = 0;
   int64_t utime_stamp = 0;
+  int64_t utime_arrival = 0;
   double angle_x = 0, angle_y = 0;            // [rad] measured (tilt_sample_t semantics)
   double true_angle_x = 0, true_angle_y = 0;  // [rad] inclination of the sensor against gravity alone
 };
