@@ -51,17 +51,76 @@ void checkPair(const cv::Mat& a, const cv::Mat& b, const char* what) {
 
 }  // namespace
 
+namespace {
+
+// NCC of the normalised template t (half size h) with every window of row y of img centred on the columns
+// x_lo .. x_lo + nc - 1 (all windows inside the image). The template row loop runs over the candidates
+// innermost, which vectorises.
+struct RowScratch {
+  std::vector<float> strip, acc, colsum, colsq;
+};
+
+void rowCorrelation(const cv::Mat& img, int y, int x_lo, int nc, int h, const float* t, RowScratch& s,
+                    std::vector<float>& ncc) {
+  const int side = 2 * h + 1, n = side * side, sw = nc + 2 * h;
+  s.strip.resize(size_t(side) * sw);
+  for (int v = 0; v < side; ++v) {
+    const uint8_t* row = img.ptr<uint8_t>(y - h + v) + (x_lo - h);
+    float* dst = s.strip.data() + size_t(v) * sw;
+    for (int k = 0; k < sw; ++k) dst[k] = row[k];
+  }
+  // Correlation with the zero-mean template: sum t * I (the window mean drops out).
+  s.acc.assign(nc, 0.f);
+  for (int v = 0; v < side; ++v) {
+    const float* srow = s.strip.data() + size_t(v) * sw;
+    for (int u = 0; u < side; ++u) {
+      const float tv = t[v * side + u];
+      const float* src = srow + u;
+      float* a = s.acc.data();
+      for (int k = 0; k < nc; ++k) a[k] += tv * src[k];
+    }
+  }
+  // Window sums of I and I^2 via column sums.
+  s.colsum.assign(sw, 0.f);
+  s.colsq.assign(sw, 0.f);
+  for (int v = 0; v < side; ++v) {
+    const float* srow = s.strip.data() + size_t(v) * sw;
+    for (int k = 0; k < sw; ++k) {
+      s.colsum[k] += srow[k];
+      s.colsq[k] += srow[k] * srow[k];
+    }
+  }
+  ncc.resize(nc);
+  float sum = 0, sq = 0;
+  for (int k = 0; k < side; ++k) {
+    sum += s.colsum[k];
+    sq += s.colsq[k];
+  }
+  for (int k = 0; k < nc; ++k) {
+    if (k > 0) {
+      sum += s.colsum[k + side - 1] - s.colsum[k - 1];
+      sq += s.colsq[k + side - 1] - s.colsq[k - 1];
+    }
+    const float var = sq - sum * sum / n;  // n * variance of the window
+    ncc[k] = var > 1e-3f ? s.acc[k] / std::sqrt(var) : -1.f;
+  }
+}
+
+int argmax(const std::vector<float>& v) { return int(std::max_element(v.begin(), v.end()) - v.begin()); }
+
+}  // namespace
+
 StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const std::vector<Corner>& corners,
                               const MatcherParams& p) {
   checkPair(left8, right8, "matchAlongRows");
   if (p.ncc_half_window < 1 || p.max_disparity < p.min_disparity)
     throw std::invalid_argument("matchAlongRows: bad window or disparity range");
   StereoFeatures out;
-  const int h = p.ncc_half_window, side = 2 * h + 1, n = side * side;
+  const int h = p.ncc_half_window, n = (2 * h + 1) * (2 * h + 1);
   out.half = h;
   const int w = right8.cols;
-  std::vector<float> tmpl(n), strip, acc, wsum, wsq, colsum, colsq, ncc;
-  std::vector<float> right_patch(n);
+  std::vector<float> tmpl(n), right_patch(n), ncc, back;
+  RowScratch scratch;
   for (const Corner& c : corners) {
     const int xl = c.xi, y = c.yi;
     if (!normalizedPatch(left8, xl, y, h, p.min_patch_std, tmpl.data())) continue;
@@ -70,51 +129,8 @@ StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const
     const int x_hi = std::min(w - 1 - h, int(std::ceil(xl - p.min_disparity)));
     const int nc = x_hi - x_lo + 1;
     if (nc < 3) continue;
-    const int sw = nc + 2 * h;  // strip width
-    strip.resize(size_t(side) * sw);
-    for (int v = 0; v < side; ++v) {
-      const uint8_t* row = right8.ptr<uint8_t>(y - h + v) + (x_lo - h);
-      float* dst = strip.data() + size_t(v) * sw;
-      for (int k = 0; k < sw; ++k) dst[k] = row[k];
-    }
-    // Correlation with the zero-mean template: sum T0 * I (the mean of I drops out).
-    acc.assign(nc, 0.f);
-    for (int v = 0; v < side; ++v) {
-      const float* srow = strip.data() + size_t(v) * sw;
-      for (int u = 0; u < side; ++u) {
-        const float t = tmpl[v * side + u];
-        const float* src = srow + u;
-        float* a = acc.data();
-        for (int k = 0; k < nc; ++k) a[k] += t * src[k];
-      }
-    }
-    // Window sums of I and I^2 via column sums.
-    colsum.assign(sw, 0.f);
-    colsq.assign(sw, 0.f);
-    for (int v = 0; v < side; ++v) {
-      const float* srow = strip.data() + size_t(v) * sw;
-      for (int k = 0; k < sw; ++k) {
-        colsum[k] += srow[k];
-        colsq[k] += srow[k] * srow[k];
-      }
-    }
-    ncc.resize(nc);
-    float s = 0, q = 0;
-    for (int k = 0; k < side; ++k) {
-      s += colsum[k];
-      q += colsq[k];
-    }
-    for (int k = 0; k < nc; ++k) {
-      if (k > 0) {
-        s += colsum[k + side - 1] - colsum[k - 1];
-        q += colsq[k + side - 1] - colsq[k - 1];
-      }
-      const float var = q - s * s / n;  // n * variance of the window
-      ncc[k] = var > 1e-3f ? acc[k] / std::sqrt(var) : -1.f;
-    }
-    int best = 0;
-    for (int k = 1; k < nc; ++k)
-      if (ncc[k] > ncc[best]) best = k;
+    rowCorrelation(right8, y, x_lo, nc, h, tmpl.data(), scratch, ncc);
+    const int best = argmax(ncc);
     if (ncc[best] < p.intra_min_ncc) continue;
     // A peak on the edge of the range may belong to a disparity outside it.
     if (best == 0 || best == nc - 1) continue;
@@ -124,6 +140,15 @@ StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const
     if (ncc[best] - second < p.intra_uniqueness) continue;
     const int xr_int = x_lo + best;
     if (!normalizedPatch(right8, xr_int, y, h, p.min_patch_std, right_patch.data())) continue;
+    if (p.intra_left_right_check) {
+      // The right template searched back along the left row must land on the corner: windows that straddle
+      // an occlusion boundary match the background one way and the foreground the other.
+      const int b_lo = std::max(h, int(std::floor(xr_int + p.min_disparity)));
+      const int b_hi = std::min(w - 1 - h, int(std::ceil(xr_int + p.max_disparity)));
+      if (b_hi - b_lo + 1 < 3) continue;
+      rowCorrelation(left8, y, b_lo, b_hi - b_lo + 1, h, right_patch.data(), scratch, back);
+      if (std::abs(b_lo + argmax(back) - xl) > 1) continue;
+    }
     const float xr = xr_int + parabolaPeak(ncc[best - 1], ncc[best], ncc[best + 1]);
     if (xl - xr < p.min_disparity) continue;
     out.xl.push_back(xl);

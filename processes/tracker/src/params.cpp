@@ -48,6 +48,7 @@ TrackerParams loadTrackerParams(const Config& c) {
   readDouble(c, "matcher/max_disparity", m.max_disparity, m.min_disparity + 2);
   readDouble(c, "matcher/intra_min_ncc", m.intra_min_ncc, -1.0);
   readDouble(c, "matcher/intra_uniqueness", m.intra_uniqueness, 0.0);
+  m.intra_left_right_check = c.getBool("matcher/intra_left_right_check", m.intra_left_right_check);
   readDouble(c, "matcher/epipolar_tolerance_px", m.epipolar_tolerance_px, 0.0);
   readDouble(c, "matcher/inter_min_ncc", m.inter_min_ncc, -1.0);
   readDouble(c, "matcher/inter_uniqueness", m.inter_uniqueness, 0.0);

@@ -32,6 +32,7 @@ struct MatcherParams {
   double max_disparity = 128.0;
   double intra_min_ncc = 0.8;          // accept a left-right match from this correlation on
   double intra_uniqueness = 0.03;      // the second best peak (>1 px away) must be this much lower
+  bool intra_left_right_check = true;  // the right template searched back must land on the left corner (+-1 px)
   double epipolar_tolerance_px = 1.0;  // |row left - row right| allowed after inter-matching refinement
   double inter_min_ncc = 0.8;          // accept a match between times from this correlation (both cameras)
   double inter_uniqueness = 0.02;      // second best candidate must be this much lower
