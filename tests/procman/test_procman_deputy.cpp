@@ -12,7 +12,6 @@
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <optional>
-#include <regex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -247,12 +246,11 @@ TEST_F(ProcmanDeputy, RespawnsWithBackOff) {
   order("d1", {desired("crasher", crasher, 1, false, true)});
   // The deputy announces each respawn delay: it doubles from 10 ms while the command keeps dying within a
   // second of its start, up to 1000 ms (the upstream deputy's back-off).
-  const std::regex delay_re("respawning in ([0-9]+) ms");
   auto delays = [&] {
     std::vector<int> out;
-    const std::string text = output("d1", "crasher");
-    for (std::sregex_iterator it(text.begin(), text.end(), delay_re), end; it != end; ++it)
-      out.push_back(std::stoi((*it)[1]));
+    const std::string text = output("d1", "crasher"), key = "respawning in ";
+    for (size_t p = text.find(key); p != std::string::npos; p = text.find(key, p + 1))
+      out.push_back(std::atoi(text.c_str() + p + key.size()));
     return out;
   };
   ASSERT_TRUE(spinUntil([&] { return delays().size() >= 8; }, 15)) << output("d1", "crasher");
