@@ -118,13 +118,22 @@ std::string findDevice(const std::string& wanted, std::string* seen) {
 GigeCamera::GigeCamera(GigeCameraSettings settings) : settings_(std::move(settings)), impl_(std::make_unique<Impl>()) {
   if (settings_.id.empty()) throw std::invalid_argument("GigeCamera: no camera id (serial number or address) given");
   serial_ = settings_.id;
+  for (const char* name : {"frames", "lost", "reconnects", "connect_failures", "resent_packets", "missing_packets",
+                           "underruns", "not_an_image", "bad_image_size"})
+    counters_[name] = 0;
 }
 
-GigeCamera::~GigeCamera() { disconnect(); }
+GigeCamera::~GigeCamera() {
+  if (connector_.joinable()) connector_.join();
+  connected_ = true;  // whatever the connector left open is closed below
+  disconnect();
+}
 
-bool GigeCamera::connected() const { return impl_->camera != nullptr; }
+bool GigeCamera::connected() const { return connected_; }
 
 void GigeCamera::disconnect() {
+  if (!connected_) return;
+  connected_ = false;
   if (!impl_->camera) return;
   harvestStatistics();
   if (impl_->camera) {
@@ -154,7 +163,11 @@ void GigeCamera::harvestStatistics() {
 void GigeCamera::connect() {
   const GigeCameraSettings& s = settings_;
   std::string seen;
-  std::string device_id = findDevice(s.id, &seen);
+  // An IPv4 address is opened directly; a serial number or device id needs discovery (which takes a while).
+  GInetAddress* as_address = g_inet_address_new_from_string(s.id.c_str());
+  const bool is_address = as_address != nullptr;
+  if (as_address) g_object_unref(as_address);
+  const std::string device_id = is_address ? "" : findDevice(s.id, &seen);
   GErrorCheck err(s.id);
   // Not discovered (a camera on a routed network, or discovery blocked): an address is opened directly.
   ArvCamera* camera = arv_camera_new(device_id.empty() ? s.id.c_str() : device_id.c_str(), &err);
@@ -250,30 +263,48 @@ void GigeCamera::connect() {
 }
 
 bool GigeCamera::ensureConnected() {
-  if (impl_->camera) return true;
+  if (connected_) return true;
+  if (connector_.joinable()) {
+    if (!connect_done_) return false;  // still connecting
+    connector_.join();
+    if (!connect_error_.empty()) {
+      count("connect_failures");
+      if (connect_error_ != last_error_) IPS_WARN(connect_error_ << "; retrying");
+      last_error_ = connect_error_;
+      return false;
+    }
+    last_error_.clear();
+    if (configured_once_) count("reconnects");
+    configured_once_ = true;
+    connected_ = true;
+    ++connections_;
+    last_frame_us_ = last_grab_us_ = commonClockNowUs();
+    IPS_INFO("camera " << serial_ << " acquiring (" << settings_.pixel_format << ", exposure " << impl_->exposure_us
+                       << " us, gain " << impl_->gain_db << " dB)");
+    return true;
+  }
   const int64_t now = commonClockNowUs();
   if (now - last_attempt_us_ < static_cast<int64_t>(settings_.retry_interval_s * 1e6)) return false;
   last_attempt_us_ = now;
-  try {
-    connect();
-  } catch (const std::runtime_error& e) {
-    count("connect_failures");
-    if (!configured_once_ && counters_["connect_failures"] == 1) IPS_WARN(e.what() << "; retrying");
-    IPS_DEBUG(e.what());
-    return false;
-  }
-  if (configured_once_) count("reconnects");
-  configured_once_ = true;
-  ++connections_;
-  last_frame_us_ = commonClockNowUs();
-  IPS_INFO("camera " << serial_ << " acquiring (" << settings_.pixel_format << ", exposure " << impl_->exposure_us
-                     << " us, gain " << impl_->gain_db << " dB)");
-  return true;
+  connect_done_ = false;
+  connect_error_.clear();
+  connector_ = std::thread([this] {
+    try {
+      connect();
+    } catch (const std::exception& e) {
+      connect_error_ = e.what();
+    }
+    connect_done_ = true;
+  });
+  return false;
 }
 
 std::optional<CameraFrame> GigeCamera::grab(int timeout_ms) {
-  if (!impl_->camera) return std::nullopt;
+  if (!connected_) return std::nullopt;
   const int64_t now = commonClockNowUs();
+  // Time in which nobody waited for frames (the other camera was connecting) does not count as silence.
+  if (now - last_grab_us_ > 200'000) last_frame_us_ += now - last_grab_us_;
+  last_grab_us_ = now;
   if (impl_->control_lost || now - last_frame_us_ > static_cast<int64_t>(settings_.reconnect_after_s * 1e6)) {
     IPS_WARN("camera " << serial_ << (impl_->control_lost ? ": control lost" : ": no frames") << "; reconnecting");
     count("lost");
@@ -319,7 +350,7 @@ std::optional<CameraFrame> GigeCamera::grab(int timeout_ms) {
 }
 
 std::map<std::string, int64_t> GigeCamera::counters() const {
-  const_cast<GigeCamera*>(this)->harvestStatistics();
+  if (connected_) const_cast<GigeCamera*>(this)->harvestStatistics();
   return counters_;
 }
 

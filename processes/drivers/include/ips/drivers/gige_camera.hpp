@@ -5,6 +5,7 @@
 // lost, or no frame for a while), without restarting the process. No LCM here: frames are plain structs.
 #include <atomic>
 #include <cstdint>
+#include <thread>
 #include <map>
 #include <memory>
 #include <optional>
@@ -55,9 +56,10 @@ class GigeCamera {
   GigeCamera(const GigeCamera&) = delete;
   GigeCamera& operator=(const GigeCamera&) = delete;
 
-  // Connects and starts acquisition if not connected and the retry interval has passed. Returns whether the
-  // camera is acquiring. Never throws for a missing camera (counted, retried); throws for settings the
-  // camera rejects on the first connection (a config error).
+  // Starts connecting (discovery, configuration, start of acquisition) in a background thread if not connected
+  // and the retry interval has passed, so that a missing camera never blocks the other one. Returns whether
+  // the camera is acquiring. Never throws: failures (missing camera, settings it rejects) are logged, counted
+  // and retried.
   bool ensureConnected();
   // Waits up to timeout_ms for one buffer. Returns a frame only for a complete image buffer; every other
   // status is counted. Detects a lost camera and disconnects (ensureConnected() then reconnects).
@@ -85,7 +87,13 @@ class GigeCamera {
   int64_t connections_ = 0;
   int64_t last_attempt_us_ = INT64_MIN / 2;
   int64_t last_frame_us_ = 0;
+  int64_t last_grab_us_ = 0;
   bool configured_once_ = false;
+  bool connected_ = false;  // read and written by the caller's thread only
+  std::thread connector_;
+  std::atomic<bool> connect_done_{false};
+  std::string connect_error_;  // written by the connector before connect_done_, read after the join
+  std::string last_error_;
 };
 
 }  // namespace ips::drivers
