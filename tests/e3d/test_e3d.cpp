@@ -222,3 +222,21 @@ TEST(StereoMatcher, BadInputThrows) {
   EXPECT_THROW(sgmReference(a, a, bad), std::invalid_argument);
   EXPECT_THROW(StereoMatcher(context(), cv::Size(5000, 10), p), std::invalid_argument);
 }
+
+TEST(StereoMatcher, FillInvalidEqualsReferenceAndLeavesNoHoles) {
+  cv::Mat left = loadGrey("cones", "left.png"), right = loadGrey("cones", "right.png");
+  SgmParams p;
+  p.num_disparities = 64;
+  p.fill_invalid = true;
+  StereoMatcher matcher(context(), left.size(), p);
+  MatchOutput gpu = matcher.match(left, right);
+  SgmResult ref = sgmReference(left, right, p);
+  EXPECT_EQ(differences(gpu.disparity, ref.left), 0);
+  EXPECT_EQ(cv::countNonZero(gpu.disparity == kInvalidDisparity), 0);
+  // Filling only changes invalid pixels: the valid ones are those of the unfilled map.
+  p.fill_invalid = false;
+  cv::Mat unfilled = sgmReference(left, right, p).left;
+  cv::Mat was_valid = unfilled != kInvalidDisparity;
+  EXPECT_EQ(cv::countNonZero((gpu.disparity != unfilled) & was_valid), 0);
+  EXPECT_GT(cv::countNonZero(unfilled == kInvalidDisparity), 1000);
+}

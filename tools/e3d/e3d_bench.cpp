@@ -9,7 +9,6 @@
 #include <iomanip>
 #include <iostream>
 #include <map>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -103,7 +102,8 @@ int main(int argc, char** argv) {
     std::cout << "width=" << size.width << " height=" << size.height << " disparities=" << params.num_disparities
               << " paths=" << params.paths << " fps=" << fps << " mdeps=" << evals * fps
               << " device_ms=" << device_ms / frames << " fps_hh=" << fps_hh << " fps_3way=" << fps_3way
-              << " ratio_hh=" << (fps_hh > 0 ? fps / fps_hh : 0) << " ratio_3way=" << (fps_3way > 0 ? fps / fps_3way : 0)
+              << " ratio_hh=" << (fps_hh > 0 ? fps / fps_hh : 0)
+              << " ratio_3way=" << (fps_3way > 0 ? fps / fps_3way : 0)
               << " memory_mib=" << matcher.deviceMemoryBytes() / 1048576.0 << "\n";
     return 0;
   } catch (const std::exception& e) {

@@ -66,11 +66,11 @@ void Args::checkKnown(const std::vector<std::string>& known) const {
 std::vector<std::string> paramKeys() {
   return {"config", "num-disparities", "min-disparity", "p1", "p2", "p2-slope", "paths", "uniqueness", "lr-max-diff"};
 }
-std::vector<std::string> paramFlags() { return {"no-subpixel", "no-median"}; }
+std::vector<std::string> paramFlags() { return {"no-subpixel", "no-median", "fill"}; }
 
 const char* kParamUsage =
     "  SGM options (defaults: config/e3d.yaml values, see processes/e3d/README.md):\n"
-    "    --config FILE           YAML with a section 'e3d' (SgmParams keys)\n"
+    "    --config FILE           YAML with a section 'sgm' (SgmParams keys)\n"
     "    --num-disparities N     1..256\n"
     "    --min-disparity N\n"
     "    --p1 N --p2 N           penalties (census cost units; p2 + 24 <= 255)\n"
@@ -78,11 +78,12 @@ const char* kParamUsage =
     "    --paths 8|4\n"
     "    --uniqueness PERCENT    0 = off\n"
     "    --lr-max-diff PX        < 0 = no left-right check\n"
-    "    --no-subpixel --no-median\n";
+    "    --no-subpixel --no-median\n"
+    "    --fill                  fill invalid pixels from their row neighbours (background)\n";
 
 SgmParams paramsFromArgs(const Args& a) {
   SgmParams p;
-  if (a.has("config")) p = SgmParams::fromConfig(Config(a.get("config", "")).section("e3d"));
+  if (a.has("config")) p = SgmParams::fromConfig(Config(a.get("config", "")).section("sgm"));
   p.num_disparities = a.getInt("num-disparities", p.num_disparities);
   p.min_disparity = a.getInt("min-disparity", p.min_disparity);
   p.p1 = a.getInt("p1", p.p1);
@@ -93,6 +94,7 @@ SgmParams paramsFromArgs(const Args& a) {
   p.lr_max_diff = a.getInt("lr-max-diff", p.lr_max_diff);
   if (a.has("no-subpixel")) p.subpixel = false;
   if (a.has("no-median")) p.median = false;
+  if (a.has("fill")) p.fill_invalid = true;
   p.validate();
   return p;
 }

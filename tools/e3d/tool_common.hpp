@@ -26,7 +26,7 @@ class Args {
   std::map<std::string, std::string> values_;
 };
 
-// The SGM options every tool takes: [--config FILE (section e3d)] then --num-disparities --min-disparity --p1
+// The SGM options every tool takes: [--config FILE (section sgm)] then --num-disparities --min-disparity --p1
 // --p2 --p2-slope --paths --uniqueness --lr-max-diff --no-subpixel --no-median override it.
 SgmParams paramsFromArgs(const Args& args);
 std::vector<std::string> paramKeys();

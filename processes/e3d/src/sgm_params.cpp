@@ -35,6 +35,7 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   p.subpixel = c.getBool("subpixel", p.subpixel);
   p.median = c.getBool("median", p.median);
   p.lr_max_diff = c.getInt("lr_max_diff", p.lr_max_diff);
+  p.fill_invalid = c.getBool("fill_invalid", p.fill_invalid);
   try {
     p.validate();
   } catch (const std::invalid_argument& e) {
@@ -47,7 +48,7 @@ std::string SgmParams::describe() const {
   std::ostringstream s;
   s << "census5x5 D=" << num_disparities << " dmin=" << min_disparity << " P1=" << p1 << " P2=" << p2
     << " p2_slope=" << p2_slope << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel
-    << " median=" << median << " lr=" << lr_max_diff;
+    << " median=" << median << " lr=" << lr_max_diff << " fill=" << fill_invalid;
   return s.str();
 }
 

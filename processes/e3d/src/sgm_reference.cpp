@@ -162,6 +162,29 @@ SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParam
         if (r == kInvalidDisparity || std::abs(int(d) - int(r)) > p.lr_max_diff * kSubpixelScale) d = kInvalidDisparity;
       }
   }
+  if (p.fill_invalid) {
+    for (int y = 0; y < H; ++y) {
+      const cv::Mat row = dl.row(y).clone();
+      std::vector<int> next_valid(W, kInvalidDisparity);
+      int next = kInvalidDisparity;
+      for (int x = W - 1; x >= 0; --x) {
+        if (row.at<int16_t>(x) != kInvalidDisparity) next = row.at<int16_t>(x);
+        next_valid[x] = next;
+      }
+      int last = kInvalidDisparity;
+      for (int x = 0; x < W; ++x) {
+        const int d = row.at<int16_t>(x);
+        if (d != kInvalidDisparity) {
+          last = d;
+        } else if (last != kInvalidDisparity) {
+          dl.at<int16_t>(y, x) =
+              static_cast<int16_t>(next_valid[x] == kInvalidDisparity ? last : std::min(last, next_valid[x]));
+        } else {
+          dl.at<int16_t>(y, x) = static_cast<int16_t>(next_valid[x]);
+        }
+      }
+    }
+  }
   return {dl, dr};
 }
 

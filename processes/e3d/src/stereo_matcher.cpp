@@ -49,14 +49,14 @@ struct StereoMatcher::Impl {
   int num_chunks = 0;
   size_t memory_bytes = 0;
 
-  Buffer image[2], census[2], disp[2], median[2], final_disp;
+  Buffer image[2], census[2], disp[2], median[2], final_disp, filled_disp;
   std::vector<Buffer> volume;
   Buffer raw[2], maps;
   cv::Size raw_size;
   bool has_rect = false;
 
   VkDescriptorPool pool = VK_NULL_HANDLE;
-  Stage census_stage, cost_stage, aggregate_stage, wta_stage, median_stage, lr_stage, rectify_stage;
+  Stage census_stage, cost_stage, aggregate_stage, wta_stage, median_stage, lr_stage, fill_stage, rectify_stage;
   VkCommandPool cmd_pool = VK_NULL_HANDLE;
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   VkFence fence = VK_NULL_HANDLE;
@@ -206,15 +206,16 @@ struct StereoMatcher::Impl {
       median[i] = createBuffer(pixels * 4, true);
     }
     final_disp = createBuffer(pixels * 4, true);
+    filled_disp = createBuffer(pixels * 4, true);
     for (int c = 0; c < num_chunks; ++c) {
       const int rows = std::min(rows_per_chunk, total_rows - c * rows_per_chunk);
       volume.push_back(createBuffer(static_cast<uint64_t>(rows) * row_bytes, false));
     }
 
-    VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 + 26 + 25 + 26 + 4 + 3 + 5};
+    VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 + 26 + 25 + 26 + 4 + 3 + 2 + 5};
     VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     pi.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
-    pi.maxSets = 7;
+    pi.maxSets = 8;
     pi.poolSizeCount = 1;
     pi.pPoolSizes = &ps;
     vkCheck(vkCreateDescriptorPool(dev, &pi, nullptr, &pool), "vkCreateDescriptorPool");
@@ -228,6 +229,7 @@ struct StereoMatcher::Impl {
         createStage("median3x3", {{0, {&disp[0]}}, {1, {&disp[1]}}, {2, {&median[0]}}, {3, {&median[1]}}}, 8, false);
     const Buffer* lr_in = params.median ? median : disp;
     lr_stage = createStage("lr_check", {{0, {&lr_in[0]}}, {1, {&lr_in[1]}}, {2, {&final_disp}}}, 12, false);
+    fill_stage = createStage("fill_invalid", {{0, {&checkedLeft()}}, {1, {&filled_disp}}}, 8, false);
 
     VkCommandPoolCreateInfo ci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
     ci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -251,8 +253,8 @@ struct StereoMatcher::Impl {
   ~Impl() {
     if (dev == VK_NULL_HANDLE) return;
     vkDeviceWaitIdle(dev);
-    for (Stage* s :
-         {&census_stage, &cost_stage, &aggregate_stage, &wta_stage, &median_stage, &lr_stage, &rectify_stage})
+    for (Stage* s : {&census_stage, &cost_stage, &aggregate_stage, &wta_stage, &median_stage, &lr_stage, &fill_stage,
+                     &rectify_stage})
       destroyStage(*s);
     if (pool) vkDestroyDescriptorPool(dev, pool, nullptr);
     if (queries) vkDestroyQueryPool(dev, queries, nullptr);
@@ -261,8 +263,14 @@ struct StereoMatcher::Impl {
     for (int i = 0; i < 2; ++i)
       for (Buffer* b : {&image[i], &census[i], &disp[i], &median[i], &raw[i]}) destroyBuffer(*b);
     destroyBuffer(final_disp);
+    destroyBuffer(filled_disp);
     destroyBuffer(maps);
     for (auto& b : volume) destroyBuffer(b);
+  }
+
+  // The left map after median and LR check (whichever of them are enabled), before the optional fill.
+  const Buffer& checkedLeft() const {
+    return params.lr_max_diff >= 0 ? final_disp : (params.median ? median[0] : disp[0]);
   }
 
   static void barrier(VkCommandBuffer c) {
@@ -375,6 +383,13 @@ struct StereoMatcher::Impl {
       barrier(cmd);
       timestamp("lr_check");
     }
+    if (params.fill_invalid) {
+      bind(fill_stage);
+      const int32_t pc[2] = {W, H};
+      push(fill_stage, pc);
+      vkCmdDispatch(cmd, groups(H, 64), 1, 1);
+      timestamp("fill");
+    }
     VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
     mb.srcAccessMask = VK_ACCESS_SHADER_WRITE_BIT;
     mb.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
@@ -401,8 +416,7 @@ struct StereoMatcher::Impl {
         out.device_ms += ms;
       }
     }
-    const Buffer& left_final = params.lr_max_diff >= 0 ? final_disp : (params.median ? median[0] : disp[0]);
-    out.disparity = toInt16(left_final);
+    out.disparity = toInt16(params.fill_invalid ? filled_disp : checkedLeft());
     if (want_right) out.right = toInt16(params.median ? median[1] : disp[1]);
     out.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     return out;

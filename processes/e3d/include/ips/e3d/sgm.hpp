@@ -17,6 +17,9 @@
 //  5. Right disparity by the diagonal search in S: d_R(xr) = argmin_k S(xr + min_disparity + k, y, k).
 //  6. 3x3 median of both maps (optional; invalid pixels take part as kInvalidDisparity), then the
 //     left-right check: invalid when |d_L(x) - d_R(x - round(d_L(x)))| > lr_max_diff.
+//  7. Optional (fill_invalid): each invalid pixel takes the smaller of the nearest valid disparities left and
+//     right on its row (background fill of occlusions, Hirschmueller 2008); for evaluations that count
+//     invalid pixels as errors. Off by default: a navigation consumer wants to know what was not measured.
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -42,6 +45,7 @@ struct SgmParams {
   bool subpixel = true;       // equiangular interpolation (else integer disparities * 16)
   bool median = true;         // 3x3 median on both maps before the left-right check
   int lr_max_diff = 1;        // left-right check tolerance [px]; < 0 = no check
+  bool fill_invalid = false;  // fill invalid pixels from their row neighbours (see 7. above)
 
   // Throws std::invalid_argument naming the bad parameter.
   void validate() const;
