@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
@@ -215,8 +216,16 @@ void Deputy::onOrders(const lcm::ReceiveBuffer*, const std::string&, const procm
   }
 
   bool changed = false;
-  for (const auto& desired : orders->cmds) {
-    const procman_lcm::cmd_t& spec = desired.cmd;
+  for (const auto& order : orders->cmds) {
+    procman_lcm::cmd_desired_t desired = order;
+    procman_lcm::cmd_t& spec = desired.cmd;
+    if (spec.command_id.empty()) {  // the empty id marks the deputy's own output
+      note("", "ignoring a command with an empty id in orders from '" + orders->sheriff_id + "'");
+      continue;
+    }
+    // A stop time that is not a number, negative or absurd would break the SIGKILL timer.
+    if (!std::isfinite(spec.stop_time_allowed) || spec.stop_time_allowed < 0.f) spec.stop_time_allowed = 0.f;
+    spec.stop_time_allowed = std::min(spec.stop_time_allowed, opt_.max_stop_time_allowed_s);
     auto it = commands_.find(spec.command_id);
     if (it == commands_.end()) {
       auto cmd = std::make_unique<Command>();

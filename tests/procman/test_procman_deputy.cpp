@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdlib>
 #include <functional>
 #include <lcm/lcm-cpp.hpp>
@@ -391,6 +392,31 @@ TEST_F(ProcmanDeputy, ReportsCpuAndMemoryFromProc) {
   EXPECT_LE(info.phys_mem_free_bytes, info.phys_mem_total_bytes);
   EXPECT_GE(info.cpu_load, 0.f);
   EXPECT_LE(info.cpu_load, 1.f);
+}
+
+TEST_F(ProcmanDeputy, SurvivesMalformedOrders) {
+  DeputyProcess deputy("d1", url_);
+  waitReady("d1");
+  order("d1",
+        {desired("", "sh -c 'echo empty id'", 1), desired("unparsable", "sh -c 'unterminated", 1),
+         desired("missing", "/nonexistent/program --flag", 1),
+         desired("nan", "sleep 30", 1, false, false, 99, std::nanf("")), desired("fine", "sh -c 'echo fine'", 1)});
+  ASSERT_TRUE(spinUntil([&] { return hasEnded("d1", "fine", 1) && outputHas("d1", "fine", "fine\n"); }, 10));
+  EXPECT_FALSE(status("d1", "").has_value());
+  EXPECT_TRUE(spinUntil([&] { return outputHas("d1", "", "empty id"); }, 5));
+  // Commands that cannot start end like a shell's "command not found": exit status 127, with a note.
+  ASSERT_TRUE(spinUntil([&] { return hasEnded("d1", "unparsable", 1) && hasEnded("d1", "missing", 1); }, 10));
+  EXPECT_EQ(status("d1", "unparsable")->exit_code, 127 << 8);
+  EXPECT_EQ(status("d1", "missing")->exit_code, 127 << 8);
+  EXPECT_TRUE(spinUntil([&] { return outputHas("d1", "unparsable", "cannot start"); }, 5));
+  EXPECT_TRUE(spinUntil([&] { return outputHas("d1", "missing", "cannot run"); }, 5));
+  // A signal number that does not exist and a NaN stop time: stopping still ends in SIGKILL, at once.
+  ASSERT_TRUE(spinUntil([&] { return isRunning("d1", "nan", 1); }, 10));
+  EXPECT_EQ(status("d1", "nan")->cmd.stop_time_allowed, 0.f);
+  order("d1", {desired("nan", "sleep 30", 1, true, false, 99, std::nanf(""))});
+  ASSERT_TRUE(spinUntil([&] { return hasEnded("d1", "nan", 1); }, 10));
+  EXPECT_EQ(WTERMSIG(status("d1", "nan")->exit_code), SIGKILL);
+  EXPECT_FALSE(deputy.waitExit(0.1).has_value()) << "the deputy is still running";
 }
 
 TEST_F(ProcmanDeputy, StopsCommandsOnSigterm) {

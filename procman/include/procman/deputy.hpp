@@ -39,10 +39,11 @@ struct DeputyOptions {
   int respawn_min_ms = 10;    // auto-respawn back-off: starts here, doubles while the command keeps dying
   int respawn_max_ms = 1000;  // within this time of its start, and is capped here
   int respawn_backoff_factor = 2;
-  double max_order_age_s = 60.0;     // older orders are ignored (clock check between sheriff and deputy)
-  int output_flush_ms = 10;          // output is batched for at most this long ...
-  size_t output_flush_bytes = 4096;  // ... or this many bytes
-  int default_stop_signal = 2;       // used when an order carries stop_signal <= 0 (SIGINT)
+  double max_order_age_s = 60.0;           // older orders are ignored (clock check between sheriff and deputy)
+  int output_flush_ms = 10;                // output is batched for at most this long ...
+  size_t output_flush_bytes = 4096;        // ... or this many bytes
+  int default_stop_signal = 2;             // used when an order carries stop_signal <= 0 (SIGINT)
+  float max_stop_time_allowed_s = 3600.f;  // longer (or NaN/negative: 0) stop times in orders are clamped
 };
 
 class Deputy {
