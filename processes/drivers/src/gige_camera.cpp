@@ -123,25 +123,24 @@ GigeCamera::GigeCamera(GigeCameraSettings settings) : settings_(std::move(settin
     counters_[name] = 0;
 }
 
-GigeCamera::~GigeCamera() {
-  if (connector_.joinable()) connector_.join();
-  connected_ = true;  // whatever the connector left open is closed below
-  disconnect();
-}
+GigeCamera::~GigeCamera() { disconnect(); }
 
 bool GigeCamera::connected() const { return connected_; }
 
-void GigeCamera::disconnect() {
-  if (!connected_) return;
-  connected_ = false;
+void GigeCamera::closeCamera() {
   if (!impl_->camera) return;
-  harvestStatistics();
-  if (impl_->camera) {
-    GError* error = nullptr;
-    arv_camera_stop_acquisition(impl_->camera, &error);  // fails harmlessly when the camera is gone
-    g_clear_error(&error);
-  }
+  GError* error = nullptr;
+  arv_camera_stop_acquisition(impl_->camera, &error);  // fails (after GVCP timeouts) when the camera is gone
+  g_clear_error(&error);
   impl_->close();
+}
+
+void GigeCamera::disconnect() {
+  if (connector_.joinable()) connector_.join();
+  if (connected_) harvestStatistics();
+  connected_ = false;
+  pending_close_ = false;
+  closeCamera();
 }
 
 void GigeCamera::harvestStatistics() {
@@ -288,7 +287,11 @@ bool GigeCamera::ensureConnected() {
   last_attempt_us_ = now;
   connect_done_ = false;
   connect_error_.clear();
-  connector_ = std::thread([this] {
+  const bool close_first = pending_close_;
+  pending_close_ = false;
+  connector_ = std::thread([this, close_first] {
+    // Closing a camera that went away waits for GVCP timeouts: done here, not in the caller's loop.
+    if (close_first) closeCamera();
     try {
       connect();
     } catch (const std::exception& e) {
@@ -308,7 +311,9 @@ std::optional<CameraFrame> GigeCamera::grab(int timeout_ms) {
   if (impl_->control_lost || now - last_frame_us_ > static_cast<int64_t>(settings_.reconnect_after_s * 1e6)) {
     IPS_WARN("camera " << serial_ << (impl_->control_lost ? ": control lost" : ": no frames") << "; reconnecting");
     count("lost");
-    disconnect();
+    harvestStatistics();
+    connected_ = false;
+    pending_close_ = true;  // closed by the next connection attempt, in the background
     return std::nullopt;
   }
   ArvBuffer* buffer = arv_stream_timeout_pop_buffer(impl_->stream, static_cast<guint64>(timeout_ms) * 1000);

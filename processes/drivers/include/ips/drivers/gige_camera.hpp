@@ -78,6 +78,7 @@ class GigeCamera {
  private:
   struct Impl;
   void connect();
+  void closeCamera();
   void count(const std::string& name, int64_t n = 1) { counters_[name] += n; }
   void harvestStatistics();
   GigeCameraSettings settings_;
@@ -89,7 +90,8 @@ class GigeCamera {
   int64_t last_frame_us_ = 0;
   int64_t last_grab_us_ = 0;
   bool configured_once_ = false;
-  bool connected_ = false;  // read and written by the caller's thread only
+  bool connected_ = false;      // read and written by the caller's thread only
+  bool pending_close_ = false;  // a lost camera still to be closed
   std::thread connector_;
   std::atomic<bool> connect_done_{false};
   std::string connect_error_;  // written by the connector before connect_done_, read after the join
