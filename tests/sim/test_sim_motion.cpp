@@ -1,0 +1,236 @@
+// Trajectory, IMU and tilt sensor of the simulated head against analytic references.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "ips/config.hpp"
+#include "ips/sim/sensors.hpp"
+#include "ips/sim/trajectory.hpp"
+
+using namespace ips::sim;
+
+namespace {
+
+constexpr double kDeg = M_PI / 180;
+
+Eigen::Vector3d rotationVector(const Eigen::Quaterniond& q) {
+  const Eigen::AngleAxisd aa(q.normalized());
+  return aa.angle() * aa.axis();
+}
+
+double stddev(const std::vector<double>& v) {
+  const double mean = std::accumulate(v.begin(), v.end(), 0.0) / v.size();
+  double acc = 0;
+  for (double x : v) acc += (x - mean) * (x - mean);
+  return std::sqrt(acc / (v.size() - 1));
+}
+
+}  // namespace
+
+TEST(SimTrajectory, DefaultWalkIsAbout90mInAbout2Minutes) {
+  const Scenario sc = Scenario::defaults();
+  const Trajectory traj(sc.trajectory, sc.gravity);
+  EXPECT_NEAR(traj.pathLength(), 90, 5);
+  EXPECT_NEAR(traj.duration(), 120, 10);
+  // At rest at both ends, walking speed in between.
+  EXPECT_LT(traj.state(0).velocity.norm(), 1e-9);
+  EXPECT_LT(traj.state(traj.duration() + 1).velocity.norm(), 1e-9);
+  EXPECT_NEAR(traj.state(30).velocity.head<2>().norm(), sc.trajectory.speed_mps, 0.25);
+}
+
+// Velocity, acceleration and angular rate are the exact derivatives of position and attitude (central
+// differences agree to their own truncation error).
+TEST(SimTrajectory, DerivativesMatchFiniteDifferences) {
+  const Scenario sc = Scenario::defaults();
+  const Trajectory traj(sc.trajectory, sc.gravity);
+  const double h = 1e-4;
+  for (double t : {0.7, 3.3, 11.9, 14.2, 40.05, 77.7}) {
+    const TrajectoryState s = traj.state(t), a = traj.state(t - h), b = traj.state(t + h);
+    const Eigen::Vector3d v_fd = (b.position - a.position) / (2 * h);
+    const Eigen::Vector3d a_fd = (b.velocity - a.velocity) / (2 * h);
+    EXPECT_LT((v_fd - s.velocity).norm(), 1e-6) << "t=" << t;
+    EXPECT_LT((a_fd - s.acceleration).norm(), 1e-5) << "t=" << t;
+    // Body rate: R(t)^T R(t+h) = exp(w h)
+    const Eigen::Vector3d w_fd = rotationVector(a.orientation.conjugate() * b.orientation) / (2 * h);
+    EXPECT_LT((w_fd - s.angular_rate).norm(), 1e-5) << "t=" << t;
+    const Eigen::Vector3d f = s.orientation.conjugate() * (s.acceleration + Eigen::Vector3d(0, 0, sc.gravity));
+    EXPECT_LT((f - s.specific_force).norm(), 1e-12);
+  }
+}
+
+// Strapdown integration of the ideal IMU (200 Hz) reproduces the trajectory.
+TEST(SimImu, NoiseFreeIntegrationReproducesTrajectory) {
+  const Scenario sc = Scenario::defaults();
+  const Trajectory traj(sc.trajectory, sc.gravity);
+  ImuSimulator imu(ImuFigures::ideal(), traj, sc.start_utime, 7);
+  const double duration = 20.0;  // start, corridor, turn into the room
+  TrajectoryState s0 = traj.state(0);
+  Eigen::Quaterniond q = s0.orientation;
+  Eigen::Vector3d v = s0.velocity, p = s0.position;
+  const Eigen::Vector3d g(0, 0, -sc.gravity);
+  ImuMeasurement prev = imu.next();
+  double max_pos_err = 0, max_att_err = 0;
+  while (true) {
+    const ImuMeasurement cur = imu.next();
+    const double t = (cur.utime_true - sc.start_utime) * 1e-6;
+    if (t > duration) break;
+    const double dt = (cur.utime_true - prev.utime_true) * 1e-6;
+    // Rates linear over the interval: rotation vector with the coning term.
+    const Eigen::Vector3d w0 = prev.angular_rate, w1 = cur.angular_rate;
+    const Eigen::Vector3d phi = 0.5 * (w0 + w1) * dt + (dt * dt / 12.0) * w0.cross(w1);
+    const Eigen::Quaterniond dq(
+        Eigen::AngleAxisd(phi.norm(), phi.norm() > 0 ? phi.normalized() : Eigen::Vector3d::UnitX()));
+    const Eigen::Quaterniond q1 = (q * dq).normalized();
+    const Eigen::Vector3d a0 = q * prev.specific_force + g, a1 = q1 * cur.specific_force + g;
+    p += v * dt + dt * dt / 6.0 * (2 * a0 + a1);
+    v += 0.5 * (a0 + a1) * dt;
+    q = q1;
+    const TrajectoryState s = traj.state(t);
+    max_pos_err = std::max(max_pos_err, (p - s.position).norm());
+    max_att_err = std::max(max_att_err, rotationVector(s.orientation.conjugate() * q).norm());
+    prev = cur;
+  }
+  const TrajectoryState end = traj.state(duration);
+  EXPECT_GT((end.position - s0.position).norm(), 8.0);  // it really moved
+  std::cout << "ideal IMU integrated over " << duration << " s: max position error " << max_pos_err
+            << " m, max attitude error " << max_att_err / kDeg << " deg\n";
+  EXPECT_LT(max_pos_err, 0.005) << "max position error [m]";
+  EXPECT_LT(max_att_err, 0.003 * kDeg) << "max attitude error [rad]";
+}
+
+// Standing still: measured - true - bias is white noise with the configured density; the biases walk as
+// configured; the constant biases have the configured spread over seeds.
+TEST(SimImu, NoiseStatisticsMatchFigures) {
+  Scenario sc = Scenario::defaults();
+  sc.trajectory.type = "still";
+  sc.trajectory.still_duration_s = 100;
+  const Trajectory traj(sc.trajectory, sc.gravity);
+  ImuSimulator imu(sc.imu, traj, sc.start_utime, 3);
+  std::vector<double> gyro_err[3], accel_err[3], dbg, dba;
+  Eigen::Vector3d last_bg = Eigen::Vector3d::Zero(), last_ba = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 20000; ++k) {
+    const ImuMeasurement m = imu.next();
+    const TrajectoryState s = traj.state((m.utime_true - sc.start_utime) * 1e-6);
+    for (int i = 0; i < 3; ++i) {
+      gyro_err[i].push_back(m.angular_rate[i] - s.angular_rate[i] - m.gyro_bias[i]);
+      accel_err[i].push_back(m.specific_force[i] - s.specific_force[i] - m.accel_bias[i]);
+      if (k > 0) {
+        dbg.push_back(m.gyro_bias[i] - last_bg[i]);
+        dba.push_back(m.accel_bias[i] - last_ba[i]);
+      }
+    }
+    last_bg = m.gyro_bias;
+    last_ba = m.accel_bias;
+  }
+  // Expected: 0.3 deg/sqrt(h) and 0.5 mg/sqrt(Hz) at 200 Hz (quantisation adds lsb^2/12, under 1 %).
+  const double gyro_sigma = 0.3 * kDeg / 60 * std::sqrt(200.0);
+  const double accel_sigma = 0.5e-3 * 9.80665 * std::sqrt(200.0);
+  EXPECT_NEAR(imu.gyroNoiseSigma(), gyro_sigma, 1e-12);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(stddev(gyro_err[i]) / gyro_sigma, 1.0, 0.03) << "axis " << i;
+    EXPECT_NEAR(stddev(accel_err[i]) / accel_sigma, 1.0, 0.03) << "axis " << i;
+    const double mean = std::accumulate(gyro_err[i].begin(), gyro_err[i].end(), 0.0) / gyro_err[i].size();
+    EXPECT_LT(std::abs(mean), 4 * gyro_sigma / std::sqrt(20000.0));
+  }
+  EXPECT_NEAR(stddev(dbg) / (sc.imu.gyro_bias_walk_deg_s_sqrt_s * kDeg / std::sqrt(200.0)), 1.0, 0.03);
+  EXPECT_NEAR(stddev(dba) / (sc.imu.accel_bias_walk_mg_sqrt_s * 9.80665e-3 / std::sqrt(200.0)), 1.0, 0.03);
+  // Turn-on biases over many seeds.
+  std::vector<double> b0;
+  for (uint64_t seed = 0; seed < 400; ++seed) {
+    ImuSimulator other(sc.imu, traj, sc.start_utime, seed);
+    b0.push_back(other.next().gyro_bias.x());
+  }
+  EXPECT_NEAR(stddev(b0) / (sc.imu.gyro_bias_deg_s * kDeg), 1.0, 0.12);
+}
+
+TEST(SimImu, QuantisationAndSaturation) {
+  Scenario sc = Scenario::defaults();
+  const Trajectory traj(sc.trajectory, sc.gravity);
+  ImuFigures f = sc.imu;
+  f.gyro_range_deg_s = 5;  // the walk turns faster than that
+  ImuSimulator imu(f, traj, sc.start_utime, 1);
+  const double lsb = f.gyro_lsb_deg_s * kDeg;
+  double max_rate = 0;
+  for (int k = 0; k < 200 * 30; ++k) {
+    const ImuMeasurement m = imu.next();
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(m.angular_rate[i] / lsb, std::round(m.angular_rate[i] / lsb), 1e-6);
+      max_rate = std::max(max_rate, std::abs(m.angular_rate[i]));
+    }
+  }
+  EXPECT_LE(max_rate, 5 * kDeg + lsb);
+  EXPECT_GT(max_rate, 4.9 * kDeg);
+}
+
+// Tilt sensor standing still: error = constant offset + noise, quantised to the resolution; offsets spread
+// with the configured accuracy over seeds. Under acceleration it reads the specific force's inclination.
+TEST(SimTilt, StatisticsAndResponseToAcceleration) {
+  Scenario sc = Scenario::defaults();
+  sc.trajectory.type = "still";
+  const Trajectory still(sc.trajectory, sc.gravity);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(2 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  TiltSimulator tilt(sc.tilt, still, R, sc.start_utime, sc.gravity, 5);
+  std::vector<double> ex, ey;
+  const double res = sc.tilt.resolution_deg * kDeg;
+  for (int k = 0; k < 800; ++k) {
+    const TiltMeasurement m = tilt.next();
+    EXPECT_NEAR(m.angle_x / res, std::round(m.angle_x / res), 1e-6);
+    ex.push_back(m.angle_x - m.true_angle_x);
+    ey.push_back(m.angle_y - m.true_angle_y);
+  }
+  // The head is pitched nose down by pitch_down_deg; R_tilt_imu = Ry(2 deg) turns the sensor's x axis 2 deg
+  // back up (v_tilt = R v_imu), so it reads 2 deg less.
+  EXPECT_NEAR(tilt.next().true_angle_x, -(sc.trajectory.pitch_down_deg - 2) * kDeg, 1e-9);
+  const double expected = std::sqrt(std::pow(sc.tilt.noise_deg * kDeg, 2) + res * res / 12);
+  EXPECT_NEAR(stddev(ex) / expected, 1.0, 0.12);
+  EXPECT_NEAR(stddev(ey) / expected, 1.0, 0.12);
+  const double mean_x = std::accumulate(ex.begin(), ex.end(), 0.0) / ex.size();
+  EXPECT_NEAR(mean_x, tilt.offset().x(), 0.01 * kDeg);
+  std::vector<double> offsets;
+  for (uint64_t seed = 0; seed < 400; ++seed)
+    offsets.push_back(TiltSimulator(sc.tilt, still, R, sc.start_utime, sc.gravity, seed).offset().y());
+  EXPECT_NEAR(stddev(offsets) / (sc.tilt.accuracy_deg * kDeg), 1.0, 0.12);
+
+  // Walking: an ideal sensor without lag reads the inclination of the specific force, not of gravity.
+  const Scenario walk = Scenario::defaults();
+  const Trajectory traj(walk.trajectory, walk.gravity);
+  TiltSimulator ideal(TiltFigures::ideal(), traj, Eigen::Matrix3d::Identity(), walk.start_utime, walk.gravity, 1);
+  double max_diff_from_gravity = 0;
+  for (int k = 0; k < 14 * 20; ++k) {
+    const TiltMeasurement m = ideal.next();
+    const TrajectoryState s = traj.state((m.utime_true - walk.start_utime) * 1e-6);
+    const Eigen::Vector2d expect = inclination(s.specific_force);
+    EXPECT_NEAR(m.angle_x, expect.x(), 1e-12);
+    EXPECT_NEAR(m.angle_y, expect.y(), 1e-12);
+    max_diff_from_gravity = std::max(max_diff_from_gravity, std::abs(m.angle_x - m.true_angle_x));
+  }
+  EXPECT_GT(max_diff_from_gravity, 0.5 * kDeg);  // the bounce of walking shows
+}
+
+TEST(SimScenario, ConfigFilesLoadAndBadValuesAreNamed) {
+  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml", "sim_still.yaml"}) {
+    const Scenario sc = Scenario::load(std::string(IPS_CONFIG_DIR) + "/" + name);
+    const Trajectory traj(sc.trajectory, sc.gravity);
+    EXPECT_GT(traj.duration(), 10) << name;
+  }
+  const Scenario walk = Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_walk.yaml");
+  const Scenario def = Scenario::defaults();
+  EXPECT_EQ(walk.trajectory.waypoints.size(), def.trajectory.waypoints.size());
+  EXPECT_DOUBLE_EQ(walk.imu.gyro_arw_deg_sqrt_h, def.imu.gyro_arw_deg_sqrt_h);
+  const std::string bad = testing::TempDir() + "/bad_scenario.yaml";
+  {
+    cv::FileStorage fs(bad, cv::FileStorage::WRITE);
+    fs << "camera"
+       << "{"
+       << "rate_hz" << -3 << "}";
+  }
+  try {
+    Scenario::load(bad);
+    FAIL() << "no exception";
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("rate_hz"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("bad_scenario.yaml"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(Scenario::load("/nonexistent/sim.yaml"), ips::ConfigError);
+}
