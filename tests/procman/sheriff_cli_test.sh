@@ -50,7 +50,7 @@ script "cycle" {
 CFG
 
 # Configuration checks (no LCM).
-for f in system_local vehicle replay; do
+for f in system_local vehicle replay main_job; do
   check "config $f.pmd loads" "$BIN/procman-sheriff" --config "$SRC/$f.pmd" --check
 done
 "$BIN/procman-sheriff" --config "$WORK/test.pmd" --check > "$WORK/check.txt"
