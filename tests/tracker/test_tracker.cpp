@@ -5,6 +5,7 @@
 #include <Eigen/Eigenvalues>
 #include <cstdio>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "ips/tracker/euroc_calibration.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
@@ -77,4 +78,219 @@ TEST(TrackerEuroc, MovingPairsAgainstBothGroundTruths) {
   Eigen::SelfAdjointEigenSolver<Matrix6d> eig(r.covariance);
   EXPECT_GT(eig.eigenvalues().minCoeff(), 0.0);
   EXPECT_GT(r.num_inliers, 30);
+}
+
+namespace {
+
+// A rectified stereo head looking at a textured plane, moving along a known path.
+struct PlaneSequence {
+  static constexpr int kWidth = 640, kHeight = 480;
+  static constexpr double kBaseline = 0.12;
+  test::TexturedPlane plane;
+  ips::StereoCalibration calib;
+
+  PlaneSequence() {
+    plane.texture = test::realTexture(kWidth, kHeight);
+    plane.K << 500, 0, kWidth / 2.0, 0, 500, kHeight / 2.0, 0, 0, 1;
+    plane.n = Eigen::Vector3d(0.15, -0.1, 1).normalized();
+    plane.d = 3.0;
+    calib = test::idealCalibration(plane.K, kWidth, kHeight, kBaseline);
+  }
+  // Camera 0 pose at frame k in the reference (frame 0): constant velocity forward-right, slow turn.
+  Eigen::Isometry3d pose(int k) const {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = expSO3(Eigen::Vector3d(0.002, -0.008, 0.003) * k);
+    T.translation() = Eigen::Vector3d(0.02, -0.005, 0.04) * k;
+    return T;
+  }
+  void render(const Eigen::Isometry3d& T, cv::Mat& left, cv::Mat& right) const {
+    left = plane.render(T.linear(), T.translation());
+    right = plane.render(T.linear(), T.linear() * Eigen::Vector3d(kBaseline, 0, 0) + T.translation());
+  }
+  void render(int k, cv::Mat& left, cv::Mat& right) const { render(pose(k), left, right); }
+};
+
+void expectDelta(const TrackResult& r, const Eigen::Isometry3d& truth, double max_rot_deg, double max_t_m) {
+  ASSERT_TRUE(r.valid);
+  EXPECT_LT(rotationErrorDeg(r.rotation.toRotationMatrix(), truth.linear()), max_rot_deg);
+  EXPECT_LT((r.translation - truth.translation()).norm(), max_t_m);
+}
+
+}  // namespace
+
+TEST(TrackerPlane, SequenceWithConstantVelocityPrior) {
+  const PlaneSequence seq;
+  StereoTracker tracker(seq.calib, TrackerParams());
+  cv::Mat l, r;
+  seq.render(0, l, r);
+  EXPECT_FALSE(tracker.process(1000, l, r).valid);
+  double worst_rot = 0, worst_t = 0;
+  for (int k = 1; k <= 6; ++k) {
+    seq.render(k, l, r);
+    const TrackResult res = tracker.process(1000 + k * 100000, l, r);
+    const Eigen::Isometry3d truth = seq.pose(k - 1).inverse() * seq.pose(k);
+    expectDelta(res, truth, 0.05, 0.003);  // 0.05 deg and 2 mm on 4.5 cm steps
+    worst_rot = std::max(worst_rot, rotationErrorDeg(res.rotation.toRotationMatrix(), truth.linear()));
+    worst_t = std::max(worst_t, (res.translation - truth.translation()).norm());
+    EXPECT_EQ(res.utime_prev, 1000 + (k - 1) * 100000);
+    EXPECT_GT(res.num_inliers, 100);
+    EXPECT_LE(res.num_inliers, res.num_inter_matches);
+    EXPECT_LE(res.num_inter_matches, res.num_intra_matches);
+    EXPECT_LE(res.num_intra_matches, res.num_features);
+    if (k == 1) {
+      EXPECT_EQ(res.prior_source, MotionPrior::Source::None);
+      EXPECT_TRUE(res.guided_pass);
+    } else {  // the motion is steady: constant velocity predicts it
+      EXPECT_EQ(res.prior_source, MotionPrior::Source::ConstantVelocity);
+      EXPECT_TRUE(res.prior_ok);
+      EXPECT_GT(res.prediction_ok_ratio, 0.9);
+    }
+  }
+  std::printf("[ PLANE    ] worst of 6 steps: rotation %.4f deg, translation %.2f mm\n", worst_rot, 1000 * worst_t);
+  EXPECT_EQ(tracker.predictionStats().frames_with_prior, 5);
+  EXPECT_EQ(tracker.predictionStats().frames_prior_ok, 5);
+}
+
+TEST(TrackerPlane, FilterPriorPlacesSmallWindows) {
+  const PlaneSequence seq;
+  cv::Mat l0, r0, l1, r1;
+  seq.render(0, l0, r0);
+  seq.render(2, l1, r1);
+  const Eigen::Isometry3d truth = seq.pose(2);
+  Matrix6d cov = Matrix6d::Zero();
+  cov.diagonal() << 2.5e-5, 2.5e-5, 2.5e-5, 2.5e-7, 2.5e-7, 2.5e-7;  // 5 mm, 0.5 mrad
+  // A good prior: found where predicted.
+  {
+    StereoTracker tracker(seq.calib, TrackerParams());
+    tracker.process(0, l0, r0);
+    const MotionPrior prior = MotionPrior::fromFilter(truth.linear(), truth.translation(), cov);
+    const TrackResult res = tracker.process(100000, l1, r1, &prior);
+    expectDelta(res, truth, 0.05, 0.003);
+    EXPECT_EQ(res.prior_source, MotionPrior::Source::Filter);
+    EXPECT_TRUE(res.prior_ok);
+    EXPECT_FALSE(res.guided_pass);  // the windows were small already
+  }
+  // A confident but wrong prior (10 cm sideways): the small windows miss, the tracker says so and finds
+  // the motion with wide windows.
+  {
+    StereoTracker tracker(seq.calib, TrackerParams());
+    tracker.process(0, l0, r0);
+    const MotionPrior prior =
+        MotionPrior::fromFilter(truth.linear(), truth.translation() + Eigen::Vector3d(0.1, 0, 0), cov);
+    const TrackResult res = tracker.process(100000, l1, r1, &prior);
+    EXPECT_FALSE(res.prior_ok);
+    EXPECT_TRUE(res.wide_retry);
+    expectDelta(res, truth, 0.05, 0.003);
+  }
+}
+
+TEST(TrackerPlane, ImuPriorPredictsRotation) {
+  const PlaneSequence seq;
+  cv::Mat l0, r0, l1, r1;
+  seq.render(0, l0, r0);
+  // Pure rotation of 2 deg about the vertical axis in 0.1 s.
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d omega_cam(0.0, 0.35, 0.0);  // rad/s, camera frame
+  T.linear() = expSO3(omega_cam * 0.1);
+  seq.render(T, l1, r1);
+  // The IMU frame is the camera frame turned by 90 deg about z.
+  const Eigen::Matrix3d R_imu_cam0 = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const TrackerParams params;
+  const MotionPrior prior = MotionPrior::fromImuRates(R_imu_cam0 * omega_cam, R_imu_cam0, 0.1, 0.01, params.prior);
+  EXPECT_LT(rotationErrorDeg(prior.R, T.linear()), 1e-9);
+  StereoTracker tracker(seq.calib, params);
+  tracker.process(0, l0, r0);
+  const TrackResult res = tracker.process(100000, l1, r1, &prior);
+  expectDelta(res, T, 0.05, 0.003);
+  EXPECT_EQ(res.prior_source, MotionPrior::Source::Imu);
+  EXPECT_TRUE(res.prior_ok);
+}
+
+TEST(TrackerPlane, ExposureChangeAndNoise) {
+  const PlaneSequence seq;
+  cv::Mat l0, r0, l1, r1;
+  seq.render(0, l0, r0);
+  seq.render(1, l1, r1);
+  // Newer pair 40 % darker with an offset and sensor noise; the right camera's gain differs too.
+  cv::Mat noise(l1.size(), CV_16SC1);
+  cv::randn(noise, 0, 2.0);
+  l1.convertTo(l1, CV_16SC1, 0.6, 15);
+  r1.convertTo(r1, CV_16SC1, 0.7, 10);
+  l1 += noise;
+  r1 += noise;
+  l1.convertTo(l1, CV_8UC1);
+  r1.convertTo(r1, CV_8UC1);
+  StereoTracker tracker(seq.calib, TrackerParams());
+  tracker.process(0, l0, r0);
+  expectDelta(tracker.process(100000, l1, r1), seq.pose(1), 0.1, 0.004);
+}
+
+TEST(TrackerPlane, BlankPairKeepsTheReferenceAndFailedMatchRecovers) {
+  const PlaneSequence seq;
+  cv::Mat l0, r0, l1, r1, l2, r2;
+  seq.render(0, l0, r0);
+  seq.render(1, l1, r1);
+  seq.render(2, l2, r2);
+  StereoTracker tracker(seq.calib, TrackerParams());
+  tracker.process(0, l0, r0);
+  // A blank pair (lens cap, a white wall): invalid, and pair 0 stays the reference.
+  const cv::Mat blank(l0.size(), CV_8UC1, cv::Scalar(128));
+  const TrackResult blank_res = tracker.process(100000, blank, blank);
+  EXPECT_FALSE(blank_res.valid);
+  EXPECT_EQ(blank_res.num_intra_matches, 0);
+  EXPECT_EQ(tracker.referenceTime(), 0);
+  const TrackResult r2res = tracker.process(200000, l2, r2);
+  EXPECT_EQ(r2res.utime_prev, 0);
+  expectDelta(r2res, seq.pose(2), 0.05, 0.003);
+
+  // A pair of a different scene (textured, but nothing in common): invalid; it becomes the reference and the
+  // next pair of that scene is tracked again.
+  test::TexturedPlane other = seq.plane;
+  cv::Mat noise_tex(seq.plane.texture.size(), CV_8UC1);
+  cv::randu(noise_tex, 0, 255);
+  cv::GaussianBlur(noise_tex, other.texture, cv::Size(0, 0), 2.0);
+  const Eigen::Vector3d b(PlaneSequence::kBaseline, 0, 0);
+  const cv::Mat ol0 = other.render(Eigen::Matrix3d::Identity(), Eigen::Vector3d::Zero());
+  const cv::Mat or0 = other.render(Eigen::Matrix3d::Identity(), b);
+  const Eigen::Vector3d step(0.03, 0, 0.02);
+  const cv::Mat ol1 = other.render(Eigen::Matrix3d::Identity(), step);
+  const cv::Mat or1 = other.render(Eigen::Matrix3d::Identity(), step + b);
+  EXPECT_FALSE(tracker.process(300000, ol0, or0).valid);
+  EXPECT_EQ(tracker.referenceTime(), 300000);
+  const TrackResult rec = tracker.process(400000, ol1, or1);
+  ASSERT_TRUE(rec.valid);
+  EXPECT_LT((rec.translation - step).norm(), 0.003);
+}
+
+TEST(TrackerPlane, TimeGoingBackwardsRestarts) {
+  const PlaneSequence seq;
+  cv::Mat l0, r0, l1, r1;
+  seq.render(0, l0, r0);
+  seq.render(1, l1, r1);
+  StereoTracker tracker(seq.calib, TrackerParams());
+  tracker.process(500000, l0, r0);
+  EXPECT_FALSE(tracker.process(500000, l1, r1).valid);  // same time
+  EXPECT_EQ(tracker.referenceTime(), 500000);
+  EXPECT_FALSE(tracker.process(400000, l0, r0).valid);  // earlier
+  EXPECT_EQ(tracker.referenceTime(), 400000);
+  EXPECT_TRUE(tracker.process(500000, l1, r1).valid);
+}
+
+TEST(TrackerPlane, BadInputThrows) {
+  const PlaneSequence seq;
+  StereoTracker tracker(seq.calib, TrackerParams());
+  cv::Mat l, r;
+  seq.render(0, l, r);
+  EXPECT_THROW(tracker.process(0, cv::Mat(), r), std::invalid_argument);
+  EXPECT_THROW(tracker.process(0, l, cv::Mat(100, 100, CV_8UC1)), std::invalid_argument);
+  EXPECT_THROW(tracker.process(0, cv::Mat(l.size(), CV_16UC1), r), std::invalid_argument);
+  cv::Mat colour;
+  cv::cvtColor(l, colour, cv::COLOR_GRAY2BGR);
+  EXPECT_NO_THROW(tracker.process(0, colour, r));
+  ips::StereoCalibration bad = seq.calib;
+  bad.cam1.width = 10;
+  EXPECT_THROW(StereoTracker(bad, TrackerParams()), std::invalid_argument);
+  TrackerParams bad_params;
+  bad_params.matcher.ncc_half_window = 0;
+  EXPECT_THROW(StereoTracker(seq.calib, bad_params), std::invalid_argument);
 }

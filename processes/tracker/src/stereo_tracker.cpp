@@ -136,6 +136,7 @@ std::vector<Correspondence> StereoTracker::correspondences(const std::vector<Int
     c.now = m.now_obs;
     c.p_prev = ref_->points[m.prev];
     c.p_now = stereo_.triangulate(c.now.xl, c.now.y, c.now.xr);
+    c.id = m.prev;
     if (c.p_prev.z() > params_.motion.max_depth || c.p_now.z() > params_.motion.max_depth) continue;
     out.push_back(c);
   }
@@ -218,15 +219,6 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   std::vector<InterMatch> matches =
       matchBetweenTimes(ref_->features, cur_->features, pred, cur_->left, cur_->right, params_.matcher);
   res.times.inter = msSince(t0);
-  for (const InterMatch& m : matches) res.num_predictions_ok += m.prediction_ok ? 1 : 0;
-  res.prediction_ok_ratio = matches.empty() ? 0.0 : double(res.num_predictions_ok) / double(matches.size());
-  res.prior_ok = have_prior && !matches.empty() && res.prediction_ok_ratio >= params_.matcher.prior_ok_fraction;
-  if (have_prior) {
-    stats_.frames_with_prior++;
-    stats_.frames_prior_ok += res.prior_ok ? 1 : 0;
-    stats_.matches += int64_t(matches.size());
-    stats_.matches_ok += res.num_predictions_ok;
-  }
 
   t0 = Clock::now();
   std::vector<Correspondence> corr = correspondences(matches);
@@ -234,8 +226,26 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   res.num_inter_matches = int(matches.size());
   res.times.motion = msSince(t0);
 
+  // A prior that was confidently wrong (a filter gone astray, a jolt the IMU rates did not foresee) leaves
+  // the small windows empty: search again as if there were no prior, around the same prediction.
+  const std::vector<Prediction> pred_prior = pred;
+  if (!est.valid && have_prior) {
+    t0 = Clock::now();
+    pred = predict(prior_rect, cov_rect, false);
+    matches = matchBetweenTimes(ref_->features, cur_->features, pred, cur_->left, cur_->right, params_.matcher);
+    res.times.inter += msSince(t0);
+    t0 = Clock::now();
+    corr = correspondences(matches);
+    est = estimateMotion(stereo_, corr, params_.motion);
+    res.num_inter_matches = int(matches.size());
+    res.times.motion += msSince(t0);
+    res.wide_retry = true;
+  }
+
   // A wide first window admits look-alikes and misses features that did not make the first pass's
   // uniqueness test; matching again tightly around the first estimate recovers them.
+  std::vector<Correspondence> corr2;
+  bool est_from_guided = false;
   double max_radius = 0;
   for (const Prediction& q : pred) max_radius = std::max(max_radius, q.radius);
   if (est.valid && max_radius > 2.0 * params_.matcher.guided_window_px) {
@@ -248,18 +258,38 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
         matchBetweenTimes(ref_->features, cur_->features, pred2, cur_->left, cur_->right, params_.matcher);
     res.times.inter += msSince(t0);
     t0 = Clock::now();
-    std::vector<Correspondence> corr2 = correspondences(matches2);
+    corr2 = correspondences(matches2);
     MotionEstimate est2 = estimateMotion(stereo_, corr2, params_.motion);
     res.times.motion += msSince(t0);
     res.guided_pass = true;
     if (est2.valid && est2.inliers.size() >= est.inliers.size()) {
       est = est2;
+      est_from_guided = true;
       res.num_inter_matches = int(matches2.size());
     }
   }
 
   res.valid = est.valid;
   res.num_inliers = int(est.inliers.size());
+  // The prediction was right where the final inliers lie within prior_ok_px of where the prior put them
+  // (matches inside a wrongly placed window are look-alikes that RANSAC throws out).
+  if (est.valid) {
+    const std::vector<Correspondence>& used_corr = res.guided_pass && est_from_guided ? corr2 : corr;
+    for (int i : est.inliers) {
+      const Correspondence& c = used_corr[i];
+      const Prediction& q = pred_prior[c.id];
+      res.num_predictions_ok += std::abs(c.now.xl - q.xl) <= params_.matcher.prior_ok_px &&
+                                std::abs(c.now.y - q.y) <= params_.matcher.prior_ok_px;
+    }
+    res.prediction_ok_ratio = double(res.num_predictions_ok) / double(est.inliers.size());
+  }
+  res.prior_ok = have_prior && est.valid && res.prediction_ok_ratio >= params_.matcher.prior_ok_fraction;
+  if (have_prior) {
+    stats_.frames_with_prior++;
+    stats_.frames_prior_ok += res.prior_ok ? 1 : 0;
+    stats_.matches += res.num_inliers;
+    stats_.matches_ok += res.num_predictions_ok;
+  }
   if (est.valid) {
     const Eigen::Matrix3d R_cam = Rr.transpose() * est.motion.R * Rr;
     res.translation = Rr.transpose() * est.motion.t;

@@ -40,6 +40,7 @@ struct Correspondence {
   StereoObservation prev, now;
   Eigen::Vector3d p_prev = Eigen::Vector3d::Zero();  // triangulated, rectified left camera at prev
   Eigen::Vector3d p_now = Eigen::Vector3d::Zero();
+  int id = -1;  // the caller's tag (the tracker: index of the older feature)
 };
 
 struct RigidMotion {

@@ -58,8 +58,9 @@ struct TrackResult {
   bool prior_ok = false;
 
   double residual_rms_px = 0;      // stereo reprojection rms of the inliers
-  int num_predictions_ok = 0;      // inter-matches of the first pass found within prior_ok_px of the prediction
-  double prediction_ok_ratio = 0;  // ... as a share of that pass's inter-matches
+  int num_predictions_ok = 0;      // inliers found within prior_ok_px of where the prior predicted them
+  double prediction_ok_ratio = 0;  // ... as a share of the inliers; prior_ok = ratio >= prior_ok_fraction
+  bool wide_retry = false;         // the prior's windows failed; matched again with the widest windows
   bool guided_pass = false;        // a second matching pass around the first estimate was run
   StageTimes times;
 
@@ -70,8 +71,8 @@ struct TrackResult {
 struct PredictionStats {
   int64_t frames_with_prior = 0;
   int64_t frames_prior_ok = 0;
-  int64_t matches = 0;
-  int64_t matches_ok = 0;
+  int64_t matches = 0;     // inliers of frames with a prior
+  int64_t matches_ok = 0;  // ... found within prior_ok_px of the prediction
 };
 
 class StereoTracker {
