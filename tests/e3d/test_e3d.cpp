@@ -86,6 +86,7 @@ TEST(SgmReference, TsukubaAgainstGroundTruth) {
   cv::Mat mask = cv::imread(std::string(IPS_DATA_DIR) + "/stereo/tsukuba/mask_nonocc.png", cv::IMREAD_GRAYSCALE);
   SgmParams p;
   p.num_disparities = 16;
+  p.fill_invalid = true;  // invalid pixels count as bad below
   cv::Mat d = sgmReference(left, right, p).left;
   int bad = 0, n = 0;
   for (int y = 18; y < d.rows - 18; ++y)
@@ -96,7 +97,7 @@ TEST(SgmReference, TsukubaAgainstGroundTruth) {
       if (v == kInvalidDisparity || std::abs(v / 16.0 - gt.at<uint8_t>(y, x) / 16.0) > 2.0) ++bad;
     }
   ASSERT_GT(n, 50000);
-  EXPECT_LT(double(bad) / n, 0.08);  // SGM with census on tsukuba: a few percent
+  EXPECT_LT(double(bad) / n, 0.045);  // measured 3.3 % (OpenCV StereoSGBM MODE_HH: 3.4 %)
 }
 
 TEST(StereoMatcher, EqualsReferenceOnTsukuba) {

@@ -37,11 +37,12 @@ constexpr int kCensusMaxCost = 24;
 struct SgmParams {
   int num_disparities = 128;  // search range size, 1..256
   int min_disparity = 0;      // smallest disparity searched [px]
-  int p1 = 7;                 // penalty for a disparity change of 1 px (census cost units, 0..24)
-  int p2 = 86;                // penalty for larger changes; p2 + 24 <= 255
-  int p2_slope = 0;           // adaptive P2: P2' = max(P1, P2 - p2_slope * |dI| / 16); 0 = constant P2
+  // Defaults: chosen on the six scenes of ../shared/data/stereo (processes/e3d/README.md); one set for all.
+  int p1 = 14;                // penalty for a disparity change of 1 px (census cost units, 0..24)
+  int p2 = 231;               // penalty for larger changes; p2 + 24 <= 255 (path costs fit one byte)
+  int p2_slope = 80;          // adaptive P2: P2' = max(P1, P2 - p2_slope * |dI| / 16); 0 = constant P2
   int paths = 8;              // 8 or 4 (horizontal + vertical)
-  int uniqueness = 10;        // percent, 0 = off (as OpenCV's uniquenessRatio)
+  int uniqueness = 20;        // percent, 0 = off (as OpenCV's uniquenessRatio)
   bool subpixel = true;       // equiangular interpolation (else integer disparities * 16)
   bool median = true;         // 3x3 median on both maps before the left-right check
   int lr_max_diff = 1;        // left-right check tolerance [px]; < 0 = no check
