@@ -139,8 +139,13 @@ void Sheriff::onInfo(const lcm::ReceiveBuffer*, const std::string&, const procma
       it->force_quit = s.pid == 0;
     }
   }
-  for (auto& c : commands_)
-    if (c.config.deputy == msg->deputy_id && !reported.count(c.config.id)) c.reported = false;
+  for (auto& c : commands_) {
+    if (c.config.deputy != msg->deputy_id) continue;
+    if (!reported.count(c.config.id)) c.reported = false;
+    // A restart is a stop and then a start on the next order: send it now rather than at the next period.
+    if (d.adopted && c.reported && c.pid == 0 && !c.force_quit && c.desired_runid != c.actual_runid)
+      orders_dirty_ = true;
+  }
   if (!d.adopted) {
     d.adopted = true;
     orders_dirty_ = true;
