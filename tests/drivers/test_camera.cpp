@@ -269,7 +269,8 @@ int main(int argc, char** argv) {
   ips::setLogLevel(ips::LogLevel::Warn);
   // A private network namespace: the fake cameras' GVCP port 3956 on two addresses, unseen by anyone else.
   if (geteuid() == 0 && unshare(CLONE_NEWNET) == 0)
-    g_network_ready = std::system("ip link set lo up && ip addr add 127.0.0.2/8 dev lo && "
-                                  "ip addr add 127.0.0.3/8 dev lo") == 0;
+    g_network_ready = std::system(
+                          "ip link set lo up && ip addr add 127.0.0.2/8 dev lo && "
+                          "ip addr add 127.0.0.3/8 dev lo") == 0;
   return RUN_ALL_TESTS();
 }

@@ -62,7 +62,8 @@ TEST(Mmq50, RoundTripEveryLayout) {
 TEST(Mmq50, KnownChecksums) {
   const uint8_t text[] = {'1', '2', '3', '4', '5', '6', '7', '8', '9'};
   EXPECT_EQ(computeChecksum(Checksum::Crc16Ccitt, text, 9), 0x29B1u);  // CRC-16/CCITT-FALSE check value
-  EXPECT_EQ(computeChecksum(Checksum::Sum8, text, 9), (0x31u + 0x32 + 0x33 + 0x34 + 0x35 + 0x36 + 0x37 + 0x38 + 0x39) & 0xFF);
+  EXPECT_EQ(computeChecksum(Checksum::Sum8, text, 9),
+            (0x31u + 0x32 + 0x33 + 0x34 + 0x35 + 0x36 + 0x37 + 0x38 + 0x39) & 0xFF);
   EXPECT_EQ(computeChecksum(Checksum::Xor8, text, 9), 0x31u);
 }
 
@@ -199,12 +200,12 @@ TEST(Z260, CorruptLinesCountedAndSurvived) {
   std::string corrupt = Z260Parser::format(f, 0.03, 0.04);
   corrupt[4] = corrupt[4] == '1' ? '2' : '1';  // a changed digit: checksum error
   stream += corrupt;
-  stream += "X=+01.0";                         // cut off by noise
+  stream += "X=+01.0";  // cut off by noise
   stream += std::string(1, '\x00') + "\xff\xfe";
   stream += "\r\n";
-  stream += "X=+99.000 Y=+00.000*";            // out of range, bad checksum field
+  stream += "X=+99.000 Y=+00.000*";  // out of range, bad checksum field
   stream += "\r\n";
-  stream += std::string(100, 'Z') + "\r\n";    // an overlong line
+  stream += std::string(100, 'Z') + "\r\n";  // an overlong line
   stream += Z260Parser::format(f, -0.05, 0.06);
   const auto s = p.feed(reinterpret_cast<const uint8_t*>(stream.data()), stream.size(), 0, 1.0);
   ASSERT_EQ(s.size(), 2u);

@@ -75,9 +75,9 @@ TEST(SerialPty, ImuStreamWithCorruptionAndSilence) {
     const double w[3] = {0.01, 0.02, 0.03}, a[3] = {0, 0, 9.81};
     for (uint32_t k = 0; k < 200; ++k) {
       auto p = Mmq50Parser::encode(format, k, w, a);
-      if (k == 50) p[7] ^= 0xFF;                                   // checksum error
+      if (k == 50) p[7] ^= 0xFF;                                     // checksum error
       if (k == 80) pty.write({0x13, 0x37, 0x55, 0x00, 0xAA, 0x42});  // garbage incl. a false sync start
-      if (k == 120) {                                              // half a frame, then silence
+      if (k == 120) {                                                // half a frame, then silence
         p.resize(p.size() / 2);
         pty.write(p);
         std::this_thread::sleep_for(500ms);

@@ -127,7 +127,7 @@ Simulated simulate(double duration_s, int64_t camera_late_us, unsigned seed) {
       for (int i = 0; i < 3; ++i) w[i] += gyro_noise(rng);
       s.gyro.push_back({t0 + static_cast<int64_t>(std::llround(t * 1e6)), w});
     }
-    if (step % 1000 == 0 && step > 0) {  // 10 Hz image pairs
+    if (step % 1000 == 0 && step > 0) {                                                   // 10 Hz image pairs
       const Eigen::Matrix3d R_b = (q_prev_frame.conjugate() * q_w_b).toRotationMatrix();  // body at now in body at prev
       Eigen::Matrix3d R_cam = R_cam_imu * R_b * R_cam_imu.transpose();
       const Eigen::Vector3d n(tracker_noise(rng), tracker_noise(rng), tracker_noise(rng));
@@ -160,5 +160,6 @@ TEST(DelayEstimation, TooLittleDataGivesNoEstimate) {
   const Simulated sim = simulate(1.0, 10'000, 1);
   const DelayEstimate e = estimateCameraImuDelay(sim.gyro, sim.deltas);
   EXPECT_FALSE(e.ok);
-  EXPECT_THROW(estimateCameraImuDelay(sim.gyro, sim.deltas, DelayEstimatorConfig{100, 0, 20, 0}), std::invalid_argument);
+  EXPECT_THROW(estimateCameraImuDelay(sim.gyro, sim.deltas, DelayEstimatorConfig{100, 0, 20, 0}),
+               std::invalid_argument);
 }

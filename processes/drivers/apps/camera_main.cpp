@@ -59,7 +59,8 @@ int main(int argc, char** argv) {
         }
         node.health().accepted();
         if (node.publish(ips::channels::kStereo, msg)) ++published;
-        node.health().latency(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
+        node.health().latency(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());
       }
       const auto now = std::chrono::steady_clock::now();
       const double since = std::chrono::duration<double>(now - last_health).count();

@@ -37,7 +37,8 @@ int64_t ClockMapper::update(int64_t device_us, int64_t arrival_us) {
     device_ref_ = device_us;
     arrival_ref_ = arrival_us;
   }
-  pairs_.push_back(ClockMapperPoint{static_cast<double>(device_us - device_ref_), static_cast<double>(arrival_us - arrival_ref_)});
+  pairs_.push_back(
+      ClockMapperPoint{static_cast<double>(device_us - device_ref_), static_cast<double>(arrival_us - arrival_ref_)});
   if (pairs_.size() > config_.window) pairs_.pop_front();
   refit();
   return map(device_us);

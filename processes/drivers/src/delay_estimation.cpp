@@ -62,7 +62,8 @@ DelayEstimate estimateCameraImuDelay(const std::vector<GyroSample>& gyro_in, con
   DelayEstimate result;
   std::vector<GyroSample> gyro = gyro_in;
   std::sort(gyro.begin(), gyro.end(), [](const GyroSample& a, const GyroSample& b) { return a.utime < b.utime; });
-  gyro.erase(std::unique(gyro.begin(), gyro.end(), [](const GyroSample& a, const GyroSample& b) { return a.utime == b.utime; }),
+  gyro.erase(std::unique(gyro.begin(), gyro.end(),
+                         [](const GyroSample& a, const GyroSample& b) { return a.utime == b.utime; }),
              gyro.end());
   if (gyro.size() < 2) return result;
   const GyroIntegral integral(gyro);
@@ -77,7 +78,8 @@ DelayEstimate estimateCameraImuDelay(const std::vector<GyroSample>& gyro_in, con
     const double dt = (d.utime - d.utime_prev) * 1e-6;
     if (!(dt > 0)) continue;
     const double t0 = static_cast<double>(d.utime_prev), t1 = static_cast<double>(d.utime);
-    if (!integral.covers(t0 - config.max_delay_us - config.step_us, t1 + config.max_delay_us + config.step_us)) continue;
+    if (!integral.covers(t0 - config.max_delay_us - config.step_us, t1 + config.max_delay_us + config.step_us))
+      continue;
     const Eigen::AngleAxisd aa(d.rotation.normalized());
     const double magnitude = std::fabs(aa.angle()) / dt;
     if (!std::isfinite(magnitude) || magnitude < config.min_rate) continue;

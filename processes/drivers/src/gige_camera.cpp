@@ -87,15 +87,24 @@ class GErrorCheck {
 
 const char* statusName(ArvBufferStatus s) {
   switch (s) {
-    case ARV_BUFFER_STATUS_SUCCESS: return "success";
-    case ARV_BUFFER_STATUS_CLEARED: return "cleared";
-    case ARV_BUFFER_STATUS_TIMEOUT: return "timeout";
-    case ARV_BUFFER_STATUS_MISSING_PACKETS: return "missing_packets";
-    case ARV_BUFFER_STATUS_WRONG_PACKET_ID: return "wrong_packet_id";
-    case ARV_BUFFER_STATUS_SIZE_MISMATCH: return "size_mismatch";
-    case ARV_BUFFER_STATUS_FILLING: return "filling";
-    case ARV_BUFFER_STATUS_ABORTED: return "aborted";
-    default: return "other";
+    case ARV_BUFFER_STATUS_SUCCESS:
+      return "success";
+    case ARV_BUFFER_STATUS_CLEARED:
+      return "cleared";
+    case ARV_BUFFER_STATUS_TIMEOUT:
+      return "timeout";
+    case ARV_BUFFER_STATUS_MISSING_PACKETS:
+      return "missing_packets";
+    case ARV_BUFFER_STATUS_WRONG_PACKET_ID:
+      return "wrong_packet_id";
+    case ARV_BUFFER_STATUS_SIZE_MISMATCH:
+      return "size_mismatch";
+    case ARV_BUFFER_STATUS_FILLING:
+      return "filling";
+    case ARV_BUFFER_STATUS_ABORTED:
+      return "aborted";
+    default:
+      return "other";
   }
 }
 
@@ -107,7 +116,8 @@ std::string findDevice(const std::string& wanted, std::string* seen) {
     const char* id = arv_get_device_id(i);
     const char* serial = arv_get_device_serial_nbr(i);
     const char* address = arv_get_device_address(i);
-    if (seen) *seen += std::string(seen->empty() ? "" : ", ") + (id ? id : "?") + " (" + (address ? address : "?") + ")";
+    if (seen)
+      *seen += std::string(seen->empty() ? "" : ", ") + (id ? id : "?") + " (" + (address ? address : "?") + ")";
     if ((id && wanted == id) || (serial && wanted == serial) || (address && wanted == address)) return id ? id : "";
   }
   return "";
@@ -249,8 +259,8 @@ void GigeCamera::connect() {
     impl_->resent_base = impl_->missing_base = impl_->underrun_base = 0;
     for (int i = 0; i < s.buffers; ++i) arv_stream_push_buffer(impl_->stream, arv_buffer_new(payload, nullptr));
     impl_->control_lost = false;
-    impl_->control_lost_handler = g_signal_connect(arv_camera_get_device(camera), "control-lost",
-                                                   G_CALLBACK(&Impl::onControlLost), impl_.get());
+    impl_->control_lost_handler =
+        g_signal_connect(arv_camera_get_device(camera), "control-lost", G_CALLBACK(&Impl::onControlLost), impl_.get());
     arv_camera_set_acquisition_mode(camera, ARV_ACQUISITION_MODE_CONTINUOUS, &err);
     err.check("set continuous acquisition");
     arv_camera_start_acquisition(camera, &err);

@@ -19,17 +19,21 @@ Checksum parseChecksum(const std::string& name) {
 
 size_t checksumBytes(Checksum type) {
   switch (type) {
-    case Checksum::None: return 0;
+    case Checksum::None:
+      return 0;
     case Checksum::Sum8:
-    case Checksum::Xor8: return 1;
-    default: return 2;
+    case Checksum::Xor8:
+      return 1;
+    default:
+      return 2;
   }
 }
 
 uint32_t computeChecksum(Checksum type, const uint8_t* data, size_t size) {
   uint32_t v = 0;
   switch (type) {
-    case Checksum::None: return 0;
+    case Checksum::None:
+      return 0;
     case Checksum::Sum8:
       for (size_t i = 0; i < size; ++i) v += data[i];
       return v & 0xFF;
@@ -87,7 +91,8 @@ std::vector<uint8_t> parseHex(const std::string& text) {
   for (char c : text)
     if (std::isxdigit(static_cast<unsigned char>(c))) digits += c;
   if (digits.empty() || digits.size() % 2) throw std::invalid_argument("sync must be an even number of hex digits");
-  for (size_t i = 0; i < digits.size(); i += 2) out.push_back(static_cast<uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
+  for (size_t i = 0; i < digits.size(); i += 2)
+    out.push_back(static_cast<uint8_t>(std::stoul(digits.substr(i, 2), nullptr, 16)));
   return out;
 }
 
@@ -99,11 +104,13 @@ size_t Mmq50Format::packetSize() const {
 
 void Mmq50Format::validate() const {
   if (sync.empty()) throw std::invalid_argument("MMQ-50 format: sync needs at least one byte");
-  if (counter_bytes != 1 && counter_bytes != 2) throw std::invalid_argument("MMQ-50 format: counter_bytes must be 1 or 2");
+  if (counter_bytes != 1 && counter_bytes != 2)
+    throw std::invalid_argument("MMQ-50 format: counter_bytes must be 1 or 2");
   if (rate_bytes != 2 && rate_bytes != 4) throw std::invalid_argument("MMQ-50 format: rate_bytes must be 2 or 4");
   if (accel_bytes != 2 && accel_bytes != 4) throw std::invalid_argument("MMQ-50 format: accel_bytes must be 2 or 4");
   if (status_bytes < 0 || status_bytes > 2) throw std::invalid_argument("MMQ-50 format: status_bytes must be 0..2");
-  if (!(rate_lsb > 0) || !(accel_lsb > 0)) throw std::invalid_argument("MMQ-50 format: rate_lsb and accel_lsb must be > 0");
+  if (!(rate_lsb > 0) || !(accel_lsb > 0))
+    throw std::invalid_argument("MMQ-50 format: rate_lsb and accel_lsb must be > 0");
   if (!(rate_hz > 0)) throw std::invalid_argument("MMQ-50 format: rate_hz must be > 0");
   std::array<bool, 3> used{};
   for (int i = 0; i < 3; ++i) {
@@ -205,8 +212,8 @@ std::vector<ImuSample> Mmq50Parser::feed(const uint8_t* data, size_t size, int64
     const uint8_t* p = buffer_.data() + pos;
     const size_t body = packet - sync.size() - checksumBytes(format_.checksum);
     const uint32_t expected = computeChecksum(format_.checksum, p + sync.size(), body);
-    const uint32_t stored = readUnsigned(p + sync.size() + body, static_cast<int>(checksumBytes(format_.checksum)),
-                                         format_.big_endian);
+    const uint32_t stored =
+        readUnsigned(p + sync.size() + body, static_cast<int>(checksumBytes(format_.checksum)), format_.big_endian);
     if (expected != stored) {
       ++counters_.checksum_errors;
       pos += 1;  // resynchronise on the next sync after this false or corrupt start

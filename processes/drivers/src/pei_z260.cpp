@@ -135,7 +135,8 @@ std::vector<TiltSample> Z260Parser::feed(const uint8_t* data, size_t size, int64
       ++counters_.garbage_bytes;
       continue;
     }
-    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7E || line_.size() >= format_.max_line) {
+    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) > 0x7E ||
+        line_.size() >= format_.max_line) {
       // Line noise (not text) or an overlong line: the rest of this line cannot be trusted either.
       counters_.garbage_bytes += static_cast<int64_t>(line_.size()) + 1;
       line_.clear();

@@ -14,7 +14,8 @@ StereoCameraSettings StereoCameraSettings::fromConfig(const Config& config) {
   // Keys directly under camera/ apply to both; camera/left and camera/right override them.
   const GigeCameraSettings shared = GigeCameraSettings::fromConfig(c);
   auto side = [&](const std::string& name) {
-    if (!c.has(name)) throw ConfigError(config.path() + ": key 'camera/" + name + "' (the " + name + " camera) is missing");
+    if (!c.has(name))
+      throw ConfigError(config.path() + ": key 'camera/" + name + "' (the " + name + " camera) is missing");
     const Config sc = c.section(name);
     GigeCameraSettings g = shared;
     // Re-read with the shared values as defaults.
@@ -83,7 +84,8 @@ void StereoCamera::handle(int side, CameraFrame frame, std::vector<StereoFrame>*
   // Sequence: advances by the left camera's frame id step, so frames lost on the way show up as gaps.
   const uint64_t id = pair->left.frame_id;
   int64_t step = 1;
-  if (last_left_id_ != 0 && id > last_left_id_ && id - last_left_id_ < 10000) step = static_cast<int64_t>(id - last_left_id_);
+  if (last_left_id_ != 0 && id > last_left_id_ && id - last_left_id_ < 10000)
+    step = static_cast<int64_t>(id - last_left_id_);
   last_left_id_ = id;
   seq_ += step;
   StereoFrame f;
@@ -103,7 +105,9 @@ std::vector<StereoFrame> StereoCamera::poll(int timeout_ms) {
   const bool up[2] = {cameras_[0]->ensureConnected(), cameras_[1]->ensureConnected()};
   if (!up[0] && !up[1]) {
     // Nothing to wait on: sleep the timeout away so the caller's loop does not spin.
-    struct timespec ts{timeout_ms / 1000, (timeout_ms % 1000) * 1000000L};
+    struct timespec ts {
+      timeout_ms / 1000, (timeout_ms % 1000) * 1000000L
+    };
     nanosleep(&ts, nullptr);
     return out;
   }

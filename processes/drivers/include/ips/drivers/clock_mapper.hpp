@@ -17,10 +17,10 @@ struct ClockMapperPoint {
 };
 
 struct ClockMapperConfig {
-  size_t window = 300;               // pairs kept for the fit (e.g. 10 s of frames at 30 Hz)
-  size_t min_pairs_for_drift = 20;   // below this the rate ratio is taken as exactly 1
-  double max_drift_ppm = 500.0;      // crystal clocks are within ~100 ppm; more means a wrong input
-  int64_t reset_jump_us = 500'000;   // prediction error beyond this: the device clock jumped (restart): reset
+  size_t window = 300;              // pairs kept for the fit (e.g. 10 s of frames at 30 Hz)
+  size_t min_pairs_for_drift = 20;  // below this the rate ratio is taken as exactly 1
+  double max_drift_ppm = 500.0;     // crystal clocks are within ~100 ppm; more means a wrong input
+  int64_t reset_jump_us = 500'000;  // prediction error beyond this: the device clock jumped (restart): reset
 };
 
 class ClockMapper {

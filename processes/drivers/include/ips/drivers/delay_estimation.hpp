@@ -37,8 +37,8 @@ struct DelayEstimatorConfig {
 struct DelayEstimate {
   bool ok = false;
   double delay_us = 0;
-  double correlation = 0;  // at the best delay (1 = perfect)
-  size_t intervals = 0;    // tracker intervals used
+  double correlation = 0;                        // at the best delay (1 = perfect)
+  size_t intervals = 0;                          // tracker intervals used
   std::vector<std::pair<double, double>> curve;  // (delay_us, correlation) over the grid
 };
 

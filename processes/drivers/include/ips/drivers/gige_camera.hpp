@@ -5,11 +5,11 @@
 // lost, or no frame for a while), without restarting the process. No LCM here: frames are plain structs.
 #include <atomic>
 #include <cstdint>
-#include <thread>
 #include <map>
 #include <memory>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace ips {
@@ -19,23 +19,23 @@ class Config;
 namespace ips::drivers {
 
 struct GigeCameraSettings {
-  std::string id;                    // serial number, Aravis device id, or IP address
+  std::string id;                      // serial number, Aravis device id, or IP address
   std::string pixel_format = "Mono8";  // Mono8, Mono10, Mono12, Mono16 (wider than 8 bits: sent as mono16)
-  int width = 0, height = 0;         // region of interest from (offset_x, offset_y); 0 keeps the camera's
+  int width = 0, height = 0;           // region of interest from (offset_x, offset_y); 0 keeps the camera's
   int offset_x = 0, offset_y = 0;
-  double exposure_us = 0;            // 0 keeps the camera's
-  double gain_db = -1;               // < 0 keeps the camera's
-  double frame_rate_hz = 0;          // free-running rate; 0 keeps the camera's
-  std::string trigger_source;        // "" free running; "Line1" (hardware, both cameras on one line), "Software"
-  int packet_size = 0;               // GigE packet size [bytes]; 0 negotiates the largest that passes
-  int64_t packet_delay_ns = 0;       // inter-packet delay (GevSCPD) to share a link between two cameras
-  bool packet_resend = true;         // ask the camera to resend lost packets
-  int packet_timeout_ms = 20;        // wait before asking for a resend
-  int frame_retention_ms = 200;      // give up on an incomplete frame after this
-  int buffers = 8;                   // buffer pool size
-  bool packet_socket = false;        // Aravis packet sockets: faster, but as root they miss loopback traffic
-  double reconnect_after_s = 2.0;    // no complete frame for this long while acquiring: reconnect
-  double retry_interval_s = 1.0;     // between connection attempts
+  double exposure_us = 0;          // 0 keeps the camera's
+  double gain_db = -1;             // < 0 keeps the camera's
+  double frame_rate_hz = 0;        // free-running rate; 0 keeps the camera's
+  std::string trigger_source;      // "" free running; "Line1" (hardware, both cameras on one line), "Software"
+  int packet_size = 0;             // GigE packet size [bytes]; 0 negotiates the largest that passes
+  int64_t packet_delay_ns = 0;     // inter-packet delay (GevSCPD) to share a link between two cameras
+  bool packet_resend = true;       // ask the camera to resend lost packets
+  int packet_timeout_ms = 20;      // wait before asking for a resend
+  int frame_retention_ms = 200;    // give up on an incomplete frame after this
+  int buffers = 8;                 // buffer pool size
+  bool packet_socket = false;      // Aravis packet sockets: faster, but as root they miss loopback traffic
+  double reconnect_after_s = 2.0;  // no complete frame for this long while acquiring: reconnect
+  double retry_interval_s = 1.0;   // between connection attempts
   static GigeCameraSettings fromConfig(const Config& section);
 };
 
@@ -69,8 +69,8 @@ class GigeCamera {
   bool connected() const;
   const std::string& serial() const { return serial_; }
   const GigeCameraSettings& settings() const { return settings_; }
-  // Counters since start: frames, incomplete_<status> (buffer status, e.g. missing_packets, timeout), lost, reconnects, connect_failures, resent_packets,
-  // missing_packets, underruns.
+  // Counters since start: frames, incomplete_<status> (buffer status, e.g. missing_packets, timeout), lost, reconnects,
+  // connect_failures, resent_packets, missing_packets, underruns.
   std::map<std::string, int64_t> counters() const;
   // Increments at each successful (re)connection: frames and time stamps restart.
   int64_t connectionCount() const { return connections_; }

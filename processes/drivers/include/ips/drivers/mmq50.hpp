@@ -26,18 +26,18 @@ size_t checksumBytes(Checksum type);
 
 struct Mmq50Format {
   std::vector<uint8_t> sync = {0x55, 0xAA};
-  int counter_bytes = 2;         // 1 or 2 (unsigned, wraps)
-  int rate_bytes = 4;            // 2 or 4 (signed two's complement)
-  int accel_bytes = 4;           // 2 or 4
-  int status_bytes = 2;          // 0, 1 or 2
+  int counter_bytes = 2;  // 1 or 2 (unsigned, wraps)
+  int rate_bytes = 4;     // 2 or 4 (signed two's complement)
+  int accel_bytes = 4;    // 2 or 4
+  int status_bytes = 2;   // 0, 1 or 2
   bool big_endian = true;
-  double rate_lsb = 1.0e-6;      // [rad/s] per count
-  double accel_lsb = 1.0e-5;     // [m/s^2] per count
+  double rate_lsb = 1.0e-6;   // [rad/s] per count
+  double accel_lsb = 1.0e-5;  // [m/s^2] per count
   Checksum checksum = Checksum::Sum16;
-  uint32_t status_ok_mask = 0;   // status bits that must be clear (0: status not checked)
-  std::array<int, 3> axis_map = {0, 1, 2};     // IMU frame axis i = packet axis axis_map[i]
+  uint32_t status_ok_mask = 0;              // status bits that must be clear (0: status not checked)
+  std::array<int, 3> axis_map = {0, 1, 2};  // IMU frame axis i = packet axis axis_map[i]
   std::array<int, 3> axis_sign = {1, 1, 1};
-  double rate_hz = 200.0;        // nominal output rate (for counter time stamps and silence detection)
+  double rate_hz = 200.0;  // nominal output rate (for counter time stamps and silence detection)
 
   size_t packetSize() const;
   void validate() const;  // throws std::invalid_argument naming the bad field
@@ -46,8 +46,8 @@ struct Mmq50Format {
 };
 
 struct ImuSample {
-  int64_t utime = 0;         // common clock [us]; set by the caller from the arrival time
-  int64_t counter = 0;       // unwrapped sample counter
+  int64_t utime = 0;                     // common clock [us]; set by the caller from the arrival time
+  int64_t counter = 0;                   // unwrapped sample counter
   double angular_rate[3] = {0, 0, 0};    // [rad/s], IMU frame
   double specific_force[3] = {0, 0, 0};  // [m/s^2], IMU frame
   uint32_t status = 0;

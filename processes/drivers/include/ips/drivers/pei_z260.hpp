@@ -22,12 +22,12 @@ namespace ips::drivers {
 struct Z260Format {
   std::string x_prefix = "X=";
   std::string y_prefix = "Y=";
-  bool degrees = true;           // values in degrees (else radians)
-  bool xor_checksum = false;     // line ends with "*HH" (XOR of the characters before '*')
-  size_t max_line = 64;          // longer lines are garbage
-  double max_abs_angle_deg = 65; // larger values are corrupt (the Z260 measures +-60 deg)
-  int x_sign = 1, y_sign = 1;    // to align the sensor axes with the tilt frame of the calibration
-  double rate_hz = 14.0;         // nominal output rate (silence detection)
+  bool degrees = true;            // values in degrees (else radians)
+  bool xor_checksum = false;      // line ends with "*HH" (XOR of the characters before '*')
+  size_t max_line = 64;           // longer lines are garbage
+  double max_abs_angle_deg = 65;  // larger values are corrupt (the Z260 measures +-60 deg)
+  int x_sign = 1, y_sign = 1;     // to align the sensor axes with the tilt frame of the calibration
+  double rate_hz = 14.0;          // nominal output rate (silence detection)
   static Z260Format fromConfig(const Config& section);
 };
 

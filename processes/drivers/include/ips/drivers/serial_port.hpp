@@ -12,12 +12,12 @@ class Config;
 namespace ips::drivers {
 
 struct SerialSettings {
-  std::string device;       // e.g. /dev/ttyS0, /dev/ttyUSB0, or a pseudo-terminal in tests
-  int baud = 115200;        // one of the standard rates 1200 ... 4000000
-  int data_bits = 8;        // 5..8
-  char parity = 'N';        // 'N', 'E', 'O'
-  int stop_bits = 1;        // 1 or 2
-  bool rts_cts = false;     // hardware flow control
+  std::string device;    // e.g. /dev/ttyS0, /dev/ttyUSB0, or a pseudo-terminal in tests
+  int baud = 115200;     // one of the standard rates 1200 ... 4000000
+  int data_bits = 8;     // 5..8
+  char parity = 'N';     // 'N', 'E', 'O'
+  int stop_bits = 1;     // 1 or 2
+  bool rts_cts = false;  // hardware flow control
 
   // Time one byte takes on the line [us] (start + data + parity + stop bits): used to date each frame of a
   // chunk that arrived in one read.

@@ -18,8 +18,8 @@ namespace ips::drivers {
 
 struct SerialReaderConfig {
   SerialSettings port;
-  int64_t delay_us = 0;         // calibrated constant delay of the sensor: subtracted from the arrival time
-  double silence_s = 0.5;       // no good frame for this long: the line is silent
+  int64_t delay_us = 0;    // calibrated constant delay of the sensor: subtracted from the arrival time
+  double silence_s = 0.5;  // no good frame for this long: the line is silent
   double reopen_interval_s = 1.0;
 };
 
@@ -111,7 +111,9 @@ class SerialReader {
 
  private:
   static void sleepMs(int ms) {
-    struct timespec ts{ms / 1000, (ms % 1000) * 1000000L};
+    struct timespec ts {
+      ms / 1000, (ms % 1000) * 1000000L
+    };
     nanosleep(&ts, nullptr);
   }
   SerialReaderConfig config_;
