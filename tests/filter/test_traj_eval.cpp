@@ -1,0 +1,118 @@
+// Trajectory metrics against analytic cases: a rigidly moved copy aligns to zero ATE, a known end-point
+// offset gives its share of the distance, TUM files round-trip, NEES of a known error.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+#include "ips/filter/trajectory_metrics.hpp"
+
+using namespace ips::filter;
+
+namespace {
+
+Trajectory circle(int n, double radius) {
+  Trajectory t;
+  for (int i = 0; i < n; ++i) {
+    const double a = 0.01 * i;
+    TrajPoint p;
+    p.t = 0.1 * i;
+    p.p = Eigen::Vector3d(radius * std::cos(a), radius * std::sin(a), 0.1 * std::sin(3 * a));
+    p.q = Eigen::Quaterniond(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()));
+    t.push_back(p);
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST(TrajEval, RigidlyMovedCopyAlignsToZeroError) {
+  const Trajectory ref = circle(300, 5.0);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(1, -2, 0.5);
+  Trajectory est = ref;
+  for (TrajPoint& p : est) {
+    p.p = T * p.p;
+    p.q = Eigen::Quaterniond(T.linear()) * p.q;
+  }
+  const Eigen::Isometry3d A = alignSE3(est, ref);
+  EXPECT_LT((A.linear() - T.linear().transpose()).norm(), 1e-9);
+  const TrajectoryErrors e = evaluate(est, ref, 2.0);
+  EXPECT_LT(e.ate_rmse_m, 1e-9);
+  EXPECT_LT(e.rpe_percent, 1e-7);  // relative motion is frame independent
+  double length = 0;
+  for (size_t i = 1; i < ref.size(); ++i) length += (ref[i].p - ref[i - 1].p).norm();
+  EXPECT_NEAR(e.distance_m, length, 1e-9);
+  EXPECT_NEAR(e.distance_m, 5.0 * 2.99, 0.1);  // the arc, plus a little for the z wiggle
+}
+
+TEST(TrajEval, EndPointErrorIsItsShareOfTheDistance) {
+  const Trajectory ref = circle(300, 5.0);
+  Trajectory est = ref;
+  // A drift growing linearly to 0.1 m in x at the end.
+  for (size_t i = 0; i < est.size(); ++i) est[i].p.x() += 0.1 * i / (est.size() - 1);
+  const TrajectoryErrors e = evaluate(est, ref, 2.0);
+  EXPECT_NEAR(e.endpoint_error_m, 0.1, 1e-12);
+  EXPECT_NEAR(e.endpoint_percent, 100.0 * 0.1 / e.distance_m, 1e-9);
+  EXPECT_GT(e.ate_rmse_m, 0.0);
+  EXPECT_LT(e.ate_rmse_m, 0.05);  // alignment absorbs part of a linear drift
+}
+
+TEST(TrajEval, TumRoundTripAndAssociation) {
+  const Trajectory ref = circle(50, 2.0);
+  const std::string path = (std::filesystem::temp_directory_path() / "ips_traj_eval_test.tum").string();
+  writeTum(path, ref);
+  const Trajectory back = readTum(path);
+  ASSERT_EQ(back.size(), ref.size());
+  for (size_t i = 0; i < ref.size(); ++i) {
+    EXPECT_NEAR(back[i].t, ref[i].t, 1e-6);
+    EXPECT_LT((back[i].p - ref[i].p).norm(), 1e-5);
+    EXPECT_LT(back[i].q.angularDistance(ref[i].q), 1e-8);
+  }
+  // Estimates half way between reference samples are interpolated.
+  Trajectory est;
+  for (size_t i = 0; i + 1 < ref.size(); ++i) {
+    TrajPoint p;
+    p.t = 0.5 * (ref[i].t + ref[i + 1].t);
+    p.p = 0.5 * (ref[i].p + ref[i + 1].p);
+    est.push_back(p);
+  }
+  Trajectory e, r;
+  associate(est, ref, 0.2, &e, &r);
+  ASSERT_EQ(e.size(), est.size());
+  EXPECT_LT((r[3].p - est[3].p).norm(), 1e-12);
+  std::filesystem::remove(path);
+  // Broken files are refused with the file and line in the message.
+  {
+    std::ofstream bad(path);
+    bad << "0.0 1 2 3 0 0 0 1\n0.1 1 2\n";
+  }
+  try {
+    readTum(path);
+    FAIL() << "no exception";
+  } catch (const std::runtime_error& ex) {
+    EXPECT_NE(std::string(ex.what()).find(":2:"), std::string::npos) << ex.what();
+  }
+  std::filesystem::remove(path);
+}
+
+TEST(TrajEval, PoseNeesOfAKnownError) {
+  FilterOutput out;
+  out.covariance = Matrix21d::Identity() * 0.01;  // sigma 0.1 everywhere
+  NavState truth = out.state;
+  truth.position.x() += 0.2;                                                            // 2 sigma
+  truth.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()));  // 1 sigma
+  EXPECT_NEAR(poseNees(out, truth), 4.0 + 1.0, 1e-9);
+  EXPECT_NEAR(fullNees(out, truth), 5.0, 1e-9);
+}
+
+TEST(TrajEval, PlotIsWritten) {
+  const Trajectory ref = circle(100, 3.0);
+  const std::string path = (std::filesystem::temp_directory_path() / "ips_traj_eval_test.png").string();
+  plotTopDown(path, ref, {ref}, {"same"});
+  EXPECT_GT(std::filesystem::file_size(path), 1000u);
+  std::filesystem::remove(path);
+}
