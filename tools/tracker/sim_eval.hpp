@@ -1,0 +1,90 @@
+#pragma once
+// The tracker on the simulated sensor head (ips_sim): renders a scenario's stereo pairs (raw, distorted, with
+// noise and gain as the cameras deliver them), tracks them with the head's calibration and compares each delta
+// with the ground-truth motion of camera 0 between the two exposure times. Shared by tracker_sim_eval and the
+// simulation test.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "ips/sim/renderer.hpp"
+#include "ips/sim/scenario.hpp"
+#include "ips/sim/sensors.hpp"
+#include "ips/sim/trajectory.hpp"
+#include "ips/sim/world.hpp"
+#include "ips/tracker/stereo_tracker.hpp"
+
+namespace ips::tracker::tools {
+
+enum class SimPrior { None, ConstantVelocity, Imu };
+
+struct SimFrameError {
+  int64_t frame = 0;
+  TrackResult result;
+  double step_m = 0, step_deg = 0;          // true motion of camera 0 since the previous pair
+  double rot_err_deg = 0, trans_err_m = 0;  // of the estimate against it
+};
+
+// Frames 0 .. floor(duration * rate); `each` sees every frame after the first.
+inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scenario_path, double duration_s,
+                                                         const TrackerParams& params, SimPrior prior_mode,
+                                                         const std::function<void(const SimFrameError&)>& each = {}) {
+  const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
+  const sim::World world = sim::World::build(sc.world, sc.seed);
+  const sim::SensorHead head = sim::SensorHead::make(sc);
+  const sim::Trajectory traj(sc.trajectory, sc.gravity);
+  const sim::StereoRenderer renderer(sc, world, head, traj);
+  sim::ImuSimulator imu(sc.imu, traj, sc.start_utime, sc.seed);
+  sim::ImuMeasurement next_imu = imu.next();
+
+  StereoTracker tracker(head.calibration, params);
+  const int64_t frames = int64_t(std::floor(duration_s * sc.camera.rate_hz)) + 1;
+  std::vector<SimFrameError> out;
+  Eigen::Isometry3d prev_cam = Eigen::Isometry3d::Identity();
+  int64_t prev_utime = 0;
+  for (int64_t k = 0; k < frames; ++k) {
+    const sim::StereoFrame f = renderer.render(k);
+    // Gyro rates between the two pairs (bias-free as a calibrated filter would give them).
+    Eigen::Vector3d omega_sum = Eigen::Vector3d::Zero();
+    int n_imu = 0;
+    while (next_imu.utime_true <= f.utime_true) {
+      if (next_imu.utime_true > prev_utime) {
+        omega_sum += next_imu.angular_rate - next_imu.gyro_bias;
+        ++n_imu;
+      }
+      next_imu = imu.next();
+    }
+    const Eigen::Isometry3d cam = head.cam0InWorld(traj.pose((f.utime_true - sc.start_utime) * 1e-6));
+    MotionPrior prior;
+    const MotionPrior* prior_ptr = nullptr;
+    if (k > 0 && prior_mode == SimPrior::Imu && n_imu > 0) {
+      const double dt = (f.utime_stamp - prev_utime) * 1e-6;
+      prior = MotionPrior::fromImuRates(omega_sum / n_imu, head.T_imu_cam0.linear(), dt, 0.01, params.prior);
+      prior_ptr = &prior;
+    } else if (prior_mode == SimPrior::None) {
+      prior_ptr = &prior;  // source None: widest windows every time
+    }
+    const TrackResult r = tracker.process(f.utime_stamp, f.left, f.right, prior_ptr);
+    if (k > 0) {
+      SimFrameError e;
+      e.frame = k;
+      e.result = r;
+      const Eigen::Isometry3d truth = prev_cam.inverse() * cam;
+      e.step_m = truth.translation().norm();
+      e.step_deg = logSO3(truth.linear()).norm() * 180.0 / M_PI;
+      if (r.valid) {
+        e.rot_err_deg = logSO3(r.rotation.toRotationMatrix().transpose() * truth.linear()).norm() * 180.0 / M_PI;
+        e.trans_err_m = (r.translation - truth.translation()).norm();
+      }
+      if (each) each(e);
+      out.push_back(e);
+    }
+    prev_cam = cam;
+    prev_utime = f.utime_stamp;
+  }
+  return out;
+}
+
+}  // namespace ips::tracker::tools
