@@ -129,13 +129,12 @@ int runBatch(ips::sim::Simulation& sim, const std::string& out) {
   const auto t0 = std::chrono::steady_clock::now();
   int64_t count = 0, pairs = 0;
   ips::LogThrottle progress(10'000'000);
-  // Rendering the next events (both cores) overlaps encoding and writing the current ones.
+  // This thread renders (OpenCV's parallel_for_ on both cores works from the main thread); a writer thread
+  // encodes and writes the previous batch of events meanwhile.
   std::vector<SimEvent> events;
-  bool more = sim.next(events);
-  while (more) {
-    std::vector<SimEvent> next_events;
-    std::future<bool> ahead = std::async(std::launch::async, [&] { return sim.next(next_events); });
-    for (const SimEvent& e : events) {
+  std::future<void> writing;
+  auto write = [&](std::vector<SimEvent> batch) {
+    for (const SimEvent& e : batch) {
       Encoded enc = encodeEvent(e, sim);
       lcm::LogEvent le;
       le.eventnum = count++;
@@ -151,9 +150,13 @@ int runBatch(ips::sim::Simulation& sim, const std::string& out) {
                            << " (t = " << (e.frame->utime_true - sim.scenario().start_utime) * 1e-6 << " s)");
       }
     }
-    more = ahead.get();
-    events = std::move(next_events);
+  };
+  while (sim.next(events)) {
+    if (writing.valid()) writing.get();  // rethrows a write error
+    writing = std::async(std::launch::async, write, std::move(events));
+    events = std::vector<SimEvent>();
   }
+  if (writing.valid()) writing.get();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   IPS_INFO("wrote " << count << " events (" << pairs << " stereo pairs) to " << out << " in " << wall << " s");
   return 0;
@@ -162,68 +165,77 @@ int runBatch(ips::sim::Simulation& sim, const std::string& out) {
 int runLive(ips::sim::Simulation& sim, const std::string& url, double rate) {
   ips::fw::installSignalHandlers();
   ips::fw::Node node("sim", ips::fw::resolveLcmUrl(url));
-  // A producer thread renders ahead into a short queue; this thread publishes each event at its arrival time.
+  // This thread renders ahead into a short queue (OpenCV's parallel_for_ uses both cores from the main thread);
+  // a publisher thread sends each event at its arrival time, the clock starting 0.5 s after the first event.
   std::mutex mutex;
   std::condition_variable cv;
   std::deque<Encoded> queue;
   bool done = false;
-  constexpr size_t kMaxQueued = 2000;  // ~ several frames of events
-  std::thread producer([&] {
-    std::vector<SimEvent> events;
-    try {
-      while (!ips::fw::stopRequested() && sim.next(events)) {
-        for (const SimEvent& e : events) {
-          Encoded enc = encodeEvent(e, sim);
-          std::unique_lock<std::mutex> lock(mutex);
-          cv.wait(lock, [&] { return queue.size() < kMaxQueued || ips::fw::stopRequested(); });
-          queue.push_back(std::move(enc));
-          cv.notify_all();
+  int64_t late = 0;
+  constexpr size_t kMaxQueued = 2000;  // several frames of events
+  std::thread publisher([&] {
+    const int64_t sim0 = sim.scenario().start_utime;
+    std::chrono::steady_clock::time_point wall0;
+    bool started = false;
+    auto last_health = std::chrono::steady_clock::now();
+    while (!ips::fw::stopRequested()) {
+      Encoded enc;
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return !queue.empty() || done; });
+        if (queue.empty()) {
+          if (done) break;
+          continue;
         }
-        events.clear();
+        enc = std::move(queue.front());
+        queue.pop_front();
+        cv.notify_all();
       }
-    } catch (const std::exception& ex) {
-      IPS_ERROR("simulation failed: " << ex.what());
-      ips::fw::requestStop();
+      if (!started) {
+        // Half a second of buffer: the samples between two frames are generated with the later frame.
+        wall0 = std::chrono::steady_clock::now() + std::chrono::milliseconds(500) -
+                std::chrono::microseconds(static_cast<int64_t>((enc.log_utime - sim0) / rate));
+        started = true;
+      }
+      const auto due = wall0 + std::chrono::microseconds(static_cast<int64_t>((enc.log_utime - sim0) / rate));
+      const auto now = std::chrono::steady_clock::now();
+      if (due > now)
+        std::this_thread::sleep_until(due);
+      else if (now - due > std::chrono::milliseconds(50))
+        ++late;
+      node.lcm().publish(enc.channel, enc.data.data(), static_cast<unsigned>(enc.data.size()));
+      node.health().published();
+      node.health().received(enc.log_utime);
+      if (std::chrono::steady_clock::now() - last_health > std::chrono::seconds(1)) {
+        node.health().set("late_events", late);
+        node.publishHealth(std::chrono::duration<double>(std::chrono::steady_clock::now() - last_health).count());
+        last_health = std::chrono::steady_clock::now();
+      }
     }
+  });
+  std::vector<SimEvent> events;
+  try {
+    while (!ips::fw::stopRequested() && sim.next(events)) {
+      for (const SimEvent& e : events) {
+        Encoded enc = encodeEvent(e, sim);
+        std::unique_lock<std::mutex> lock(mutex);
+        cv.wait(lock, [&] { return queue.size() < kMaxQueued || ips::fw::stopRequested(); });
+        queue.push_back(std::move(enc));
+        cv.notify_all();
+      }
+      events.clear();
+    }
+  } catch (...) {
+    ips::fw::requestStop();
+    publisher.join();
+    throw;
+  }
+  {
     std::lock_guard<std::mutex> lock(mutex);
     done = true;
     cv.notify_all();
-  });
-  const auto wall0 = std::chrono::steady_clock::now();
-  const int64_t sim0 = sim.scenario().start_utime;
-  auto last_health = wall0;
-  int64_t late = 0;
-  while (!ips::fw::stopRequested()) {
-    Encoded enc;
-    {
-      std::unique_lock<std::mutex> lock(mutex);
-      cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return !queue.empty() || done; });
-      if (queue.empty()) {
-        if (done) break;
-        continue;
-      }
-      enc = std::move(queue.front());
-      queue.pop_front();
-      cv.notify_all();
-    }
-    const auto due = wall0 + std::chrono::microseconds(static_cast<int64_t>((enc.log_utime - sim0) / rate));
-    const auto now = std::chrono::steady_clock::now();
-    if (due > now)
-      std::this_thread::sleep_until(due);
-    else if (now - due > std::chrono::milliseconds(50))
-      ++late;
-    node.lcm().publish(enc.channel, enc.data.data(), static_cast<unsigned>(enc.data.size()));
-    node.health().published();
-    node.health().received(enc.log_utime);
-    if (std::chrono::steady_clock::now() - last_health > std::chrono::seconds(1)) {
-      node.health().set("late_events", late);
-      node.publishHealth(std::chrono::duration<double>(std::chrono::steady_clock::now() - last_health).count());
-      last_health = std::chrono::steady_clock::now();
-    }
   }
-  ips::fw::requestStop();
-  cv.notify_all();
-  producer.join();
+  publisher.join();
   if (late > 0) IPS_WARN(late << " events were published more than 50 ms late (rendering slower than --rate)");
   return 0;
 }

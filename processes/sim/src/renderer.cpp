@@ -77,6 +77,18 @@ void View::computeTiles() {
 
 // ---------------------------------------------------------------- SceneRenderer
 
+SceneRenderer::SceneRenderer(const World& world, double near_m) : world_(world), near_(near_m) {
+  for (const Texture& t : world.textures) {
+    std::vector<TexLevel> lv;
+    for (size_t l = 0; l < t.levels.size(); ++l) {
+      const cv::Mat& m = t.levels[l];
+      CV_Assert(m.type() == CV_8UC1 && (m.cols & (m.cols - 1)) == 0 && (m.rows & (m.rows - 1)) == 0);
+      lv.push_back({m.ptr<uint8_t>(0), m.step[0], m.cols - 1, m.rows - 1, 1.0f / static_cast<float>(1 << l)});
+    }
+    levels_.push_back(std::move(lv));
+  }
+}
+
 std::vector<SceneRenderer::CamQuad> SceneRenderer::prepare(const Eigen::Isometry3d& T_world_cam) const {
   const Eigen::Isometry3d T_cam_world = T_world_cam.inverse();
   const Eigen::Matrix3d R = T_cam_world.linear();
@@ -190,18 +202,16 @@ void SceneRenderer::raster(const View& view, const std::vector<CamQuad>& quads, 
 
 namespace {
 
-inline float bilinearWrap(const cv::Mat& img, float u, float v) {
-  const int w = img.cols, h = img.rows;
+inline float bilinearWrap(const SceneRenderer::TexLevel& img, float u, float v) {
   // floor without a library call (no SSE4.1 in the baseline instruction set)
   int iu0 = static_cast<int>(u), iv0 = static_cast<int>(v);
   iu0 -= u < static_cast<float>(iu0);
   iv0 -= v < static_cast<float>(iv0);
-  const float fu = static_cast<float>(iu0), fv = static_cast<float>(iv0);
-  const float a = u - fu, b = v - fv;
-  const int iu = iu0 & (w - 1), iv = iv0 & (h - 1);
-  const int iu1 = (iu + 1) & (w - 1), iv1 = (iv + 1) & (h - 1);
-  const uint8_t* r0 = img.ptr<uint8_t>(iv);
-  const uint8_t* r1 = img.ptr<uint8_t>(iv1);
+  const float a = u - static_cast<float>(iu0), b = v - static_cast<float>(iv0);
+  const int iu = iu0 & img.wmask, iv = iv0 & img.hmask;
+  const int iu1 = (iu + 1) & img.wmask, iv1 = (iv + 1) & img.hmask;
+  const uint8_t* r0 = img.data + static_cast<size_t>(iv) * img.step;
+  const uint8_t* r1 = img.data + static_cast<size_t>(iv1) * img.step;
   const float top = r0[iu] + a * (r0[iu1] - r0[iu]);
   const float bot = r1[iu] + a * (r1[iu1] - r1[iu]);
   return top + b * (bot - top);
@@ -231,6 +241,7 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
   const float noise_scale = noise_sigma * std::sqrt(3.0f) / 65536.0f;
   // Constants of the quad seen by the previous pixel (runs of pixels see the same quad).
   int32_t cached = -2;
+  const TexLevel* levels = nullptr;
   const Texture* tex = nullptr;
   float inv_texel_s = 0, inv_texel_t = 0, off_u = 0, off_v = 0, brightness = 0, lod_bias = 0, max_level = 0;
   for (int x = 0; x < view.width; ++x) {
@@ -241,6 +252,7 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
       if (id != cached) {
         const Quad& wq = world_.quads[q.index];
         tex = &world_.textures[wq.texture];
+        levels = levels_[wq.texture].data();
         inv_texel_s = static_cast<float>(1.0 / wq.texel_s);
         inv_texel_t = static_cast<float>(1.0 / wq.texel_t);
         off_u = wrapOffset(wq.texture_offset.x(), tex->levels[0].cols);
@@ -266,9 +278,9 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
       // of full trilinear filtering for nearly the same smoothness across level changes.
       const float frac = std::clamp((lod - static_cast<float>(l0) - 0.35f) * (1.0f / 0.3f), 0.0f, 1.0f);
       const float u = s * inv_texel_s + off_u, v = t * inv_texel_t + off_v;
-      const float sc0 = 1.0f / static_cast<float>(1 << l0), sc1 = 0.5f * sc0;
-      const float a = frac < 1.0f ? bilinearWrap(tex->levels[l0], u * sc0 - 0.5f, v * sc0 - 0.5f) : 0.0f;
-      const float b = frac > 0.0f ? bilinearWrap(tex->levels[l1], u * sc1 - 0.5f, v * sc1 - 0.5f) : a;
+      const float sc0 = levels[l0].scale, sc1 = levels[l1].scale;
+      const float a = frac < 1.0f ? bilinearWrap(levels[l0], u * sc0 - 0.5f, v * sc0 - 0.5f) : 0.0f;
+      const float b = frac > 0.0f ? bilinearWrap(levels[l1], u * sc1 - 0.5f, v * sc1 - 0.5f) : a;
       value = brightness * (a + frac * (b - a));
     }
     if (out32) {

@@ -36,7 +36,8 @@ struct View {
 
 class SceneRenderer {
  public:
-  explicit SceneRenderer(const World& world, double near_m = 0.05) : world_(world), near_(near_m) {}
+  // The world must outlive the renderer and not change (textures are referenced).
+  explicit SceneRenderer(const World& world, double near_m = 0.05);
   // Any of radiance (CV_32F, grey levels before gain and noise) and depth (CV_32F, z [m] in the camera frame,
   // 0 where nothing was hit) may be null. T_world_cam: camera pose (OpenCV camera frame).
   void render(const View& view, const Eigen::Isometry3d& T_world_cam, cv::Mat* radiance, cv::Mat* depth) const;
@@ -46,6 +47,12 @@ class SceneRenderer {
     std::vector<int32_t> id;
   };
   struct CamQuad;
+  struct TexLevel {  // one mip level, for the inner loop
+    const uint8_t* data;
+    size_t step;
+    int wmask, hmask;  // sides are powers of two
+    float scale;       // 2^-level
+  };
   std::vector<CamQuad> prepare(const Eigen::Isometry3d& T_world_cam) const;
   void raster(const View& view, const std::vector<CamQuad>& quads, Buffers& buf, int tile_row) const;
   // Shades one row into `out` (grey levels): gain * radiance + noise (Irwin-Hall, per-row stream), rounded to
@@ -56,6 +63,7 @@ class SceneRenderer {
  private:
   const World& world_;
   double near_;
+  std::vector<std::vector<TexLevel>> levels_;  // per texture
 };
 
 struct SceneRenderer::CamQuad {
