@@ -4,13 +4,17 @@
 
 #include <Eigen/Geometry>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "ips/drivers/clock_mapper.hpp"
 #include "ips/drivers/delay_estimation.hpp"
 #include "ips/drivers/frame_pairer.hpp"
+#include "simulated_motion.hpp"
 
 using namespace ips::drivers;
+using ips::drivers::testing::SimulatedMotion;
+using ips::drivers::testing::simulateMotion;
 
 TEST(ClockMapper, FollowsDriftAndIgnoresLatencyJitter) {
   std::mt19937 rng(7);
@@ -28,6 +32,7 @@ TEST(ClockMapper, FollowsDriftAndIgnoresLatencyJitter) {
     const int64_t mapped = mapper.update(device, t + static_cast<int64_t>(latency));
     if (k >= 150) worst_late = std::max(worst_late, std::fabs(static_cast<double>(mapped - (t + floor_us))));
   }
+  std::printf("worst mapping error after warm-up: %.0f us, drift %.1f ppm\n", worst_late, mapper.driftPpm());
   EXPECT_LT(worst_late, 150.0) << "mapped stamps vs event + latency floor";
   EXPECT_NEAR(mapper.driftPpm(), -80.0, 10.0);  // host runs slower than the device by 80 ppm
   EXPECT_EQ(mapper.resets(), 0u);
@@ -94,62 +99,13 @@ TEST(FramePairer, SilentCameraAndDifferentRates) {
   EXPECT_EQ(pairer.outOfOrder(1), 1);
 }
 
-namespace {
-
-// Angular velocity of the simulated head in the IMU frame [rad/s]: smooth, non-periodic within the test.
-Eigen::Vector3d omega(double t) {
-  return {0.5 * std::sin(2 * M_PI * 0.31 * t) + 0.2 * std::sin(2 * M_PI * 1.13 * t + 1.0),
-          0.4 * std::sin(2 * M_PI * 0.53 * t + 0.5) + 0.15 * std::sin(2 * M_PI * 1.7 * t),
-          0.3 * std::sin(2 * M_PI * 0.71 * t + 2.0) + 0.1};
-}
-
-struct Simulated {
-  std::vector<GyroSample> gyro;
-  std::vector<TrackerRotation> deltas;
-};
-
-// IMU at 200 Hz stamped on true time; tracker at 10 Hz whose stamps are late by camera_late_us.
-Simulated simulate(double duration_s, int64_t camera_late_us, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> gyro_noise(0, 0.005), tracker_noise(0, 0.0005);
-  const Eigen::Matrix3d R_cam_imu =
-      (Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()))
-          .toRotationMatrix();
-  Simulated s;
-  const double dt = 1e-4;  // integration step of the true attitude
-  Eigen::Quaterniond q_w_b = Eigen::Quaterniond::Identity();
-  Eigen::Quaterniond q_prev_frame = q_w_b;
-  const int64_t t0 = 1'700'000'000'000'000;
-  int step = 0;
-  for (double t = 0; t <= duration_s + 1e-9; t += dt, ++step) {
-    if (step % 50 == 0) {  // 200 Hz
-      Eigen::Vector3d w = omega(t);
-      for (int i = 0; i < 3; ++i) w[i] += gyro_noise(rng);
-      s.gyro.push_back({t0 + static_cast<int64_t>(std::llround(t * 1e6)), w});
-    }
-    if (step % 1000 == 0 && step > 0) {                                                   // 10 Hz image pairs
-      const Eigen::Matrix3d R_b = (q_prev_frame.conjugate() * q_w_b).toRotationMatrix();  // body at now in body at prev
-      Eigen::Matrix3d R_cam = R_cam_imu * R_b * R_cam_imu.transpose();
-      const Eigen::Vector3d n(tracker_noise(rng), tracker_noise(rng), tracker_noise(rng));
-      R_cam = R_cam * Eigen::AngleAxisd(n.norm(), n.normalized()).toRotationMatrix();
-      const int64_t now = t0 + static_cast<int64_t>(std::llround(t * 1e6)) + camera_late_us;
-      s.deltas.push_back({now - 100'000, now, Eigen::Quaterniond(R_cam)});
-      q_prev_frame = q_w_b;
-    }
-    // Exact attitude propagation with the mid-point rate.
-    const Eigen::Vector3d w = omega(t + dt / 2) * dt;
-    q_w_b = (q_w_b * Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))).normalized();
-  }
-  return s;
-}
-
-}  // namespace
-
 TEST(DelayEstimation, RecoversAKnownDelay) {
   for (int64_t late : {23'400, -41'700, 0}) {
-    const Simulated sim = simulate(60.0, late, 11);
+    const SimulatedMotion sim = simulateMotion(60.0, late, 11);
     const DelayEstimate e = estimateCameraImuDelay(sim.gyro, sim.deltas);
     ASSERT_TRUE(e.ok) << "late " << late;
+    std::printf("true delay %lld us: estimate %.0f us, correlation %.4f, %zu intervals\n", static_cast<long long>(late),
+                e.delay_us, e.correlation, e.intervals);
     EXPECT_NEAR(e.delay_us, static_cast<double>(late), 1000.0) << "late " << late;
     EXPECT_GT(e.correlation, 0.95);
     EXPECT_GT(e.intervals, 500u);
@@ -157,7 +113,7 @@ TEST(DelayEstimation, RecoversAKnownDelay) {
 }
 
 TEST(DelayEstimation, TooLittleDataGivesNoEstimate) {
-  const Simulated sim = simulate(1.0, 10'000, 1);
+  const SimulatedMotion sim = simulateMotion(1.0, 10'000, 1);
   const DelayEstimate e = estimateCameraImuDelay(sim.gyro, sim.deltas);
   EXPECT_FALSE(e.ok);
   EXPECT_THROW(estimateCameraImuDelay(sim.gyro, sim.deltas, DelayEstimatorConfig{100, 0, 20, 0}),

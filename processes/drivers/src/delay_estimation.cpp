@@ -102,11 +102,28 @@ DelayEstimate estimateCameraImuDelay(const std::vector<GyroSample>& gyro_in, con
     result.curve.emplace_back(static_cast<double>(d), correlationAt(static_cast<double>(d)));
     if (result.curve.back().second > result.curve[best].second) best = result.curve.size() - 1;
   }
+  // Refinement: a fine grid (a tenth of the step) around the coarse maximum, then a parabola through the best
+  // fine point and its neighbours.
   double delay = result.curve[best].first;
   if (best > 0 && best + 1 < result.curve.size()) {
-    const double ym = result.curve[best - 1].second, y0 = result.curve[best].second, yp = result.curve[best + 1].second;
-    const double denom = ym - 2 * y0 + yp;
-    if (denom < 0) delay += 0.5 * (ym - yp) / denom * config.step_us;
+    const double fine = config.step_us / 10.0;
+    double best_c = -2, best_d = delay;
+    std::vector<std::pair<double, double>> fine_curve;
+    for (int i = -10; i <= 10; ++i) {
+      const double d = delay + i * fine;
+      fine_curve.emplace_back(d, correlationAt(d));
+      if (fine_curve.back().second > best_c) {
+        best_c = fine_curve.back().second;
+        best_d = d;
+      }
+    }
+    delay = best_d;
+    const size_t k = static_cast<size_t>(std::llround((best_d - fine_curve.front().first) / fine));
+    if (k > 0 && k + 1 < fine_curve.size()) {
+      const double ym = fine_curve[k - 1].second, y0 = fine_curve[k].second, yp = fine_curve[k + 1].second;
+      const double denom = ym - 2 * y0 + yp;
+      if (denom < 0) delay += 0.5 * (ym - yp) / denom * fine;
+    }
   }
   result.delay_us = delay;
   result.correlation = correlationAt(delay);

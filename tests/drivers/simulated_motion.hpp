@@ -1,0 +1,63 @@
+#pragma once
+// A simulated sensor head for the delay estimation tests: an analytic angular velocity, the gyro sampled from
+// it at 200 Hz with white noise, and stereo tracker rotations at 10 Hz (in a camera frame rotated against the
+// IMU) whose stamps are late by a known amount.
+#include <Eigen/Geometry>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "ips/drivers/delay_estimation.hpp"
+
+namespace ips::drivers::testing {
+
+// Angular velocity of the simulated head in the IMU frame [rad/s]: smooth, non-periodic within the test.
+inline Eigen::Vector3d simulatedOmega(double t) {
+  return {0.5 * std::sin(2 * M_PI * 0.31 * t) + 0.2 * std::sin(2 * M_PI * 1.13 * t + 1.0),
+          0.4 * std::sin(2 * M_PI * 0.53 * t + 0.5) + 0.15 * std::sin(2 * M_PI * 1.7 * t),
+          0.3 * std::sin(2 * M_PI * 0.71 * t + 2.0) + 0.1};
+}
+
+struct SimulatedMotion {
+  std::vector<GyroSample> gyro;
+  std::vector<TrackerRotation> deltas;
+};
+
+// IMU at 200 Hz stamped on true time; tracker at 10 Hz whose stamps are late by camera_late_us.
+inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> gyro_noise(0, 0.005), tracker_noise(0, 0.0005);
+  const Eigen::Matrix3d R_cam_imu =
+      (Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()))
+          .toRotationMatrix();
+  SimulatedMotion s;
+  const double dt = 1e-4;  // integration step of the true attitude
+  Eigen::Quaterniond q_w_b = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond q_prev_frame = q_w_b;
+  const int64_t t0 = 1'700'000'000'000'000;
+  int step = 0;
+  for (double t = 0; t <= duration_s + 1e-9; t += dt, ++step) {
+    if (step % 50 == 0) {  // 200 Hz
+      Eigen::Vector3d w = simulatedOmega(t);
+      for (int i = 0; i < 3; ++i) w[i] += gyro_noise(rng);
+      s.gyro.push_back({t0 + static_cast<int64_t>(std::llround(t * 1e6)), w});
+    }
+    if (step % 1000 == 0 && step > 0) {                                                   // 10 Hz image pairs
+      const Eigen::Matrix3d R_b = (q_prev_frame.conjugate() * q_w_b).toRotationMatrix();  // body at now in body at prev
+      Eigen::Matrix3d R_cam = R_cam_imu * R_b * R_cam_imu.transpose();
+      const Eigen::Vector3d n(tracker_noise(rng), tracker_noise(rng), tracker_noise(rng));
+      R_cam = R_cam * Eigen::AngleAxisd(n.norm(), n.normalized()).toRotationMatrix();
+      const int64_t now = t0 + static_cast<int64_t>(std::llround(t * 1e6)) + camera_late_us;
+      s.deltas.push_back({now - 100'000, now, Eigen::Quaterniond(R_cam)});
+      q_prev_frame = q_w_b;
+    }
+    // Exact attitude propagation with the mid-point rate.
+    const Eigen::Vector3d w = simulatedOmega(t + dt / 2) * dt;
+    q_w_b = (q_w_b * Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))).normalized();
+  }
+  return s;
+}
+
+
+
+}  // namespace ips::drivers::testing
