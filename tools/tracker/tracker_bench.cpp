@@ -6,6 +6,8 @@
 // matching, motion). Two cases:
 //   sequence: the 20 consecutive mav0 frames, constant-velocity prior (normal 20/30 Hz tracking);
 //   moving:   the two moving_pairs 0.5 s apart (0.32 m, 15.6 deg) without prior (wide window + guided pass).
+// And, when built with ips_sim: the first --sim_frames (40) pairs of the simulated walk (--scenario, default
+// config/sim_walk.yaml's built-in defaults): true 1360x1024 raw distorted images of the seed's head, 8 Hz.
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
@@ -16,6 +18,9 @@
 #include <vector>
 
 #include "common.hpp"
+#ifdef IPS_HAVE_SIM
+#include "sim_eval.hpp"
+#endif
 #include "ips/tracker/euroc_calibration.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
@@ -67,7 +72,7 @@ int main(int argc, char** argv) {
     auto opts = tools::parseOptions(argc, argv, 1);
     if (opts.count("help")) {
       std::cout << "usage: tracker_bench [--repeat N (3)] [--width W (1360)] [--height H (1024)] [--params P]"
-                   " [--data DIR]\n";
+                   " [--data DIR] [--scenario SIM.yaml] [--sim_frames N (40)]\n";
       return 0;
     }
     const int repeat = opts.count("repeat") ? std::stoi(opts["repeat"]) : 3;
@@ -141,6 +146,39 @@ int main(int argc, char** argv) {
     }
     printStats("moving pair 0.5 s, no prior (wide window + guided pass)", mov);
     std::printf("  valid %d/%d\n", mov_valid, repeat);
+#ifdef IPS_HAVE_SIM
+    {
+      const int sim_frames = opts.count("sim_frames") ? std::stoi(opts["sim_frames"]) : 40;
+      const ips::sim::Scenario sc =
+          opts.count("scenario") ? ips::sim::Scenario::load(opts["scenario"]) : ips::sim::Scenario::defaults();
+      const ips::sim::World world = ips::sim::World::build(sc.world, sc.seed);
+      const ips::sim::SensorHead head = ips::sim::SensorHead::make(sc);
+      const ips::sim::Trajectory traj(sc.trajectory, sc.gravity);
+      const ips::sim::StereoRenderer renderer(sc, world, head, traj);
+      std::vector<ips::sim::StereoFrame> frames;
+      for (int k = 0; k < sim_frames; ++k) frames.push_back(renderer.render(k));
+      cv::setNumThreads(1);  // the renderer may have changed it
+      Stats sim;
+      int sim_valid = 0;
+      double sim_features = 0, sim_inliers = 0;
+      for (int r = 0; r < repeat; ++r) {
+        StereoTracker tracker(head.calibration, params);
+        for (size_t i = 0; i < frames.size(); ++i) {
+          const TrackResult res = tracker.process(frames[i].utime_stamp, frames[i].left, frames[i].right);
+          if (i == 0) continue;
+          sim.add(res.times);
+          sim_valid += res.valid;
+          sim_features += res.num_features;
+          sim_inliers += res.num_inliers;
+        }
+      }
+      const double n = double(sim.total.size());
+      std::printf("simulated walk %dx%d, constant-velocity prior\n", sc.camera.width, sc.camera.height);
+      printStats("  sim", sim);
+      std::printf("  valid %d/%zu, mean features %.0f, inliers %.0f\n", sim_valid, sim.total.size(), sim_features / n,
+                  sim_inliers / n);
+    }
+#endif
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tracker_bench: %s\n", e.what());

@@ -31,6 +31,7 @@ bool normalizedPatch(const cv::Mat& gray8, int x, int y, int half, double min_st
 
 float patchDot(const float* a, const float* b, int n) {
   float s = 0;
+#pragma omp simd reduction(+ : s)
   for (int k = 0; k < n; ++k) s += a[k] * b[k];
   return s;
 }

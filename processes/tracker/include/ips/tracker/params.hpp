@@ -16,7 +16,7 @@ struct DetectorParams {
   int sobel_size = 3;                                // derivative aperture [px]
   int grid_cols = 16;                                // corners are spread over a grid of cells...
   int grid_rows = 12;
-  int max_per_cell = 6;         // ...with at most this many (strongest local maxima) per cell
+  int max_per_cell = 4;         // ...with at most this many (strongest local maxima) per cell
   double quality_level = 1e-3;  // a corner's response must reach this fraction of the image's strongest
   int border = 8;               // no corners this close to the image edge [px] (plus the NCC half window)
   // Corners are detected on the first image pyramid level (halving) no wider than this, and scaled back:
