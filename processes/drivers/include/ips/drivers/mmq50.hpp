@@ -25,7 +25,8 @@ uint32_t computeChecksum(Checksum type, const uint8_t* data, size_t size);
 size_t checksumBytes(Checksum type);
 
 struct Mmq50Format {
-  std::vector<uint8_t> sync = {0x55, 0xAA};
+  static constexpr uint8_t kDefaultSync[2] = {0x55, 0xAA};
+  std::vector<uint8_t> sync = std::vector<uint8_t>(kDefaultSync, kDefaultSync + 2);
   int counter_bytes = 2;  // 1 or 2 (unsigned, wraps)
   int rate_bytes = 4;     // 2 or 4 (signed two's complement)
   int accel_bytes = 4;    // 2 or 4
