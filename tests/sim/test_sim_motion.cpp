@@ -1,12 +1,15 @@
 // Trajectory, IMU and tilt sensor of the simulated head against analytic references.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <numeric>
 
 #include "ips/config.hpp"
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/trajectory.hpp"
+#include "ips/sim/world.hpp"
 
 using namespace ips::sim;
 
@@ -233,4 +236,25 @@ TEST(SimScenario, ConfigFilesLoadAndBadValuesAreNamed) {
     EXPECT_NE(std::string(e.what()).find("bad_scenario.yaml"), std::string::npos) << e.what();
   }
   EXPECT_THROW(Scenario::load("/nonexistent/sim.yaml"), ips::ConfigError);
+}
+
+// The walk and the vehicle stay clear of every surface of the building (walls, door frame, cabinets): the head
+// never enters an object, and the cameras always see the building from inside.
+TEST(SimTrajectory, RoutesStayClearOfTheBuilding) {
+  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml"}) {
+    const Scenario sc = Scenario::load(std::string(IPS_CONFIG_DIR) + "/" + name);
+    const World world = World::build(sc.world, sc.seed);
+    const Trajectory traj(sc.trajectory, sc.gravity);
+    double min_dist = 1e9;
+    for (double t = 0; t <= traj.duration(); t += 0.05) {
+      const Eigen::Vector3d p = traj.state(t).position;
+      for (const Quad& q : world.quads) {
+        const Eigen::Vector3d r = p - q.origin;
+        const double s = std::clamp(r.dot(q.axis_s), 0.0, q.size_s), u = std::clamp(r.dot(q.axis_t), 0.0, q.size_t);
+        min_dist = std::min(min_dist, (r - s * q.axis_s - u * q.axis_t).norm());
+      }
+    }
+    std::cout << name << ": nearest surface " << min_dist << " m\n";
+    EXPECT_GT(min_dist, 0.3) << name;
+  }
 }
