@@ -112,8 +112,14 @@ TEST(FilterModels, TiltJacobianMatchesNumeric) {
   FullState x = randomFull(rng, 1);
   x.nav.orientation = expQuat(Eigen::Vector3d(0.2, -0.3, 1.0));
   const Eigen::Matrix3d R_bt = expSO3(Eigen::Vector3d(0.01, 0.02, 0.5));
-  const TiltMeasurement m(0.1, -0.2, R_bt, 1e-3);
-  EXPECT_LT((m.jacobian(x) - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
+  x.nav.acceleration = Eigen::Vector3d(1.5, -2.0, 3.0);
+  for (bool specific_force : {false, true}) {
+    const TiltMeasurement m(0.1, -0.2, R_bt, 1e-3, 9.81, specific_force);
+    const Eigen::MatrixXd H = m.jacobian(x);
+    EXPECT_LT((H - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
+    // Only the specific-force model depends on the acceleration.
+    EXPECT_EQ((H.block<2, 3>(0, kErrA).isZero()), !specific_force);
+  }
 }
 
 TEST(FilterModels, TiltAnglesFollowTheirConvention) {
@@ -162,7 +168,7 @@ void runSequence(KalmanFilter& kf, const FullState& x0, const Eigen::MatrixXd& P
     const double t = 0.005 * (k + 1);
     const ImuMeasurement imu(Eigen::Vector3d(0.3 + 0.1 * t, -0.2, 0.5), Eigen::Vector3d(0.8, 0.3, 9.9), g, 2e-3, 5e-2);
     kf.update(imu, std::numeric_limits<double>::infinity());
-    if (k % 10 == 5) kf.update(TiltMeasurement(0.06, -0.03, R_bt, 3e-3), std::numeric_limits<double>::infinity());
+    if (k % 10 == 5) kf.update(TiltMeasurement(0.06, -0.03, R_bt, 3e-3, g, false), std::numeric_limits<double>::infinity());
   }
   kf.addClone();
   // A delta a little off the current estimate.

@@ -195,7 +195,8 @@ bool Estimator::applyMeasurement(Runner& run, const Event& e, std::array<SensorC
     run.last_imu_time = e.time;
   } else if (e.sensor == kSensorTilt) {
     predictTo(run, e.time);
-    const TiltMeasurement m(e.tilt.angle_x, e.tilt.angle_y, R_body_tilt_, params_.tilt_sigma);
+    const TiltMeasurement m(e.tilt.angle_x, e.tilt.angle_y, R_body_tilt_, params_.tilt_sigma, params_.gravity,
+                            params_.tilt_specific_force);
     r = kf.update(m, gateFor(run, kSensorTilt, 2, params_.gate_tilt));
   } else {
     return false;
@@ -313,7 +314,9 @@ void Estimator::processInit(const Event& e) {
     Eigen::Vector2d mean_tilt = Eigen::Vector2d::Zero();
     for (const TiltSample& t : init_tilt_) mean_tilt += Eigen::Vector2d(t.angle_x, t.angle_y);
     mean_tilt /= static_cast<double>(init_tilt_.size());
-    const TiltMeasurement m(mean_tilt.x(), mean_tilt.y(), R_body_tilt_, params_.tilt_sigma);
+    // At rest both models agree; the acceleration state is zero.
+    const TiltMeasurement m(mean_tilt.x(), mean_tilt.y(), R_body_tilt_, params_.tilt_sigma, params_.gravity,
+                            params_.tilt_specific_force);
     run_.kf->update(m, kInf);
   }
   IPS_INFO("filter: initialised at rest at t=" << s.utime << " us from " << init_imu_.size() << " IMU and "

@@ -102,29 +102,52 @@ MeasMatrix ImuMeasurement::noise() const {
 
 // ---------------------------------------------------------------------------------------------- tilt
 
-TiltMeasurement::TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma)
-    : z_(angle_x, angle_y), R_body_tilt_(R_body_tilt), var_(sigma * sigma) {}
+TiltMeasurement::TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma,
+                                 double gravity, bool specific_force)
+    : z_(angle_x, angle_y),
+      R_body_tilt_(R_body_tilt),
+      var_(sigma * sigma),
+      gravity_(gravity),
+      specific_force_(specific_force) {}
+
+Eigen::Vector2d TiltMeasurement::predict(const Eigen::Quaterniond& q, const Eigen::Matrix3d& R_body_tilt,
+                                         const Eigen::Vector3d& u_world) {
+  const Eigen::Vector3d f = R_body_tilt.transpose() * (q.conjugate() * u_world);
+  const double n = f.norm();
+  if (!(n > 0)) return Eigen::Vector2d::Zero();
+  return Eigen::Vector2d(std::asin(std::clamp(f.x() / n, -1.0, 1.0)), std::asin(std::clamp(f.y() / n, -1.0, 1.0)));
+}
 
 Eigen::Vector2d TiltMeasurement::predict(const Eigen::Quaterniond& q, const Eigen::Matrix3d& R_body_tilt) {
-  const Eigen::Matrix3d R_world_tilt = q.toRotationMatrix() * R_body_tilt;
-  const double sx = std::clamp(R_world_tilt(2, 0), -1.0, 1.0);
-  const double sy = std::clamp(R_world_tilt(2, 1), -1.0, 1.0);
-  return Eigen::Vector2d(std::asin(sx), std::asin(sy));
+  return predict(q, R_body_tilt, Eigen::Vector3d::UnitZ());
+}
+
+Eigen::Vector3d TiltMeasurement::sensed(const NavState& x) const {
+  const Eigen::Vector3d g(0, 0, gravity_);
+  return specific_force_ ? Eigen::Vector3d(x.acceleration + g) : g;
 }
 
 MeasVector TiltMeasurement::residual(const FullState& x) const {
-  return MeasVector(z_ - predict(x.nav.orientation, R_body_tilt_));
+  return MeasVector(z_ - predict(x.nav.orientation, R_body_tilt_, sensed(x.nav)));
 }
 
 Eigen::MatrixXd TiltMeasurement::jacobian(const FullState& x) const {
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(2, x.errorDim());
-  const Eigen::Matrix3d R_world_tilt = x.nav.orientation.toRotationMatrix() * R_body_tilt_;
-  const Eigen::Vector3d ez(0, 0, 1);
+  const Eigen::Vector3d u = sensed(x.nav);
+  const Eigen::Matrix3d A = R_body_tilt_.transpose() * x.nav.orientation.toRotationMatrix().transpose();
+  const Eigen::Vector3d f = A * u;
+  const double n = f.norm();
+  if (!(n > 0)) return H;
+  // f(dth, da) = A Exp(-dth) (u + da) ~= f + A [u]x dth + A da (as for the accelerometer).
+  const Eigen::Matrix3d df_dth = A * skew(u);
   for (int k = 0; k < 2; ++k) {
-    // d/dth e_z . (Exp(th) v) = (v x e_z)^T ; d asin(s)/ds = 1/sqrt(1 - s^2)
-    const Eigen::Vector3d v = R_world_tilt.col(k);
-    const double c = std::sqrt(std::max(1e-12, 1.0 - v.z() * v.z()));
-    H.block<1, 3>(k, kErrTh) = v.cross(ez).transpose() / c;
+    const double s = f(k) / n;
+    // d asin(f_k / |f|) / df = (e_k / |f| - f_k f / |f|^3) / sqrt(1 - s^2)
+    Eigen::RowVector3d ds = -f.transpose() * f(k) / (n * n * n);
+    ds(k) += 1.0 / n;
+    ds /= std::sqrt(std::max(1e-12, 1.0 - s * s));
+    H.block<1, 3>(k, kErrTh) = ds * df_dth;
+    if (specific_force_) H.block<1, 3>(k, kErrA) = ds * A;
   }
   return H;
 }

@@ -147,7 +147,8 @@ ImuSample SensorSim::imu(int64_t utime) {
 TiltSample SensorSim::tilt(int64_t utime) {
   const TruthSample s = walk_.at(utime * 1e-6);
   const Eigen::Matrix3d R_body_tilt = calib_.T_imu_cam0.linear() * calib_.R_tilt_cam0.transpose();
-  const Eigen::Vector2d z = TiltMeasurement::predict(s.q, R_body_tilt);
+  // An accelerometer-type inclinometer: it senses the specific force (no response lag modelled here).
+  const Eigen::Vector2d z = TiltMeasurement::predict(s.q, R_body_tilt, s.a + Eigen::Vector3d(0, 0, p_.gravity));
   TiltSample m;
   m.utime = utime;
   m.angle_x = z.x() + p_.tilt_sigma * n01_(rng_);

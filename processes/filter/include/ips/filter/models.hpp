@@ -56,21 +56,32 @@ class ImuMeasurement : public Measurement {
   double gravity_, gyro_var_, accel_var_;
 };
 
-// Tilt angles: angle_x = asin(e_z . R_world_tilt e_x) (positive when the sensor's x axis points up),
-// angle_y likewise for the y axis. R_body_tilt = R_imu_cam0 * R_tilt_cam0^T.
+// Tilt angles of an inclinometer: the inclination of the tilt sensor's x and y axes against the plane normal
+// to the vector it senses, angle_x = asin(f_x / |f|) with f in the tilt frame (positive when the x axis points
+// up). An accelerometer-type inclinometer senses the specific force f = R^T (a + g e_z), so while the head
+// accelerates it does not measure the attitude alone; with `specific_force` false it is modelled as sensing
+// gravity only (f = R^T g e_z). R_body_tilt = R_imu_cam0 * R_tilt_cam0^T.
 class TiltMeasurement : public Measurement {
  public:
-  TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma);
+  TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma,
+                  double gravity = 9.81, bool specific_force = true);
   int dim() const override { return 2; }
+  // Angles of a sensor at rest (gravity only).
   static Eigen::Vector2d predict(const Eigen::Quaterniond& q_world_body, const Eigen::Matrix3d& R_body_tilt);
+  // Angles for a sensed vector u in world (g e_z at rest, a + g e_z for the specific force).
+  static Eigen::Vector2d predict(const Eigen::Quaterniond& q_world_body, const Eigen::Matrix3d& R_body_tilt,
+                                 const Eigen::Vector3d& u_world);
   MeasVector residual(const FullState& x) const override;
   Eigen::MatrixXd jacobian(const FullState& x) const override;
   MeasMatrix noise() const override;
 
  private:
+  Eigen::Vector3d sensed(const NavState& x) const;
   Eigen::Vector2d z_;
   Eigen::Matrix3d R_body_tilt_;
   double var_;
+  double gravity_;
+  bool specific_force_;
 };
 
 // Relative pose of camera 0 between clone i0 (older) and clone i1: X_c0(t0) = R * X_c0(t1) + t. Residual

@@ -55,6 +55,7 @@ struct FilterParams {
   ProcessNoise process;
   ImuNoise imu;
   double tilt_sigma = 1.75e-3;      // [rad] per axis (0.1 deg resolution + alignment)
+  bool tilt_specific_force = true;  // the inclinometer senses specific force (accelerometer type), not gravity alone
   double tracker_min_sigma_t = 1e-4;  // [m] floor on the tracker's translation sigma
   double tracker_min_sigma_r = 1e-5;  // [rad] floor on the tracker's rotation sigma
 
