@@ -31,18 +31,18 @@ inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us,
       (Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX()) * Eigen::AngleAxisd(-M_PI / 2, Eigen::Vector3d::UnitZ()))
           .toRotationMatrix();
   SimulatedMotion s;
-  const double dt = 1e-4;  // integration step of the true attitude
+  const double dt = 5e-4;  // integration step of the true attitude (mid-point rule: error O(dt^3) per step)
   Eigen::Quaterniond q_w_b = Eigen::Quaterniond::Identity();
   Eigen::Quaterniond q_prev_frame = q_w_b;
   const int64_t t0 = 1'700'000'000'000'000;
   int step = 0;
   for (double t = 0; t <= duration_s + 1e-9; t += dt, ++step) {
-    if (step % 50 == 0) {  // 200 Hz
+    if (step % 10 == 0) {  // 200 Hz
       Eigen::Vector3d w = simulatedOmega(t);
       for (int i = 0; i < 3; ++i) w[i] += gyro_noise(rng);
       s.gyro.push_back({t0 + static_cast<int64_t>(std::llround(t * 1e6)), w});
     }
-    if (step % 1000 == 0 && step > 0) {                                                   // 10 Hz image pairs
+    if (step % 200 == 0 && step > 0) {                                                    // 10 Hz image pairs
       const Eigen::Matrix3d R_b = (q_prev_frame.conjugate() * q_w_b).toRotationMatrix();  // body at now in body at prev
       Eigen::Matrix3d R_cam = R_cam_imu * R_b * R_cam_imu.transpose();
       const Eigen::Vector3d n(tracker_noise(rng), tracker_noise(rng), tracker_noise(rng));
@@ -57,7 +57,5 @@ inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us,
   }
   return s;
 }
-
-
 
 }  // namespace ips::drivers::testing

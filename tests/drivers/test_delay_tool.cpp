@@ -75,5 +75,6 @@ TEST(DelayTool, ReportsTheDelayOfARecordedLog) {
   const double delay = std::stod(out.substr(at + 9));
   EXPECT_NEAR(delay, static_cast<double>(late), 1000.0) << out;
   std::remove(path.c_str());
-  EXPECT_NE(run(std::string(IPS_DELAY_TOOL) + " --log /nonexistent.lcmlog 2>&1").find("cannot open"), std::string::npos);
+  EXPECT_NE(run(std::string(IPS_DELAY_TOOL) + " --log /nonexistent.lcmlog 2>&1").find("cannot open"),
+            std::string::npos);
 }

@@ -2,6 +2,8 @@
 // on the common clock minus the IMU's calibrated delay, and publishes ips::imu_sample_t on IMU.
 #include <chrono>
 #include <ips/imu_sample_t.hpp>
+#include <map>
+#include <string>
 
 #include "ips/config.hpp"
 #include "ips/drivers/clock_mapper.hpp"
@@ -41,6 +43,17 @@ int main(int argc, char** argv) {
     ips::fw::Node node("imu", args.get("--lcm-url"));
     const double period_us = 1e6 / format.rate_hz;
     auto last_health = std::chrono::steady_clock::now();
+    // Unusable input counted by the reader also goes into the health message's "bad" total, by reason.
+    std::map<std::string, int64_t> reported;
+    auto reportBad = [&] {
+      const auto counters = reader.counters();
+      for (const char* reason : {"checksum_errors", "bad_frames", "partial_frames"}) {
+        const int64_t now_count = counters.at(reason);
+        for (int64_t i = reported[reason]; i < now_count; ++i)
+          node.health().bad(reason, std::string(reason) + " on " + rc.port.device);
+        reported[reason] = now_count;
+      }
+    };
     while (!ips::fw::stopRequested()) {
       for (const auto& s : reader.poll(50)) {
         ips::imu_sample_t msg;
@@ -63,6 +76,7 @@ int main(int argc, char** argv) {
         node.health().accepted();
         node.publish(ips::channels::kImu, msg);
       }
+      reportBad();
       const auto now = std::chrono::steady_clock::now();
       const double since = std::chrono::duration<double>(now - last_health).count();
       if (since >= 1.0) {
