@@ -248,7 +248,8 @@ int main(int argc, char** argv) {
                    "sim: the simulated sensor head (stereo camera, IMU, tilt sensor) with ground truth.\n"
                    "Batch: sim --duration S --out FILE.lcmlog (writes FILE.calib.yaml beside it). "
                    "Live: sim [--rate F] [--lcm-url URL] [--calib-out FILE].");
-    args.option("--duration", "SECONDS", "simulated time; default: until the trajectory ends")
+    args.option("--duration", "SECONDS",
+                "simulated time; default: until the trajectory ends; 0: only write the calibration")
         .option("--out", "FILE.lcmlog", "batch mode: write an LCM log as fast as possible")
         .option("--scenario", "FILE.yaml", "scenario (config/sim_*.yaml); default: the built-in walk")
         .option("--seed", "N", "random seed (overrides the scenario's)")
@@ -276,8 +277,13 @@ int main(int argc, char** argv) {
     const double rate = args.getDouble("--rate");
     if (!(rate > 0)) throw ips::ArgError("--rate must be positive");
 
-    ips::sim::Simulation sim(scenario, options);
     const std::string calib_path = args.has("--out") ? args.get("--out") + ".calib.yaml" : args.get("--calib-out");
+    if (options.duration_s == 0) {  // only the calibration (for processes started before the head)
+      ips::saveCalibration(calib_path, ips::sim::SensorHead::make(scenario).calibration);
+      IPS_INFO("--duration 0: wrote the calibration " << calib_path << " and nothing else");
+      return 0;
+    }
+    ips::sim::Simulation sim(scenario, options);
     ips::saveCalibration(calib_path, sim.head().calibration);
     IPS_INFO("scenario '" << scenario.name << "' (" << scenario.source << "), seed " << scenario.seed << ", "
                           << options.duration_s << " s of a " << sim.trajectory().duration() << " s, "
