@@ -245,7 +245,7 @@ int runLive(ips::sim::Simulation& sim, const std::string& url, double rate) {
 int main(int argc, char** argv) {
   return ips::fw::guardedMain("sim", [&]() -> int {
     ips::Args args(argc, argv,
-                   "sim: the simulated sensor head (stereo camera, IMU, tilt sensor) with ground truth.\n"
+                   "The simulated sensor head (stereo camera, IMU, tilt sensor) with ground truth.\n"
                    "Batch: sim --duration S --out FILE.lcmlog (writes FILE.calib.yaml beside it). "
                    "Live: sim [--rate F] [--lcm-url URL] [--calib-out FILE].");
     args.option("--duration", "SECONDS",
