@@ -195,6 +195,10 @@ bool Estimator::applyMeasurement(Runner& run, const Event& e, std::array<SensorC
     run.last_imu_time = e.time;
   } else if (e.sensor == kSensorTilt) {
     predictTo(run, e.time);
+    if (kf.state().nav.acceleration.norm() > params_.tilt_max_acceleration) {
+      if (counters) ++(*counters)[kSensorTilt].rejected;
+      return false;
+    }
     const TiltMeasurement m(e.tilt.angle_x, e.tilt.angle_y, R_body_tilt_, params_.tilt_sigma, params_.gravity,
                             params_.tilt_specific_force);
     r = kf.update(m, gateFor(run, kSensorTilt, 2, params_.gate_tilt));

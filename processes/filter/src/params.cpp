@@ -50,6 +50,8 @@ FilterParams loadFilterParams(const Config& c) {
 
   p.tilt_sigma = c.getDouble("tilt/sigma", p.tilt_sigma);
   positive(c, "tilt/sigma", p.tilt_sigma);
+  p.tilt_max_acceleration = c.getDouble("tilt/max_acceleration", p.tilt_max_acceleration);
+  positive(c, "tilt/max_acceleration", p.tilt_max_acceleration);
   p.tilt_specific_force = c.getBool("tilt/specific_force", p.tilt_specific_force);
   p.tracker_min_sigma_t = c.getDouble("tracker/min_sigma_t", p.tracker_min_sigma_t);
   p.tracker_min_sigma_r = c.getDouble("tracker/min_sigma_r", p.tracker_min_sigma_r);

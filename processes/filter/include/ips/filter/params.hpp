@@ -54,7 +54,10 @@ struct FilterParams {
 
   ProcessNoise process;
   ImuNoise imu;
-  double tilt_sigma = 1.75e-3;      // [rad] per axis (0.1 deg resolution + alignment)
+  double tilt_sigma = 8.7e-3;       // [rad] per axis: the PEI Z260's accuracy, 0.5 deg RMS (resolution 0.1 deg)
+  // Feasibility of a tilt sample: an inclinometer's sensing element lags (and rings) under acceleration, so
+  // samples are used only while the estimated acceleration is below this (counted as rejected otherwise).
+  double tilt_max_acceleration = 0.5;  // [m/s^2]
   bool tilt_specific_force = true;  // the inclinometer senses specific force (accelerometer type), not gravity alone
   double tracker_min_sigma_t = 1e-4;  // [m] floor on the tracker's translation sigma
   double tracker_min_sigma_r = 1e-5;  // [rad] floor on the tracker's rotation sigma
