@@ -2,6 +2,7 @@
 // truth, in arrival order; the calibration is written beside it; the same seed gives a byte-identical log.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <ips/disparity_map_t.hpp>
@@ -24,9 +25,16 @@ std::string runSim(const std::string& name, const std::string& args) {
   return out;
 }
 
-std::string readAll(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+// Reads a log and removes it and its calibration (logs are large).
+std::string readAndRemove(const std::string& path) {
+  std::string data;
+  {
+    std::ifstream in(path, std::ios::binary);
+    data.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  std::remove(path.c_str());
+  std::remove((path + ".calib.yaml").c_str());
+  return data;
 }
 
 }  // namespace
@@ -92,12 +100,13 @@ TEST(SimLog, ChannelsRatesAndOrder) {
   const ips::StereoCalibration cal = ips::loadCalibration(path + ".calib.yaml");
   EXPECT_EQ(cal.cam0.width, 1360);
   EXPECT_NEAR(cal.cam0.K(0, 0), 744.19, 0.01);
+  readAndRemove(path);
 }
 
 TEST(SimLog, SameSeedGivesByteIdenticalLog) {
-  const std::string a = readAll(runSim("sim_seed_a", "--duration 0.3 --seed 11 --gt-disparity-every 2"));
-  const std::string b = readAll(runSim("sim_seed_b", "--duration 0.3 --seed 11 --gt-disparity-every 2"));
-  const std::string c = readAll(runSim("sim_seed_c", "--duration 0.3 --seed 12 --gt-disparity-every 2"));
+  const std::string a = readAndRemove(runSim("sim_seed_a", "--duration 0.3 --seed 11 --gt-disparity-every 2"));
+  const std::string b = readAndRemove(runSim("sim_seed_b", "--duration 0.3 --seed 11 --gt-disparity-every 2"));
+  const std::string c = readAndRemove(runSim("sim_seed_c", "--duration 0.3 --seed 12 --gt-disparity-every 2"));
   ASSERT_GT(a.size(), 5u * 1360 * 1024);
   EXPECT_TRUE(a == b) << "same seed, different logs";
   EXPECT_FALSE(a == c) << "different seeds, same log";
