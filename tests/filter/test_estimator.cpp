@@ -127,7 +127,8 @@ TEST(FilterEstimator, ReorderingWithinTheWindowGivesTheSameResult) {
       if (m.kind == 1) m.arrival += 30000;
       if (m.kind == 3) m.arrival += 40000;
     }
-    std::stable_sort(shuffled.begin(), shuffled.end(), [](const Msg& a, const Msg& b) { return a.arrival < b.arrival; });
+    std::stable_sort(shuffled.begin(), shuffled.end(),
+                     [](const Msg& a, const Msg& b) { return a.arrival < b.arrival; });
     int moved = 0;
     for (size_t i = 0; i < ordered.size(); ++i) moved += shuffled[i].kind != ordered[i].kind;
     ASSERT_GT(moved, 50);  // the order really differs
@@ -244,9 +245,10 @@ TEST(FilterEstimator, RecoversFromAnImuGap) {
     reference.flush();
     const FilterOutput ref_end = reference.current();
     // No IMU between 8.0 and 9.5 s (tilt and camera go on).
-    msgs.erase(std::remove_if(msgs.begin(), msgs.end(),
-                              [](const Msg& m) { return m.kind == 0 && m.imu.utime > 8'000'000 && m.imu.utime < 9'500'000; }),
-               msgs.end());
+    msgs.erase(
+        std::remove_if(msgs.begin(), msgs.end(),
+                       [](const Msg& m) { return m.kind == 0 && m.imu.utime > 8'000'000 && m.imu.utime < 9'500'000; }),
+        msgs.end());
     std::vector<FilterOutput> out;
     for (const Msg& m : msgs) {
       feed(est, {m});

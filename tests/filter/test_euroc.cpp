@@ -184,10 +184,11 @@ TEST(FilterEuroc, ImuPropagationMatchesGroundTruthWithinItsCovariance) {
     const double lo = chiSquareQuantile(0.005, 6 * windows) / windows;
     const double hi = chiSquareQuantile(0.995, 6 * windows) / windows;
     RecordProperty(toString(type) + "_anees", std::to_string(anees));
-    std::printf("%s: %d windows of %.1f s, mean position error %.4f m (strapdown %.4f m, predicted rms %.4f m), "
-                "ANEES %.2f (99 %% bounds %.2f..%.2f)\n",
-                toString(type).c_str(), windows, window_s, pos_err_sum / windows, strapdown_err_sum / windows,
-                pos_sigma_sum / windows, anees, lo, hi);
+    std::printf(
+        "%s: %d windows of %.1f s, mean position error %.4f m (strapdown %.4f m, predicted rms %.4f m), "
+        "ANEES %.2f (99 %% bounds %.2f..%.2f)\n",
+        toString(type).c_str(), windows, window_s, pos_err_sum / windows, strapdown_err_sum / windows,
+        pos_sigma_sum / windows, anees, lo, hi);
     // The filter loses little against a plain strapdown integration of the same data ...
     EXPECT_LT(pos_err_sum, 1.5 * strapdown_err_sum) << toString(type);
     // ... and its covariance predicts the error: the average NEES lies within a factor 1.5 of the 99 % band

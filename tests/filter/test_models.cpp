@@ -3,7 +3,6 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Eigenvalues>
-
 #include <cmath>
 #include <limits>
 #include <random>
@@ -85,8 +84,9 @@ TEST(FilterModels, ProcessJacobianMatchesNumeric) {
     for (int i = 0; i < 21; ++i) {
       Vector21d d = Vector21d::Zero();
       d(i) = h;
-      Fn.col(i) = (boxminus(propagateNav(boxplus(x, d), dt), fx) - boxminus(propagateNav(boxplus(x, (-d).eval()), dt), fx)) /
-                  (2 * h);
+      Fn.col(i) =
+          (boxminus(propagateNav(boxplus(x, d), dt), fx) - boxminus(propagateNav(boxplus(x, (-d).eval()), dt), fx)) /
+          (2 * h);
     }
     EXPECT_LT((F - Fn).cwiseAbs().maxCoeff(), 1e-7) << "dt=" << dt << "\n" << F - Fn;
   }
@@ -168,7 +168,8 @@ void runSequence(KalmanFilter& kf, const FullState& x0, const Eigen::MatrixXd& P
     const double t = 0.005 * (k + 1);
     const ImuMeasurement imu(Eigen::Vector3d(0.3 + 0.1 * t, -0.2, 0.5), Eigen::Vector3d(0.8, 0.3, 9.9), g, 2e-3, 5e-2);
     kf.update(imu, std::numeric_limits<double>::infinity());
-    if (k % 10 == 5) kf.update(TiltMeasurement(0.06, -0.03, R_bt, 3e-3, g, false), std::numeric_limits<double>::infinity());
+    if (k % 10 == 5)
+      kf.update(TiltMeasurement(0.06, -0.03, R_bt, 3e-3, g, false), std::numeric_limits<double>::infinity());
   }
   kf.addClone();
   // A delta a little off the current estimate.

@@ -103,7 +103,7 @@ TEST(TrajEval, PoseNeesOfAKnownError) {
   FilterOutput out;
   out.covariance = Matrix21d::Identity() * 0.01;  // sigma 0.1 everywhere
   NavState truth = out.state;
-  truth.position.x() += 0.2;                                                            // 2 sigma
+  truth.position.x() += 0.2;                                                                 // 2 sigma
   truth.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()));  // 1 sigma
   EXPECT_NEAR(poseNees(out, truth), 4.0 + 1.0, 1e-9);
   EXPECT_NEAR(fullNees(out, truth), 5.0, 1e-9);

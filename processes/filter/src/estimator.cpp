@@ -113,7 +113,8 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
   ahead.consecutive_rejects = run_.consecutive_rejects;
   ahead.in_gap = run_.in_gap;
   for (auto it = buffer_.begin(); it != buffer_.end() && it->first <= t; ++it)
-    if (it->second.sensor == kSensorImu || it->second.sensor == kSensorTilt) applyMeasurement(ahead, it->second, nullptr);
+    if (it->second.sensor == kSensorImu || it->second.sensor == kSensorTilt)
+      applyMeasurement(ahead, it->second, nullptr);
   predictTo(ahead, t);
   return makeOutput(*ahead.kf, true);
 }

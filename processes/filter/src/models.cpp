@@ -160,8 +160,8 @@ MeasMatrix TiltMeasurement::noise() const {
 
 // ---------------------------------------------------------------------------------------------- delta
 
-DeltaMeasurement::DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1,
-                                   const Matrix6d& covariance, const Eigen::Isometry3d& T_imu_cam0)
+DeltaMeasurement::DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
+                                   const Eigen::Isometry3d& T_imu_cam0)
     : i0_(clone0), i1_(clone1), z_(T_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0) {}
 
 Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone& c1,

@@ -106,9 +106,9 @@ FilterParams loadFilterParams(const Config& c) {
   i.sigma_gyro_bias = c.getDouble("init/sigma_gyro_bias", i.sigma_gyro_bias);
   i.sigma_roll_pitch = c.getDouble("init/sigma_roll_pitch", i.sigma_roll_pitch);
   i.sigma_heading = c.getDouble("init/sigma_heading", i.sigma_heading);
-  for (const char* k : {"init/sigma_position", "init/sigma_velocity", "init/sigma_acceleration", "init/sigma_accel_bias",
-                        "init/sigma_angular_rate", "init/sigma_gyro_bias", "init/sigma_roll_pitch", "init/sigma_heading",
-                        "init/max_accel_std", "init/max_gyro_std"})
+  for (const char* k : {"init/sigma_position", "init/sigma_velocity", "init/sigma_acceleration",
+                        "init/sigma_accel_bias", "init/sigma_angular_rate", "init/sigma_gyro_bias",
+                        "init/sigma_roll_pitch", "init/sigma_heading", "init/max_accel_std", "init/max_gyro_std"})
     positive(c, k, c.getDouble(k, 1.0));
   return p;
 }

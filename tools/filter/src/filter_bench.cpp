@@ -60,9 +60,12 @@ int main(int argc, char** argv) {
   std::string config;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
-    if (k == "--seconds" && i + 1 < argc) seconds = std::stod(argv[++i]);
-    else if (k == "--repeat" && i + 1 < argc) repeat = std::stoi(argv[++i]);
-    else if (k == "--config" && i + 1 < argc) config = argv[++i];
+    if (k == "--seconds" && i + 1 < argc)
+      seconds = std::stod(argv[++i]);
+    else if (k == "--repeat" && i + 1 < argc)
+      repeat = std::stoi(argv[++i]);
+    else if (k == "--config" && i + 1 < argc)
+      config = argv[++i];
     else {
       std::fprintf(stderr, "usage: filter_bench [--seconds 60] [--repeat 3] [--config filter.yaml]\n");
       return 2;
@@ -107,10 +110,11 @@ int main(int argc, char** argv) {
       }
       const int idx = type == FilterType::Ekf ? 0 : 1;
       rate[idx] = n_imu / best;
-      std::printf("%s: %zu IMU samples (+ tilt, images, deltas) in %.3f s (best of %d): %.0f IMU/s, %.2f us each; "
-                  "clones in state %d (error dim %d), outputs %zu\n",
-                  toString(type).c_str(), n_imu, best, repeat, rate[idx], 1e6 * best / n_imu, clones,
-                  kCoreErrorDim + kCloneErrorDim * clones, outputs / repeat);
+      std::printf(
+          "%s: %zu IMU samples (+ tilt, images, deltas) in %.3f s (best of %d): %.0f IMU/s, %.2f us each; "
+          "clones in state %d (error dim %d), outputs %zu\n",
+          toString(type).c_str(), n_imu, best, repeat, rate[idx], 1e6 * best / n_imu, clones,
+          kCoreErrorDim + kCloneErrorDim * clones, outputs / repeat);
     }
     std::printf("ekf_imu_per_s=%.0f ukf_imu_per_s=%.0f\n", rate[0], rate[1]);
   } catch (const std::exception& e) {

@@ -37,19 +37,30 @@ int main(int argc, char** argv) {
       return argv[++i];
     };
     try {
-      if (k == "--runs") runs = std::stoi(val());
-      else if (k == "--seed") seed = static_cast<unsigned>(std::stoul(val()));
-      else if (k == "--scenario") scenario_path = val();
-      else if (k == "--config") config = val();
-      else if (k == "--out-dir") out_dir = val();
-      else if (k == "--no-tilt") use_tilt = false;
-      else if (k == "--tracker-sigma-t") sigma_t = std::stod(val());
-      else if (k == "--tracker-sigma-r") sigma_r = std::stod(val());
-      else throw std::invalid_argument("unknown option " + k);
+      if (k == "--runs")
+        runs = std::stoi(val());
+      else if (k == "--seed")
+        seed = static_cast<unsigned>(std::stoul(val()));
+      else if (k == "--scenario")
+        scenario_path = val();
+      else if (k == "--config")
+        config = val();
+      else if (k == "--out-dir")
+        out_dir = val();
+      else if (k == "--no-tilt")
+        use_tilt = false;
+      else if (k == "--tracker-sigma-t")
+        sigma_t = std::stod(val());
+      else if (k == "--tracker-sigma-r")
+        sigma_r = std::stod(val());
+      else
+        throw std::invalid_argument("unknown option " + k);
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "filter_sim_eval: %s\nusage: filter_sim_eval [--runs N] [--seed S] [--scenario f.yaml] "
-                           "[--config filter.yaml] [--no-tilt] [--tracker-sigma-t m] [--tracker-sigma-r rad] "
-                           "[--out-dir DIR]\n", e.what());
+      std::fprintf(stderr,
+                   "filter_sim_eval: %s\nusage: filter_sim_eval [--runs N] [--seed S] [--scenario f.yaml] "
+                   "[--config filter.yaml] [--no-tilt] [--tracker-sigma-t m] [--tracker-sigma-r rad] "
+                   "[--out-dir DIR]\n",
+                   e.what());
       return 2;
     }
   }
@@ -66,7 +77,8 @@ int main(int argc, char** argv) {
       int nees_n = 0;
       long long tilt_rej = 0, tilt_acc = 0, imu_rej = 0, trk_rej = 0;
       for (int run = 0; run < runs; ++run) {
-        ips::sim::Scenario sc = scenario_path.empty() ? ips::sim::Scenario::defaults() : ips::sim::Scenario::load(scenario_path);
+        ips::sim::Scenario sc =
+            scenario_path.empty() ? ips::sim::Scenario::defaults() : ips::sim::Scenario::load(scenario_path);
         sc.seed = seed + static_cast<unsigned>(run);
         const ips::sim::Trajectory traj(sc.trajectory, sc.gravity);
         const ips::sim::SensorHead head = ips::sim::SensorHead::make(sc);
@@ -124,8 +136,9 @@ int main(int argc, char** argv) {
               d.utime = next_img;
               d.utime_prev = last_img;
               d.translation = T.translation() + sigma_t * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
-              d.rotation = Eigen::Quaterniond(expSO3(sigma_r * Eigen::Vector3d(n01(rng), n01(rng), n01(rng))) *
-                                              T.linear()).normalized();
+              d.rotation =
+                  Eigen::Quaterniond(expSO3(sigma_r * Eigen::Vector3d(n01(rng), n01(rng), n01(rng))) * T.linear())
+                      .normalized();
               d.covariance.setZero();
               d.covariance.diagonal() << Eigen::Vector3d::Constant(sigma_t * sigma_t),
                   Eigen::Vector3d::Constant(sigma_r * sigma_r);
@@ -162,10 +175,11 @@ int main(int argc, char** argv) {
         }
       }
       const double anees = nees_sum / std::max(1, nees_n);
-      std::printf("filter=%s runs=%d distance_m=%.1f endpoint_pct_mean=%.4f ate_rmse_m=%.4f anees_pose=%.3f "
-                  "tilt_accepted=%lld tilt_rejected=%lld imu_rejected=%lld tracker_rejected=%lld\n",
-                  toString(type).c_str(), runs, dist, endpoint_sum / runs, ate_sum / runs, anees, tilt_acc, tilt_rej,
-                  imu_rej, trk_rej);
+      std::printf(
+          "filter=%s runs=%d distance_m=%.1f endpoint_pct_mean=%.4f ate_rmse_m=%.4f anees_pose=%.3f "
+          "tilt_accepted=%lld tilt_rejected=%lld imu_rejected=%lld tracker_rejected=%lld\n",
+          toString(type).c_str(), runs, dist, endpoint_sum / runs, ate_sum / runs, anees, tilt_acc, tilt_rej, imu_rej,
+          trk_rej);
       char buf[160];
       std::snprintf(buf, sizeof buf, "%s%s_endpoint_pct=%.4f %s_anees=%.3f", summary.empty() ? "" : " ",
                     toString(type).c_str(), endpoint_sum / runs, toString(type).c_str(), anees);

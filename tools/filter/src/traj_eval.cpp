@@ -3,7 +3,8 @@
 //   traj_eval --est est.tum --gt gt.tum [--segment 10] [--plot out.png]
 //       ATE RMSE after SE(3) alignment, relative error per distance, end-point error (% of distance).
 //   traj_eval --simulate [--filter ekf|ukf|both] [--runs 10] [--seed 1] [--duration 125] [--config f.yaml]
-//             [--calib calib.yaml] [--no-tracker] [--no-tilt] [--init-from-truth] [--image-hz 8] [--tracker-sigma-t 0.003]
+//             [--calib calib.yaml] [--no-tracker] [--no-tilt] [--init-from-truth] [--image-hz 8] [--tracker-sigma-t
+//             0.003]
 //             [--tracker-sigma-r 3e-4] [--segment 10] [--out-dir DIR]
 //       Monte Carlo runs of the fused filter on the analytic walk (3 s at rest for the static initialisation,
 //       then ~90 m in 2 minutes) (the test bed; ips_sim once it exists):
@@ -54,24 +55,42 @@ Args parse(int argc, char** argv) {
       if (i + 1 >= argc) throw std::invalid_argument("missing value after " + k);
       return argv[++i];
     };
-    if (k == "--est") a.est = value();
-    else if (k == "--gt") a.gt = value();
-    else if (k == "--plot") a.plot = value();
-    else if (k == "--config") a.config = value();
-    else if (k == "--calib") a.calib = value();
-    else if (k == "--out-dir") a.out_dir = value();
-    else if (k == "--simulate") a.simulate = true;
-    else if (k == "--no-tracker") a.tracker = false;
-    else if (k == "--no-tilt") a.tilt = false;
-    else if (k == "--init-from-truth") a.from_truth = true;
-    else if (k == "--filter") a.filter = value();
-    else if (k == "--runs") a.runs = std::stoi(value());
-    else if (k == "--seed") a.seed = static_cast<unsigned>(std::stoul(value()));
-    else if (k == "--duration") a.duration = std::stod(value());
-    else if (k == "--segment") a.segment = std::stod(value());
-    else if (k == "--image-hz") a.image_hz = std::stod(value());
-    else if (k == "--tracker-sigma-t") a.sigma_t = std::stod(value());
-    else if (k == "--tracker-sigma-r") a.sigma_r = std::stod(value());
+    if (k == "--est")
+      a.est = value();
+    else if (k == "--gt")
+      a.gt = value();
+    else if (k == "--plot")
+      a.plot = value();
+    else if (k == "--config")
+      a.config = value();
+    else if (k == "--calib")
+      a.calib = value();
+    else if (k == "--out-dir")
+      a.out_dir = value();
+    else if (k == "--simulate")
+      a.simulate = true;
+    else if (k == "--no-tracker")
+      a.tracker = false;
+    else if (k == "--no-tilt")
+      a.tilt = false;
+    else if (k == "--init-from-truth")
+      a.from_truth = true;
+    else if (k == "--filter")
+      a.filter = value();
+    else if (k == "--runs")
+      a.runs = std::stoi(value());
+    else if (k == "--seed")
+      a.seed = static_cast<unsigned>(std::stoul(value()));
+    else if (k == "--duration")
+      a.duration = std::stod(value());
+    else if (k == "--segment")
+      a.segment = std::stod(value());
+    else if (k == "--image-hz")
+      a.image_hz = std::stod(value());
+    else if (k == "--tracker-sigma-t")
+      a.sigma_t = std::stod(value());
+    else if (k == "--tracker-sigma-r")
+      a.sigma_r = std::stod(value());
     else if (k == "-h" || k == "--help") {
       usage();
       std::exit(0);
@@ -79,7 +98,8 @@ Args parse(int argc, char** argv) {
       throw std::invalid_argument("unknown option " + k);
   }
   if (a.runs < 1) throw std::invalid_argument("--runs must be >= 1");
-  if (a.filter != "ekf" && a.filter != "ukf" && a.filter != "both") throw std::invalid_argument("--filter ekf|ukf|both");
+  if (a.filter != "ekf" && a.filter != "ukf" && a.filter != "both")
+    throw std::invalid_argument("--filter ekf|ukf|both");
   return a;
 }
 

@@ -173,7 +173,8 @@ void plotTopDown(const std::string& path, const Trajectory& ref, const std::vect
   }
   std::ostringstream scale_text;
   scale_text << "x-y, " << std::fixed << std::setprecision(1) << span << " m across";
-  cv::putText(img, scale_text.str(), cv::Point(10, size - 15), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(80, 80, 80), 1);
+  cv::putText(img, scale_text.str(), cv::Point(10, size - 15), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(80, 80, 80),
+              1);
   if (!cv::imwrite(path, img)) throw std::runtime_error(path + ": cannot write PNG");
 }
 

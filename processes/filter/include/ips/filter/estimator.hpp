@@ -107,8 +107,8 @@ class Estimator {
     std::unique_ptr<KalmanFilter> kf;
     int64_t last_imu_time = INT64_MIN;
     std::array<int, kNumSensors> consecutive_rejects{};
-    bool in_gap = false;   // no IMU data for imu_gap_s: rates reset, milder process noise
-    bool counts = false;   // the estimator's own runner (not a look-ahead copy): counts and logs
+    bool in_gap = false;  // no IMU data for imu_gap_s: rates reset, milder process noise
+    bool counts = false;  // the estimator's own runner (not a look-ahead copy): counts and logs
   };
 
   void insert(Event&& e);

@@ -27,10 +27,10 @@ struct ImuNoise {
 };
 
 struct InitParams {
-  double duration_s = 2.0;         // time at rest averaged for the static initialisation
-  double max_accel_std = 0.3;      // [m/s^2] above this the head is not at rest: the window restarts
-  double max_gyro_std = 0.02;      // [rad/s]  (MMQ-50 noise alone: 0.07 m/s^2, 1.2e-3 rad/s per sample)
-  double heading_rad = 0.0;        // yaw of the body x axis about world z (the IMU cannot observe it)
+  double duration_s = 2.0;     // time at rest averaged for the static initialisation
+  double max_accel_std = 0.3;  // [m/s^2] above this the head is not at rest: the window restarts
+  double max_gyro_std = 0.02;  // [rad/s]  (MMQ-50 noise alone: 0.07 m/s^2, 1.2e-3 rad/s per sample)
+  double heading_rad = 0.0;    // yaw of the body x axis about world z (the IMU cannot observe it)
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   // Initial standard deviations of the error state.
   double sigma_position = 1e-3;       // [m]
@@ -54,13 +54,13 @@ struct FilterParams {
 
   ProcessNoise process;
   ImuNoise imu;
-  double tilt_sigma = 8.7e-3;       // [rad] per axis: the PEI Z260's accuracy, 0.5 deg RMS (resolution 0.1 deg)
+  double tilt_sigma = 8.7e-3;  // [rad] per axis: the PEI Z260's accuracy, 0.5 deg RMS (resolution 0.1 deg)
   // Feasibility of a tilt sample: an inclinometer's sensing element lags (and rings) under acceleration, so
   // samples are used only while the estimated acceleration is below this (counted as rejected otherwise).
   double tilt_max_acceleration = 0.5;  // [m/s^2]
-  bool tilt_specific_force = true;  // the inclinometer senses specific force (accelerometer type), not gravity alone
-  double tracker_min_sigma_t = 1e-4;  // [m] floor on the tracker's translation sigma
-  double tracker_min_sigma_r = 1e-5;  // [rad] floor on the tracker's rotation sigma
+  bool tilt_specific_force = true;     // the inclinometer senses specific force (accelerometer type), not gravity alone
+  double tracker_min_sigma_t = 1e-4;   // [m] floor on the tracker's translation sigma
+  double tracker_min_sigma_r = 1e-5;   // [rad] floor on the tracker's rotation sigma
 
   // Latencies subtracted from message stamps [us] (zero when drivers already remove them).
   int64_t imu_latency_us = 0;
@@ -70,15 +70,15 @@ struct FilterParams {
   int64_t reorder_window_us = 50'000;  // measurements are held this long so that they can be sorted
   int max_clones = 3;                  // pose clones kept at image times
 
-  double gate_probability = 0.9995;    // chi-square gate on the Mahalanobis distance of every measurement
+  double gate_probability = 0.9995;  // chi-square gate on the Mahalanobis distance of every measurement
   bool gate_imu = true;
   bool gate_tilt = true;
   bool gate_tracker = true;
-  int max_consecutive_rejects = 20;    // then the next measurement is applied anyway (re-capture)
+  int max_consecutive_rejects = 20;  // then the next measurement is applied anyway (re-capture)
 
   // IMU gap: a longer pause between IMU samples resets acceleration and angular rate to zero with these
-  // uncertainties, and the time update runs with the milder process noise `gap_process` until IMU data return
-  // (the usual one, tuned for 200 Hz updates, would explode over a second).
+  // uncertainties, and the time update runs with the process noise `gap_process` until IMU data return (the
+  // usual angular one, tuned for 200 Hz rate updates, would blow the attitude up over a second).
   double imu_gap_s = 0.1;
   double gap_sigma_acceleration = 3.0;  // [m/s^2] (walking: ~3 m/s^2 vertical at the step frequency)
   double gap_sigma_angular_rate = 0.5;  // [rad/s]

@@ -36,10 +36,10 @@ struct NavState {
   int64_t utime = 0;  // [us] on the head's common clock
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
-  Eigen::Vector3d acceleration = Eigen::Vector3d::Zero();  // world, gravity removed
-  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();    // body
-  Eigen::Vector3d angular_rate = Eigen::Vector3d::Zero();  // body, bias removed
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();     // body
+  Eigen::Vector3d acceleration = Eigen::Vector3d::Zero();           // world, gravity removed
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();             // body
+  Eigen::Vector3d angular_rate = Eigen::Vector3d::Zero();           // body, bias removed
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();              // body
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // body to world (w x y z)
 
   // The 22 elements in the order of filter_state_t (p v a ba w bg q[w x y z]).

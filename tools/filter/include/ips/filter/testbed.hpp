@@ -32,15 +32,15 @@ struct WalkParams {
   double head_yaw_rad = 0.15;  // looking around
   double head_pitch_rad = 0.05;
   double head_roll_rad = 0.03;
-  bool at_rest = false;        // a still head (for the static initialisation), attitude from the fixed angles
+  bool at_rest = false;  // a still head (for the static initialisation), attitude from the fixed angles
   double rest_roll_rad = 0.0, rest_pitch_rad = 0.0, rest_yaw_rad = 0.0;
 };
 
 struct TruthSample {
   int64_t utime = 0;
-  Eigen::Vector3d p, v, a;      // world
-  Eigen::Quaterniond q;         // body to world
-  Eigen::Vector3d w;            // body angular rate
+  Eigen::Vector3d p, v, a;  // world
+  Eigen::Quaterniond q;     // body to world
+  Eigen::Vector3d w;        // body angular rate
 };
 
 class AnalyticWalk {
@@ -59,7 +59,7 @@ class AnalyticWalk {
 
 struct SensorSimParams {
   double imu_rate_hz = 200.0;
-  double gyro_noise_density = 8.7e-5;   // MMQ-50
+  double gyro_noise_density = 8.7e-5;  // MMQ-50
   double accel_noise_density = 4.9e-3;
   Eigen::Vector3d gyro_bias = Eigen::Vector3d(0.002, -0.001, 0.0015);  // [rad/s] constant truth
   Eigen::Vector3d accel_bias = Eigen::Vector3d(0.02, -0.015, 0.01);    // [m/s^2]

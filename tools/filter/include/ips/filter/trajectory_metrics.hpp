@@ -31,11 +31,11 @@ Eigen::Isometry3d alignSE3(const Trajectory& est, const Trajectory& ref);
 
 struct TrajectoryErrors {
   size_t matched = 0;
-  double distance_m = 0;             // path length of the reference
-  double ate_rmse_m = 0;             // after SE(3) alignment
-  double rpe_percent = 0;            // mean translation error of segments of `segment_m` / segment length
-  double endpoint_error_m = 0;       // no alignment (both start in the same frame)
-  double endpoint_percent = 0;       // endpoint_error_m / distance_m * 100
+  double distance_m = 0;        // path length of the reference
+  double ate_rmse_m = 0;        // after SE(3) alignment
+  double rpe_percent = 0;       // mean translation error of segments of `segment_m` / segment length
+  double endpoint_error_m = 0;  // no alignment (both start in the same frame)
+  double endpoint_percent = 0;  // endpoint_error_m / distance_m * 100
 };
 // Both trajectories must already be associated (same length, same times).
 TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double segment_m);
