@@ -142,6 +142,7 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "trajectory/height_m", tr.height_m);
   get(c, "trajectory/knot_spacing_s", tr.knot_spacing_s);
   get(c, "trajectory/still_duration_s", tr.still_duration_s);
+  get(c, "trajectory/start_still_s", tr.start_still_s);
   get(c, "trajectory/yaw_deg", tr.yaw_deg);
   get(c, "trajectory/pitch_down_deg", tr.pitch_down_deg);
   get(c, "trajectory/roll_deg", tr.roll_deg);
@@ -192,6 +193,7 @@ void Scenario::validate() const {
   require(trajectory.speed_mps > 0, "trajectory/speed_mps must be positive");
   require(trajectory.knot_spacing_s > 0, "trajectory/knot_spacing_s must be positive");
   require(trajectory.still_duration_s >= 0, "trajectory/still_duration_s must not be negative");
+  require(trajectory.start_still_s >= 0, "trajectory/start_still_s must not be negative");
   require(world.wall_height_m > 0.5 && world.corridor_width_m > 0.5, "world/wall_height_m, corridor_width_m too small");
   require(world.building_size_m.x() > 2 * world.corridor_width_m + 1 &&
               world.building_size_m.y() > 2 * world.corridor_width_m + 1,

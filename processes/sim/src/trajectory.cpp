@@ -21,7 +21,8 @@ Trajectory::Trajectory(const TrajectoryConfig& config, double gravity) : cfg_(co
   for (size_t i = 1; i < wp.size(); ++i) path_length_ += (wp[i] - wp[i - 1]).norm();
   if (cfg_.type == "still" || path_length_ < 1e-6) {
     path_length_ = 0;
-    duration_ = cfg_.type == "still" ? cfg_.still_duration_s : 0;
+    motion_duration_ = cfg_.type == "still" ? cfg_.still_duration_s : 0;
+    duration_ = motion_duration_;
     return;
   }
   // Resample the polyline at equal arc length so that the walker keeps its speed; tripled end points make the
@@ -71,13 +72,14 @@ Trajectory::Trajectory(const TrajectoryConfig& config, double gravity) : cfg_(co
     cy_.push_back(pts[i].y());
     cyaw_.push_back(heading[i]);
   }
-  duration_ = (m - 3) * h;
+  motion_duration_ = (m - 3) * h;
+  duration_ = cfg_.start_still_s + motion_duration_;
 }
 
 Jet2 Trajectory::spline(const std::vector<double>& c, double t) const {
   const double h = cfg_.knot_spacing_s;
   const int nseg = static_cast<int>(c.size()) - 3;
-  const double tc = std::clamp(t, 0.0, duration_);
+  const double tc = std::clamp(t, 0.0, motion_duration_);
   int i = std::min(static_cast<int>(tc / h), nseg - 1);
   const double s = tc / h - i;
   const double s2 = s * s, s3 = s2 * s, r = 1 - s;
@@ -90,7 +92,7 @@ Jet2 Trajectory::spline(const std::vector<double>& c, double t) const {
     out.d += db[k] * c[i + k];
     out.dd += ddb[k] * c[i + k];
   }
-  if (t < 0 || t > duration_) return {out.v, 0, 0};  // at rest before start and after stop
+  if (t < 0 || t > motion_duration_) return {out.v, 0, 0};  // at rest before start and after stop
   out.d /= h;
   out.dd /= h * h;
   return out;
@@ -98,7 +100,7 @@ Jet2 Trajectory::spline(const std::vector<double>& c, double t) const {
 
 // Gait amplitude: 0 at rest, ramping up after the start and down before the stop with a C2 smootherstep.
 Jet2 Trajectory::envelope(double t) const {
-  if (cfg_.type == "still" || t <= 0 || t >= duration_) return {0, 0, 0};
+  if (cfg_.type == "still" || t <= 0 || t >= motion_duration_) return {0, 0, 0};
   auto smooth = [](double x, double dxdt) -> Jet2 {
     if (x >= 1) return {1, 0, 0};
     const double v = x * x * x * (x * (6 * x - 15) + 10);
@@ -106,12 +108,14 @@ Jet2 Trajectory::envelope(double t) const {
     const double dd = 60 * x * (2 * x - 1) * (x - 1);
     return {v, d * dxdt, dd * dxdt * dxdt};
   };
-  const double ramp = std::max(1e-3, std::min(cfg_.ramp_s, duration_ / 2));
-  return smooth(t / ramp, 1 / ramp) * smooth((duration_ - t) / ramp, -1 / ramp);
+  const double ramp = std::max(1e-3, std::min(cfg_.ramp_s, motion_duration_ / 2));
+  return smooth(t / ramp, 1 / ramp) * smooth((motion_duration_ - t) / ramp, -1 / ramp);
 }
 
-TrajectoryState Trajectory::state(double t) const {
+TrajectoryState Trajectory::state(double t_scenario) const {
   constexpr double kDeg = M_PI / 180;
+  // The path and the gait run on the motion's own clock, which starts after the still start.
+  const double t = cfg_.type == "still" ? t_scenario : t_scenario - cfg_.start_still_s;
   Jet2 x, y, yaw_path;
   if (cx_.empty()) {
     x = Jet2(cfg_.waypoints.front().x());
@@ -134,7 +138,7 @@ TrajectoryState Trajectory::state(double t) const {
   const Jet2 phi = Jet2(cfg_.roll_deg * kDeg) + cfg_.roll_sway_deg * kDeg * e * sin(0.5 * w * T + 0.3);
 
   TrajectoryState s;
-  s.t = t;
+  s.t = t_scenario;
   s.position = {x.v, y.v, z.v};
   s.velocity = {x.d, y.d, z.d};
   s.acceleration = {x.dd, y.dd, z.dd};

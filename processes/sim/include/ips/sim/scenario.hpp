@@ -80,6 +80,9 @@ struct TrajectoryConfig {
   double height_m = 1.45;        // IMU height above the floor
   double knot_spacing_s = 1.0;   // of the cubic B-spline; larger = smoother corners
   double still_duration_s = 60;  // duration of a 'still' scenario (and the hold at the end of the others)
+  // The head stands still this long before it starts moving, as a person does before walking off: the
+  // navigation filter initialises at rest (roll, pitch and gyro bias from the first seconds).
+  double start_still_s = 3.0;
   double yaw_deg = 0;            // heading for 'still'
   double pitch_down_deg = 6.0;   // constant pitch of the head
   double roll_deg = 0.0;

@@ -26,7 +26,7 @@ class Trajectory {
  public:
   explicit Trajectory(const TrajectoryConfig& config, double gravity = 9.81);
 
-  // Any t: before 0 and after duration() the head stands still at the start / end.
+  // Any t: before start_still_s and after duration() the head stands still at the start / end.
   TrajectoryState state(double t) const;
   Eigen::Isometry3d pose(double t) const { return state(t).pose(); }
   double duration() const { return duration_; }  // time until the head comes to rest
@@ -38,7 +38,8 @@ class Trajectory {
 
   TrajectoryConfig cfg_;
   double gravity_;
-  double duration_ = 0;
+  double duration_ = 0;         // start_still_s + motion
+  double motion_duration_ = 0;  // from leaving the start to coming to rest
   double path_length_ = 0;
   std::vector<double> cx_, cy_, cyaw_;  // control points
 };
