@@ -16,6 +16,8 @@ layout(push_constant) uniform Params {
   int row_words;
 } pc;
 layout(std430, binding = 4) readonly buffer Volume { uint v[]; } volume[E3D_MAX_CHUNKS];
+layout(std430, binding = 4) readonly buffer Volume4 { uvec4 v4[]; } volume4[E3D_MAX_CHUNKS];  // see sgm_aggregate
+const bool VEC4 = (K % 16) == 0;
 layout(std430, binding = 5) writeonly buffer DispLeft { int disp_left[]; };
 layout(std430, binding = 6) writeonly buffer DispRight { int disp_right[]; };
 shared uint best_right[E3D_MAX_WIDTH];  // (S << 8) | k, minimum over the diagonal
@@ -36,7 +38,7 @@ void main() {
       const int chunk = g / pc.rows_per_chunk;
       const int base = (g - chunk * pc.rows_per_chunk) * pc.row_words + x * (K / 4) * int(SG) + int(lane) * (K / 4);
       [[unroll]] for (int j = 0; j < K / 4; ++j) {
-        const uint word = volume[chunk].v[base + j];
+        const uint word = VEC4 ? volume4[chunk].v4[base / 4 + j / 4][j % 4] : volume[chunk].v[base + j];
         s[4 * j] += word & 0xFFu;
         s[4 * j + 1] += (word >> 8) & 0xFFu;
         s[4 * j + 2] += (word >> 16) & 0xFFu;
