@@ -10,7 +10,15 @@
 using namespace ips::tracker;
 
 TEST(TrackerSim, WalkRelativePoseErrorPerFrame) {
-  const std::string scenario = std::string(IPS_SOURCE_DIR) + "/config/sim_walk.yaml";
+  // The default walk (config/sim_walk.yaml holds its defaults) without the still start, so that the 2.5 s
+  // tracked here are walking.
+  const std::string scenario = testing::TempDir() + "/walk_without_still_start.yaml";
+  {
+    FILE* f = std::fopen(scenario.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs("%YAML:1.0\n---\ntrajectory:\n  start_still_s: 0\n", f);
+    std::fclose(f);
+  }
   std::vector<double> rot, pct;
   const auto errors = tools::runTrackerOnSimulation(scenario, 2.5, TrackerParams(), tools::SimPrior::ConstantVelocity);
   ASSERT_EQ(errors.size(), 20u);  // 8 Hz

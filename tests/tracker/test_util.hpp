@@ -24,6 +24,7 @@ struct TexturedPlane {
   Eigen::Matrix3d K;
   Eigen::Vector3d n{0, 0, 1};
   double d = 3.0;
+  int border = cv::BORDER_REFLECT;  // BORDER_CONSTANT: the plane ends where its texture ends (an object)
 
   cv::Mat render(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) const {
     const Eigen::Vector3d n_c = R.transpose() * n;
@@ -33,7 +34,7 @@ struct TexturedPlane {
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) h.at<double>(r, c) = H(r, c);
     cv::Mat out;
-    cv::warpPerspective(texture, out, h, texture.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REFLECT);
+    cv::warpPerspective(texture, out, h, texture.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, border);
     return out;
   }
 };
