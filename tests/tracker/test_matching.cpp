@@ -176,3 +176,37 @@ TEST(Matching, InterMatchingFindsNothingOutsideAWrongWindow) {
   for (size_t i = 0; i < f0.size(); ++i) pred[i] = {double(f0.xl[i]), double(f0.y[i]), f0.xr[i], 6.0};
   EXPECT_GT(matchBetweenTimes(f0, f0, pred, l0, r0, mp).size(), 0.9 * f0.size());
 }
+
+// Repeated texture (a fence, tiles): along the row every period looks the same, so the uniqueness test must
+// refuse those corners rather than pick a wrong disparity; the textured rest still matches.
+TEST(Matching, RepeatedTextureIsRefusedNotMismatched) {
+  const int w = 480, h = 240, disparity = 7, period = 12;
+  cv::Mat scene(h, w + disparity, CV_8UC1);
+  cv::Mat noise(h, w + disparity, CV_8UC1);
+  cv::randu(noise, 0, 255);
+  cv::GaussianBlur(noise, scene, cv::Size(0, 0), 1.2);
+  for (int y = 0; y < h / 2; ++y)  // upper half: a periodic pattern of blobs
+    for (int x = 0; x < w + disparity; ++x) {
+      const double v = std::sin(2 * M_PI * x / period) * std::sin(2 * M_PI * y / period);
+      scene.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(128 + 100 * v);
+    }
+  // A fronto-parallel scene: right pixel x - d shows what left pixel x shows.
+  const cv::Mat left = scene(cv::Rect(0, 0, w, h)).clone();
+  const cv::Mat right = scene(cv::Rect(disparity, 0, w, h)).clone();
+  DetectorParams dp;
+  MatcherParams mp;
+  mp.max_disparity = 48;
+  const auto corners = detectCorners(left, dp, 12);
+  int corners_top = 0;
+  for (const Corner& c : corners) corners_top += c.yi < h / 2 - 8;
+  ASSERT_GT(corners_top, 20);  // the pattern is full of corners
+  const StereoFeatures f = matchAlongRows(left, right, corners, mp);
+  int top = 0, bottom = 0;
+  for (size_t i = 0; i < f.size(); ++i) {
+    EXPECT_NEAR(f.xl[i] - f.xr[i], disparity, 0.5) << "at " << f.xl[i] << "," << f.y[i] << ": " << f.xl[i] - f.xr[i];
+    (f.y[i] < h / 2 - 8 ? top : bottom)++;
+  }
+  std::printf("[ REPEAT   ] %d corners on the pattern, %d matched there; %d matches in the random half\n", corners_top,
+              top, bottom);
+  EXPECT_GT(bottom, 50);
+}
