@@ -16,7 +16,7 @@ run_once() {
   local pids=()
   "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/tracker.yaml" --log-level warn & pids+=($!)
   "$BIN/filter" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/filter_sim.yaml" --log-level warn & pids+=($!)
-  "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/e3d_sim.yaml" --every-nth 8 --queue --log-level warn & pids+=($!)
+  "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 4 --queue --log-level warn & pids+=($!)
   lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|HEALTH_.*' -f "$out" >/dev/null 2>&1 &
   local logger=$!
   sleep 2  # let every process subscribe (e3d builds its Vulkan pipeline)
