@@ -2,12 +2,14 @@
 // 2 minutes), its IMU (MMQ-50 figures incl. turn-on biases, bias walk, quantisation, misalignment) and tilt
 // sensor (specific force through a lag, constant offset, quantisation), and a tracker delta per image made
 // from the true relative pose of camera 0 plus noise (the renderer + tracker chain is not run here).
-// Monte Carlo over seeds: end-point error as % of distance, ATE, NEES of the pose.
+// Monte Carlo over seeds: end-point error as % of distance, ATE, NEES of the pose. The filter starts from a draw
+// around the truth at t = 0, or with --static-start initialises itself while the head stands still.
 //
-//   filter_sim_eval [--runs 5] [--seed 1] [--scenario sim.yaml] [--config filter.yaml] [--no-tilt]
+//   filter_sim_eval [--runs 5] [--seed 1] [--scenario sim.yaml] [--config filter.yaml] [--no-tilt] [--static-start]
 //                   [--tracker-sigma-t 0.002] [--tracker-sigma-r 1e-4] [--out-dir DIR]
 // Last line: ekf_endpoint_pct=.. ekf_anees=.. ukf_endpoint_pct=.. ukf_anees=..
 #include <Eigen/Cholesky>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <random>
@@ -28,7 +30,7 @@ int main(int argc, char** argv) {
   int runs = 5;
   unsigned seed = 1;
   std::string scenario_path, config, out_dir = ".";
-  bool use_tilt = true;
+  bool use_tilt = true, static_start = false;
   double sigma_t = 0.002, sigma_r = 1e-4;
   for (int i = 1; i < argc; ++i) {
     const std::string k = argv[i];
@@ -49,6 +51,8 @@ int main(int argc, char** argv) {
         out_dir = val();
       else if (k == "--no-tilt")
         use_tilt = false;
+      else if (k == "--static-start")
+        static_start = true;
       else if (k == "--tracker-sigma-t")
         sigma_t = std::stod(val());
       else if (k == "--tracker-sigma-r")
@@ -58,7 +62,7 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
       std::fprintf(stderr,
                    "filter_sim_eval: %s\nusage: filter_sim_eval [--runs N] [--seed S] [--scenario f.yaml] "
-                   "[--config filter.yaml] [--no-tilt] [--tracker-sigma-t m] [--tracker-sigma-r rad] "
+                   "[--config filter.yaml] [--no-tilt] [--static-start] [--tracker-sigma-t m] [--tracker-sigma-r rad] "
                    "[--out-dir DIR]\n",
                    e.what());
       return 2;
@@ -88,6 +92,13 @@ int main(int argc, char** argv) {
         params.imu_latency_us = static_cast<int64_t>(sc.imu.stamp_offset_us);
         params.tilt_latency_us = static_cast<int64_t>(sc.tilt.stamp_offset_us);
         params.gravity = sc.gravity;
+        if (static_start) {
+          // What a deployment's config states: where the head stands and where it looks (yaw of body x).
+          const ips::sim::TrajectoryState s0 = traj.state(0.0);
+          const Eigen::Vector3d x_axis = s0.orientation * Eigen::Vector3d::UnitX();
+          params.init.heading_rad = std::atan2(x_axis.y(), x_axis.x());
+          params.init.position = s0.position;
+        }
         Estimator est(params, head.calibration);
         std::mt19937 rng(sc.seed * 7919u + 17u);
         std::normal_distribution<double> n01;
@@ -107,7 +118,7 @@ int main(int argc, char** argv) {
         // Start at t = 0 (the head stands still) from a draw around the truth with the configured covariance.
         ips::sim::ImuMeasurement m = imu.next();
         const Matrix21d P0 = initialCovariance(params.init);
-        {
+        if (!static_start) {
           Vector21d z;
           for (int i = 0; i < 21; ++i) z(i) = n01(rng);
           const Vector21d dx = Eigen::LLT<Matrix21d>(P0).matrixL() * z;
