@@ -8,7 +8,7 @@ DURATION=${IPS_REPLAY_TEST_S:-12}
 U="udpm://239.255.76.67:7721?ttl=0"
 mkdir -p "$WORK"
 "$BIN/sim" --duration "$DURATION" --out "$WORK/walk.lcmlog" --seed 7 > "$WORK/sim.txt"
-CALIB="$WORK/walk.calib.yaml"
+CALIB="$WORK/walk.lcmlog.calib.yaml"
 [ -f "$CALIB" ] || { echo "FAIL: the simulator wrote no calibration next to its log"; exit 1; }
 
 run_once() {
