@@ -1,11 +1,13 @@
 // filter: the IPS state estimation as a process. IMU, TILT, STEREO (image times only) and TRACKER_DELTA in;
 // FILTER_STATE (a posteriori, at IMU rate or decimated) and FILTER_PRIOR (a priori at every image time, for the
 // tracker's window prediction) out. Time comes from the message stamps only.
+#include <chrono>
 #include <ips/filter_state_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
+#include <thread>
 
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
@@ -17,6 +19,8 @@
 #include "ips/framework/validate.hpp"
 
 namespace {
+
+constexpr int kFlushPacingUs = 1000;  // between the held-back states published at shutdown
 
 ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   ips::filter_state_t m{};
@@ -66,8 +70,14 @@ class FilterProcess {
     node_.subscribe<ips::tracker_delta_t>(kTrackerDelta, [this](const ips::tracker_delta_t& m) { onDelta(m); });
   }
 
+  // End of input: applies what the reordering window still holds and publishes it, paced, because LCM
+  // receivers drop a burst of hundreds of messages sent back to back (their receive queue overflows).
   void flush() {
     est_.flush();
+    for (const auto& out : est_.takeOutputs()) {
+      node_.publish(state_channel_, toMessage(out));
+      std::this_thread::sleep_for(std::chrono::microseconds(kFlushPacingUs));
+    }
     publishOutputs();
   }
 
