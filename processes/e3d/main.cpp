@@ -64,12 +64,12 @@ class E3dProcess {
   E3dProcess(ips::fw::Node& node, const ips::StereoCalibration& calib, ips::e3d::StereoMatcher& matcher,
              const ips::StereoRectification& rect, int every_nth, bool queue_all, size_t max_queue)
       : node_(node),
-        calib_(calib),
         matcher_(matcher),
         rect_(rect),
         every_nth_(every_nth),
         queue_all_(queue_all),
-        max_queue_(max_queue) {
+        max_queue_(max_queue),
+        admission_(calib.cam0.width, calib.cam0.height) {
     node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
     worker_ = std::thread([this] { work(); });
   }
@@ -89,18 +89,10 @@ class E3dProcess {
 
  private:
   void onStereo(const ips::stereo_pair_t& m) {
-    node_.health().received(m.utime);
-    ips::fw::Verdict v = ips::fw::validate(m);
-    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
-    if (m.width != calib_.cam0.width || m.height != calib_.cam0.height)
-      return node_.health().bad("bad_size", "stereo pair " + std::to_string(m.width) + "x" + std::to_string(m.height) +
-                                                " does not match the calibration");
-    auto order = order_.check(m.utime, m.seq);
-    if (!order.accept) return node_.health().bad("time_backwards", "stereo pair stamp not after the previous one");
-    if (order.gap > 0) node_.health().dropped("seq_gap", order.gap);
+    if (!admission_.admit(m, node_.health())) return;
     if (every_nth_ > 1 && m.seq % every_nth_ != 0) return;  // not selected: neither work nor loss
     node_.health().accepted();
-    Job job{m.utime, m.seq, to8bit(ips::fw::leftImage(m)), to8bit(ips::fw::rightImage(m))};
+    Job job{m.utime, m.seq, ips::fw::mono8Copy(ips::fw::leftImage(m)), ips::fw::mono8Copy(ips::fw::rightImage(m))};
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!queue_all_) {
@@ -114,15 +106,6 @@ class E3dProcess {
       node_.health().queueLength(static_cast<int>(jobs_.size()));
     }
     cv_.notify_one();
-  }
-
-  static cv::Mat to8bit(const cv::Mat& img) {
-    cv::Mat out;
-    if (img.type() == CV_16UC1)
-      img.convertTo(out, CV_8U, 1.0 / 256.0);
-    else
-      out = img.clone();
-    return out;
   }
 
   void work() {
@@ -170,13 +153,12 @@ class E3dProcess {
   }
 
   ips::fw::Node& node_;
-  ips::StereoCalibration calib_;
   ips::e3d::StereoMatcher& matcher_;
   ips::StereoRectification rect_;
   int every_nth_;
   bool queue_all_;
   size_t max_queue_;
-  ips::fw::StreamOrder order_;
+  ips::fw::StereoAdmission admission_;
   std::mutex mutex_;
   std::condition_variable cv_;
   std::deque<Job> jobs_;

@@ -62,7 +62,8 @@ class TrackerProcess {
         prior_params_(params.prior),
         gyro_sigma_(cfg.getDouble("process/gyro_rate_sigma", 0.005)),
         prior_floor_rad_(cfg.getDouble("process/filter_prior_rotation_floor", 0.002)),
-        prior_floor_m_(cfg.getDouble("process/filter_prior_translation_floor", 0.01)) {
+        prior_floor_m_(cfg.getDouble("process/filter_prior_translation_floor", 0.01)),
+        admission_(calib.cam0.width, calib.cam0.height) {
     node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
     node_.subscribe<ips::filter_state_t>(ips::channels::kFilterPrior,
                                          [this](const ips::filter_state_t& m) { onPrior(m); });
@@ -76,17 +77,9 @@ class TrackerProcess {
 
  private:
   void onStereo(const ips::stereo_pair_t& m) {
-    node_.health().received(m.utime);
-    ips::fw::Verdict v = ips::fw::validate(m);
-    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
-    if (m.width != calib_.cam0.width || m.height != calib_.cam0.height)
-      return node_.health().bad("bad_size", "stereo pair " + std::to_string(m.width) + "x" + std::to_string(m.height) +
-                                                " does not match the calibration");
-    auto order = stereo_order_.check(m.utime, m.seq);
-    if (!order.accept) return node_.health().bad("time_backwards", "stereo pair stamp not after the previous one");
-    if (order.gap > 0) node_.health().dropped("seq_gap", order.gap);
+    if (!admission_.admit(m, node_.health())) return;
     node_.health().accepted();
-    Pending p{m.utime, m.seq, to8bit(ips::fw::leftImage(m)), to8bit(ips::fw::rightImage(m))};
+    Pending p{m.utime, m.seq, ips::fw::mono8Copy(ips::fw::leftImage(m)), ips::fw::mono8Copy(ips::fw::rightImage(m))};
     pending_.emplace(m.utime, std::move(p));
     node_.health().queueLength(static_cast<int>(pending_.size()));
     drain();
@@ -107,15 +100,6 @@ class TrackerProcess {
     if (!imu_.empty() && m.utime <= imu_.back().utime) return;
     imu_.push_back(m);
     while (imu_.size() > 2 && imu_.back().utime - imu_.front().utime > 5'000'000) imu_.pop_front();
-  }
-
-  static cv::Mat to8bit(const cv::Mat& img) {
-    cv::Mat out;
-    if (img.type() == CV_16UC1)
-      img.convertTo(out, CV_8U, 1.0 / 256.0);
-    else
-      out = img.clone();
-    return out;
   }
 
   void drain() {
@@ -228,7 +212,7 @@ class TrackerProcess {
   ips::tracker::StereoTracker tracker_;
   ips::tracker::PriorParams prior_params_;
   double gyro_sigma_, prior_floor_rad_, prior_floor_m_;
-  ips::fw::StreamOrder stereo_order_;
+  ips::fw::StereoAdmission admission_;
   std::map<int64_t, Pending> pending_;
   std::map<int64_t, ips::filter_state_t> priors_;
   std::deque<ips::imu_sample_t> imu_;

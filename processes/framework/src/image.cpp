@@ -17,6 +17,15 @@ void copyInto(const cv::Mat& img, std::vector<uint8_t>& out) {
 }
 }  // namespace
 
+cv::Mat mono8Copy(const cv::Mat& image) {
+  cv::Mat out;
+  if (image.type() == CV_16UC1)
+    image.convertTo(out, CV_8U, 1.0 / 256.0);
+  else
+    out = image.clone();
+  return out;
+}
+
 cv::Mat leftImage(const ips::stereo_pair_t& m) { return view(m, m.left); }
 cv::Mat rightImage(const ips::stereo_pair_t& m) { return view(m, m.right); }
 

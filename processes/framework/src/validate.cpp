@@ -100,4 +100,26 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
   return r;
 }
 
+bool StereoAdmission::admit(const ips::stereo_pair_t& m, Health& health) {
+  health.received(m.utime);
+  Verdict v = validate(m);
+  if (!v.ok()) {
+    health.bad(v.reason, v.detail);
+    return false;
+  }
+  if (m.width != width_ || m.height != height_) {
+    health.bad("bad_size", "stereo pair " + std::to_string(m.width) + "x" + std::to_string(m.height) +
+                               " does not match the calibration (" + std::to_string(width_) + "x" +
+                               std::to_string(height_) + ")");
+    return false;
+  }
+  auto order = order_.check(m.utime, m.seq);
+  if (!order.accept) {
+    health.bad("time_backwards", "stereo pair stamp not after the previous one");
+    return false;
+  }
+  if (order.gap > 0) health.dropped("seq_gap", order.gap);
+  return true;
+}
+
 }  // namespace ips::fw

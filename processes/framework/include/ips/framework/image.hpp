@@ -10,6 +10,9 @@ namespace ips::fw {
 cv::Mat leftImage(const ips::stereo_pair_t& m);
 cv::Mat rightImage(const ips::stereo_pair_t& m);
 
+// An 8-bit copy (mono16 is scaled down by 256), which outlives the message.
+cv::Mat mono8Copy(const cv::Mat& image);
+
 // A message holding copies of two mono8 or mono16 images of one size.
 ips::stereo_pair_t makeStereoPair(int64_t utime, int64_t seq, const cv::Mat& left, const cv::Mat& right,
                                   const std::string& serial_left = "", const std::string& serial_right = "");

@@ -11,6 +11,8 @@
 #include <ips/tracker_delta_t.hpp>
 #include <string>
 
+#include "ips/framework/health.hpp"
+
 namespace ips::fw {
 
 struct Verdict {
@@ -44,6 +46,19 @@ class StreamOrder {
   bool first_ = true;
   int64_t last_utime_ = 0;
   int64_t last_seq_ = 0;
+};
+
+// The checks every consumer of stereo pairs makes before it uses one: a valid message of the calibrated size
+// whose stamp goes forward. Counts what it rejects (bad) and the pairs lost before this one (dropped, from
+// the sequence numbers) in `health`; false means: drop this pair.
+class StereoAdmission {
+ public:
+  StereoAdmission(int width, int height) : width_(width), height_(height) {}
+  bool admit(const ips::stereo_pair_t& m, Health& health);
+
+ private:
+  int width_, height_;
+  StreamOrder order_;
 };
 
 }  // namespace ips::fw
