@@ -35,16 +35,22 @@ int differences(const cv::Mat& a, const cv::Mat& b) {
   return cv::countNonZero(diff);
 }
 
-void expectDeviceEqualsReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params) {
-  StereoMatcher matcher(context(), left.size(), params);
-  MatchOutput gpu = matcher.match(left, right, true);
+// Both aggregation layouts (row passes and lines) must give the reference's maps exactly.
+const char* const kLayouts[] = {"rows", "lines"};
+
+void expectDeviceEqualsReference(const cv::Mat& left, const cv::Mat& right, SgmParams params) {
   SgmResult ref = sgmReference(left, right, params);
-  ASSERT_EQ(gpu.disparity.type(), CV_16S);
-  ASSERT_EQ(gpu.disparity.size(), left.size());
-  EXPECT_EQ(differences(gpu.disparity, ref.left), 0) << params.describe();
-  EXPECT_EQ(differences(gpu.right, ref.right), 0) << params.describe();
   // The comparison must not be vacuous: most pixels carry a disparity.
   EXPECT_GT(cv::countNonZero(ref.left != kInvalidDisparity), left.total() / 2);
+  for (const char* layout : kLayouts) {
+    params.aggregation = layout;
+    StereoMatcher matcher(context(), left.size(), params);
+    MatchOutput gpu = matcher.match(left, right, true);
+    ASSERT_EQ(gpu.disparity.type(), CV_16S);
+    ASSERT_EQ(gpu.disparity.size(), left.size());
+    EXPECT_EQ(differences(gpu.disparity, ref.left), 0) << params.describe();
+    EXPECT_EQ(differences(gpu.right, ref.right), 0) << params.describe();
+  }
 }
 
 }  // namespace
@@ -126,6 +132,16 @@ TEST(StereoMatcher, EqualsReferenceOddSizeFourPathsMinDisparityNoSubpixel) {
   expectDeviceEqualsReference(left, right, p);
 }
 
+TEST(StereoMatcher, EqualsReferenceNegativeMinDisparityEightPaths) {
+  cv::Mat left = loadGrey("venus", "left.png")(cv::Rect(40, 30, 150, 90)).clone();
+  cv::Mat right = loadGrey("venus", "right.png")(cv::Rect(40, 30, 150, 90)).clone();
+  SgmParams p;
+  p.num_disparities = 45;
+  p.min_disparity = -6;
+  p.p2_slope = 40;
+  expectDeviceEqualsReference(left, right, p);
+}
+
 TEST(StereoMatcher, EqualsReferenceWithoutChecks) {
   cv::Mat left = loadGrey("venus", "left.png"), right = loadGrey("venus", "right.png");
   SgmParams p;
@@ -133,10 +149,14 @@ TEST(StereoMatcher, EqualsReferenceWithoutChecks) {
   p.lr_max_diff = -1;
   p.uniqueness = 0;
   p.median = false;
-  StereoMatcher matcher(context(), left.size(), p);
-  MatchOutput gpu = matcher.match(left, right);
-  EXPECT_EQ(differences(gpu.disparity, sgmReference(left, right, p).left), 0);
-  EXPECT_EQ(cv::countNonZero(gpu.disparity == kInvalidDisparity), 0);  // nothing invalidated without checks
+  const cv::Mat ref = sgmReference(left, right, p).left;
+  for (const char* layout : kLayouts) {
+    p.aggregation = layout;
+    StereoMatcher matcher(context(), left.size(), p);
+    MatchOutput gpu = matcher.match(left, right);
+    EXPECT_EQ(differences(gpu.disparity, ref), 0) << layout;
+    EXPECT_EQ(cv::countNonZero(gpu.disparity == kInvalidDisparity), 0);  // nothing invalidated without checks
+  }
 }
 
 TEST(StereoMatcher, VolumeSplitOverSeveralBuffersEqualsReference) {
@@ -145,8 +165,24 @@ TEST(StereoMatcher, VolumeSplitOverSeveralBuffersEqualsReference) {
   cv::Mat right = loadGrey("kitti2015_000046", "right.png")(cv::Rect(300, 150, 700, 200)).clone();
   SgmParams p;
   p.num_disparities = 128;
+  p.aggregation = "lines";
   StereoMatcher matcher(context(), left.size(), p);
   EXPECT_GT(matcher.deviceMemoryBytes(), size_t(8) * 700 * 200 * 128);
+  MatchOutput gpu = matcher.match(left, right, true);
+  SgmResult ref = sgmReference(left, right, p);
+  EXPECT_EQ(differences(gpu.disparity, ref.left), 0);
+  EXPECT_EQ(differences(gpu.right, ref.right), 0);
+}
+
+TEST(StereoMatcher, RowPassSumsOverSeveralBufferRangesEqualReference) {
+  // Sums of both passes: 2 x 1000 x 300 x 128 x 2 bytes = 154 MB, over two storage-buffer ranges of 128 MiB.
+  cv::Mat left = loadGrey("kitti2015_000046", "left.png")(cv::Rect(200, 60, 1000, 300)).clone();
+  cv::Mat right = loadGrey("kitti2015_000046", "right.png")(cv::Rect(200, 60, 1000, 300)).clone();
+  SgmParams p;
+  p.num_disparities = 128;
+  p.aggregation = "rows";
+  StereoMatcher matcher(context(), left.size(), p);
+  EXPECT_GT(matcher.deviceMemoryBytes(), size_t(4) * 1000 * 300 * 128);
   MatchOutput gpu = matcher.match(left, right, true);
   SgmResult ref = sgmReference(left, right, p);
   EXPECT_EQ(differences(gpu.disparity, ref.left), 0);
@@ -221,6 +257,9 @@ TEST(StereoMatcher, BadInputThrows) {
   bad = p;
   bad.paths = 6;
   EXPECT_THROW(sgmReference(a, a, bad), std::invalid_argument);
+  bad = p;
+  bad.aggregation = "diagonal";
+  EXPECT_THROW(StereoMatcher(context(), cv::Size(64, 32), bad), std::invalid_argument);
   EXPECT_THROW(StereoMatcher(context(), cv::Size(5000, 10), p), std::invalid_argument);
 }
 
@@ -233,6 +272,9 @@ TEST(StereoMatcher, FillInvalidEqualsReferenceAndLeavesNoHoles) {
   MatchOutput gpu = matcher.match(left, right);
   SgmResult ref = sgmReference(left, right, p);
   EXPECT_EQ(differences(gpu.disparity, ref.left), 0);
+  p.aggregation = "lines";
+  EXPECT_EQ(differences(StereoMatcher(context(), left.size(), p).match(left, right).disparity, ref.left), 0);
+  p.aggregation = "auto";
   EXPECT_EQ(cv::countNonZero(gpu.disparity == kInvalidDisparity), 0);
   // Filling only changes invalid pixels: the valid ones are those of the unfilled map.
   p.fill_invalid = false;

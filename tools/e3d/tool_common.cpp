@@ -64,7 +64,8 @@ void Args::checkKnown(const std::vector<std::string>& known) const {
 }
 
 std::vector<std::string> paramKeys() {
-  return {"config", "num-disparities", "min-disparity", "p1", "p2", "p2-slope", "paths", "uniqueness", "lr-max-diff"};
+  return {"config",   "num-disparities", "min-disparity", "p1",          "p2",
+          "p2-slope", "paths",           "uniqueness",    "lr-max-diff", "aggregation"};
 }
 std::vector<std::string> paramFlags() { return {"no-subpixel", "no-median", "fill"}; }
 
@@ -79,7 +80,8 @@ const char* kParamUsage =
     "    --uniqueness PERCENT    0 = off\n"
     "    --lr-max-diff PX        < 0 = no left-right check\n"
     "    --no-subpixel --no-median\n"
-    "    --fill                  fill invalid pixels from their row neighbours (background)\n";
+    "    --fill                  fill invalid pixels from their row neighbours (background)\n"
+    "    --aggregation auto|rows|lines  how the device walks the paths (same results; auto: rows on a CPU device)\n";
 
 SgmParams paramsFromArgs(const Args& a) {
   SgmParams p;
@@ -95,6 +97,7 @@ SgmParams paramsFromArgs(const Args& a) {
   if (a.has("no-subpixel")) p.subpixel = false;
   if (a.has("no-median")) p.median = false;
   if (a.has("fill")) p.fill_invalid = true;
+  p.aggregation = a.get("aggregation", p.aggregation);
   p.validate();
   return p;
 }

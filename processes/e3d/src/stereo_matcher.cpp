@@ -15,6 +15,10 @@ namespace {
 constexpr int kMaxChunks = 24;   // E3D_MAX_CHUNKS in shaders/e3d_common.glsl
 constexpr int kMaxWidth = 4096;  // E3D_MAX_WIDTH in shaders/sgm_wta.comp
 constexpr uint32_t kMaxTimestamps = 16;
+// lavapipe (gallivm) ends a shader invocation after 65535 loop iterations counted over all its loops; shaders that
+// walk far are dispatched in parts that stay below this (with a margin for loops the compiler does not unroll).
+constexpr int kMaxLoopIterations = 60000;
+constexpr int kStrip = 8;  // rows per invocation of census5x5 and median3x3 (STRIP there)
 
 struct Buffer {
   VkBuffer buffer = VK_NULL_HANDLE;
@@ -23,9 +27,24 @@ struct Buffer {
   void* mapped = nullptr;
 };
 
+// One descriptor: a storage buffer (a range of `buffer`) or a storage texel buffer (`view`).
+struct Descriptor {
+  VkBuffer buffer = VK_NULL_HANDLE;
+  VkDeviceSize offset = 0, range = VK_WHOLE_SIZE;
+  VkBufferView view = VK_NULL_HANDLE;
+};
+
 struct Binding {
   uint32_t binding;
-  std::vector<const Buffer*> buffers;  // more than one: a descriptor array
+  std::vector<Descriptor> items;  // more than one: a descriptor array
+  Binding(uint32_t b, std::vector<const Buffer*> buffers) : binding(b) {
+    for (const Buffer* buf : buffers) items.push_back({buf->buffer, 0, VK_WHOLE_SIZE, VK_NULL_HANDLE});
+  }
+  Binding(uint32_t b, std::vector<Descriptor> descriptors) : binding(b), items(std::move(descriptors)) {}
+  Binding(uint32_t b, VkBufferView view) : binding(b), items{{VK_NULL_HANDLE, 0, 0, view}} {}
+  VkDescriptorType type() const {
+    return items.front().view ? VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  }
 };
 
 struct Stage {
@@ -42,6 +61,7 @@ struct StereoMatcher::Impl {
   VkDevice dev;
   cv::Size size;
   SgmParams params;
+  bool rows = false;   // the aggregation layout: row passes (true) or lines (false), see SgmParams::aggregation
   int lane_disps = 0;  // K: disparities per subgroup lane
   int padded_disps = 0;
   int rows_per_chunk = 0;
@@ -50,7 +70,11 @@ struct StereoMatcher::Impl {
   size_t memory_bytes = 0;
 
   Buffer image[2], census[2], disp[2], median[2], final_disp, filled_disp;
-  std::vector<Buffer> volume;
+  std::vector<Buffer> volume;  // lines: path-cost volume split over buffers
+  Buffer scratch, sums;        // rows: two rows of path costs per pass, the sums of both passes
+  std::vector<VkBufferView> views;
+  VkBufferView image_left_view = VK_NULL_HANDLE, census_views[2] = {}, scratch_views[2] = {},
+               sums_view = VK_NULL_HANDLE;
   Buffer raw[2], maps;
   cv::Size raw_size;
   bool has_rect = false;
@@ -69,7 +93,7 @@ struct StereoMatcher::Impl {
     b.size = std::max<VkDeviceSize>(bytes, 4);
     VkBufferCreateInfo bi{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
     bi.size = b.size;
-    bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT;
+    bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT;
     bi.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
     vkCheck(vkCreateBuffer(dev, &bi, nullptr, &b.buffer), "vkCreateBuffer");
     VkMemoryRequirements req;
@@ -88,6 +112,17 @@ struct StereoMatcher::Impl {
     return b;
   }
 
+  VkBufferView createView(const Buffer& b, VkFormat format) {
+    VkBufferViewCreateInfo vi{VK_STRUCTURE_TYPE_BUFFER_VIEW_CREATE_INFO};
+    vi.buffer = b.buffer;
+    vi.format = format;
+    vi.range = VK_WHOLE_SIZE;
+    VkBufferView view;
+    vkCheck(vkCreateBufferView(dev, &vi, nullptr, &view), "vkCreateBufferView");
+    views.push_back(view);
+    return view;
+  }
+
   void destroyBuffer(Buffer& b) {
     if (b.buffer) vkDestroyBuffer(dev, b.buffer, nullptr);
     if (b.memory) vkFreeMemory(dev, b.memory, nullptr);
@@ -101,8 +136,8 @@ struct StereoMatcher::Impl {
     for (const auto& b : bindings) {
       VkDescriptorSetLayoutBinding l{};
       l.binding = b.binding;
-      l.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      l.descriptorCount = static_cast<uint32_t>(b.buffers.size());
+      l.descriptorType = b.type();
+      l.descriptorCount = static_cast<uint32_t>(b.items.size());
       l.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
       lb.push_back(l);
     }
@@ -124,9 +159,13 @@ struct StereoMatcher::Impl {
     mi.pCode = code.words;
     VkShaderModule module;
     vkCheck(vkCreateShaderModule(dev, &mi, nullptr, &module), "vkCreateShaderModule");
-    const int32_t spec_values[2] = {static_cast<int32_t>(ctx.subgroupSize()), lane_disps};
-    const VkSpecializationMapEntry entries[2] = {{0, 0, 4}, {1, 4, 4}};
-    VkSpecializationInfo spec{2, entries, sizeof(spec_values), spec_values};
+    // Constant ids: 0 subgroup size (= workgroup size), 1 K, 2 num_disparities, 3 paths, 4 log2(subgroup size).
+    int log2_sg = 0;
+    while ((1u << (log2_sg + 1)) <= ctx.subgroupSize()) ++log2_sg;
+    const int32_t spec_values[5] = {static_cast<int32_t>(ctx.subgroupSize()), lane_disps, params.num_disparities,
+                                    params.paths, log2_sg};
+    const VkSpecializationMapEntry entries[5] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}, {4, 16, 4}};
+    VkSpecializationInfo spec{5, entries, sizeof(spec_values), spec_values};
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -149,15 +188,24 @@ struct StereoMatcher::Impl {
 
   void writeSet(Stage& st, const std::vector<Binding>& bindings) {
     std::vector<std::vector<VkDescriptorBufferInfo>> infos(bindings.size());
+    std::vector<std::vector<VkBufferView>> texel_views(bindings.size());
     std::vector<VkWriteDescriptorSet> writes;
     for (size_t i = 0; i < bindings.size(); ++i) {
-      for (const Buffer* b : bindings[i].buffers) infos[i].push_back({b->buffer, 0, VK_WHOLE_SIZE});
+      for (const Descriptor& d : bindings[i].items) {
+        if (d.view)
+          texel_views[i].push_back(d.view);
+        else
+          infos[i].push_back({d.buffer, d.offset, d.range});
+      }
       VkWriteDescriptorSet w{VK_STRUCTURE_TYPE_WRITE_DESCRIPTOR_SET};
       w.dstSet = st.set;
       w.dstBinding = bindings[i].binding;
-      w.descriptorCount = static_cast<uint32_t>(infos[i].size());
-      w.descriptorType = VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
-      w.pBufferInfo = infos[i].data();
+      w.descriptorCount = static_cast<uint32_t>(bindings[i].items.size());
+      w.descriptorType = bindings[i].type();
+      if (texel_views[i].empty())
+        w.pBufferInfo = infos[i].data();
+      else
+        w.pTexelBufferView = texel_views[i].data();
       writes.push_back(w);
     }
     vkUpdateDescriptorSets(dev, static_cast<uint32_t>(writes.size()), writes.data(), 0, nullptr);
@@ -171,32 +219,17 @@ struct StereoMatcher::Impl {
     st = Stage{};
   }
 
-  std::vector<const Buffer*> volumeArray() const {
-    std::vector<const Buffer*> v;
-    for (int i = 0; i < kMaxChunks; ++i) v.push_back(&volume[std::min<int>(i, num_chunks - 1)]);
-    return v;
-  }
-
   void init() {
     params.validate();
     const int W = size.width, H = size.height;
     if (W < 1 || H < 1) throw std::invalid_argument("StereoMatcher: empty image size");
     if (W > kMaxWidth) throw std::invalid_argument("StereoMatcher: width above 4096");
-    const int sg = static_cast<int>(ctx.subgroupSize());
-    lane_disps = (params.num_disparities + sg - 1) / sg;
-    lane_disps = (lane_disps + 3) / 4 * 4;
-    padded_disps = lane_disps * sg;
-    const uint64_t row_bytes = static_cast<uint64_t>(W) * padded_disps;
-    row_words = static_cast<int>(row_bytes / 4);
-    const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
-    if (row_bytes > max_range) throw std::invalid_argument("StereoMatcher: one row of path costs exceeds a buffer");
-    const int total_rows = (params.paths + 1) * H;  // path slices, then the matching-cost slice
-    const int max_rows = static_cast<int>(max_range / row_bytes);
-    num_chunks = (total_rows + max_rows - 1) / max_rows;
-    if (num_chunks > kMaxChunks)
-      throw std::invalid_argument("StereoMatcher: path-cost volume too large for " + std::to_string(kMaxChunks) +
-                                  " buffers of maxStorageBufferRange (reduce size or num_disparities)");
-    rows_per_chunk = (total_rows + num_chunks - 1) / num_chunks;
+    if (params.aggregation == "rows" && !ctx.supportsRowLayout())
+      throw std::invalid_argument(
+          "StereoMatcher: aggregation 'rows' needs shaderInt64 and "
+          "shaderStorageImageExtendedFormats, which this device lacks");
+    rows = params.aggregation == "rows" ||
+           (params.aggregation == "auto" && ctx.info().type == "cpu" && ctx.supportsRowLayout());
 
     const size_t pixels = static_cast<size_t>(W) * H;
     for (int i = 0; i < 2; ++i) {
@@ -207,26 +240,28 @@ struct StereoMatcher::Impl {
     }
     final_disp = createBuffer(pixels * 4, true);
     filled_disp = createBuffer(pixels * 4, true);
-    for (int c = 0; c < num_chunks; ++c) {
-      const int rows = std::min(rows_per_chunk, total_rows - c * rows_per_chunk);
-      volume.push_back(createBuffer(static_cast<uint64_t>(rows) * row_bytes, false));
-    }
 
-    VkDescriptorPoolSize ps{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 + 26 + 25 + 26 + 4 + 3 + 2 + 5};
+    VkDescriptorPoolSize ps[2] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 * kMaxChunks + 32},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 16}};
     VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     pi.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
-    pi.maxSets = 8;
-    pi.poolSizeCount = 1;
-    pi.pPoolSizes = &ps;
+    pi.maxSets = 10;
+    pi.poolSizeCount = 2;
+    pi.pPoolSizes = ps;
     vkCheck(vkCreateDescriptorPool(dev, &pi, nullptr, &pool), "vkCreateDescriptorPool");
 
-    census_stage =
-        createStage("census5x5", {{0, {&image[0]}}, {1, {&image[1]}}, {2, {&census[0]}}, {3, {&census[1]}}}, 8, false);
-    cost_stage = createStage("cost_census", {{2, {&census[0]}}, {3, {&census[1]}}, {4, volumeArray()}}, 28, true);
-    aggregate_stage = createStage("sgm_aggregate", {{0, {&image[0]}}, {4, volumeArray()}}, 52, true);
-    wta_stage = createStage("sgm_wta", {{4, volumeArray()}, {5, {&disp[0]}}, {6, {&disp[1]}}}, 36, true);
-    median_stage =
-        createStage("median3x3", {{0, {&disp[0]}}, {1, {&disp[1]}}, {2, {&median[0]}}, {3, {&median[1]}}}, 8, false);
+    const VkBufferView image_words[2] = {createView(image[0], VK_FORMAT_R32_UINT),
+                                         createView(image[1], VK_FORMAT_R32_UINT)};
+    const VkBufferView disp_views[2] = {createView(disp[0], VK_FORMAT_R32_SINT),
+                                        createView(disp[1], VK_FORMAT_R32_SINT)};
+    census_stage = createStage(
+        "census5x5", {{0, image_words[0]}, {1, image_words[1]}, {2, {&census[0]}}, {3, {&census[1]}}}, 8, false);
+    if (rows)
+      initRows();
+    else
+      initLines();
+    median_stage = createStage(
+        "median3x3", {{0, disp_views[0]}, {1, disp_views[1]}, {2, {&median[0]}}, {3, {&median[1]}}}, 8, false);
     const Buffer* lr_in = params.median ? median : disp;
     lr_stage = createStage("lr_check", {{0, {&lr_in[0]}}, {1, {&lr_in[1]}}, {2, {&final_disp}}}, 12, false);
     fill_stage = createStage("fill_invalid", {{0, {&checkedLeft()}}, {1, {&filled_disp}}}, 8, false);
@@ -250,6 +285,80 @@ struct StereoMatcher::Impl {
     }
   }
 
+  // Lines: costs stored once in a slice of the volume, one dispatch per path, one subgroup per image line, each
+  // path's costs in its own slice (one byte per disparity), summed by sgm_wta.
+  void initLines() {
+    const int W = size.width, H = size.height;
+    const int sg = static_cast<int>(ctx.subgroupSize());
+    lane_disps = (params.num_disparities + sg - 1) / sg;
+    lane_disps = (lane_disps + 3) / 4 * 4;
+    padded_disps = lane_disps * sg;
+    const uint64_t row_bytes = static_cast<uint64_t>(W) * padded_disps;
+    row_words = static_cast<int>(row_bytes / 4);
+    const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
+    if (row_bytes > max_range) throw std::invalid_argument("StereoMatcher: one row of path costs exceeds a buffer");
+    const int total_rows = (params.paths + 1) * H;  // path slices, then the matching-cost slice
+    const int max_rows = static_cast<int>(max_range / row_bytes);
+    num_chunks = (total_rows + max_rows - 1) / max_rows;
+    if (num_chunks > kMaxChunks)
+      throw std::invalid_argument("StereoMatcher: path-cost volume too large for " + std::to_string(kMaxChunks) +
+                                  " buffers of maxStorageBufferRange (reduce size or num_disparities)");
+    rows_per_chunk = (total_rows + num_chunks - 1) / num_chunks;
+    for (int c = 0; c < num_chunks; ++c) {
+      const int rows_here = std::min(rows_per_chunk, total_rows - c * rows_per_chunk);
+      volume.push_back(createBuffer(static_cast<uint64_t>(rows_here) * row_bytes, false));
+    }
+    std::vector<const Buffer*> chunks;
+    for (int i = 0; i < kMaxChunks; ++i) chunks.push_back(&volume[std::min<int>(i, num_chunks - 1)]);
+    cost_stage = createStage("cost_census", {{2, {&census[0]}}, {3, {&census[1]}}, {4, chunks}}, 28, true);
+    aggregate_stage = createStage("sgm_aggregate", {{0, {&image[0]}}, {4, chunks}}, 52, true);
+    wta_stage = createStage("sgm_wta", {{4, chunks}, {5, {&disp[0]}}, {6, {&disp[1]}}}, 36, true);
+  }
+
+  // Rows: two row passes (forward, backward) with costs computed on the fly, each writing the sum of its paths
+  // (16 bits per disparity) into one buffer, read by sgm_wta_rowpass as texels.
+  void initRows() {
+    const int W = size.width, H = size.height;
+    const int sg = static_cast<int>(ctx.subgroupSize());
+    lane_disps = (params.num_disparities + sg - 1) / sg;
+    lane_disps = (lane_disps + 7) / 8 * 8;
+    padded_disps = lane_disps * sg;
+    const uint64_t sum_row_bytes = static_cast<uint64_t>(W) * padded_disps * 2;
+    const uint64_t sum_bytes = sum_row_bytes * 2 * H;  // forward and backward slices
+    const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
+    if (sum_bytes > ctx.maxAllocationBytes() || sum_bytes / 16 > ctx.maxTexelBufferElements())
+      throw std::invalid_argument("StereoMatcher: the sums of " + std::to_string(sum_bytes >> 20) +
+                                  " MiB exceed one allocation of this device (reduce size or num_disparities)");
+    rows_per_chunk = static_cast<int>(max_range / sum_row_bytes);
+    num_chunks = (2 * H + rows_per_chunk - 1) / rows_per_chunk;
+    if (rows_per_chunk < 1 || num_chunks > kMaxChunks)
+      throw std::invalid_argument("StereoMatcher: sums too large for " + std::to_string(kMaxChunks) +
+                                  " storage buffer ranges (reduce size or num_disparities)");
+    sums = createBuffer(sum_bytes, false);
+    scratch = createBuffer(static_cast<uint64_t>(2 * 2 * 3) * W * padded_disps, false);
+    std::vector<Descriptor> chunks;
+    for (int i = 0; i < kMaxChunks; ++i) {
+      const uint64_t first_row = static_cast<uint64_t>(std::min(i, num_chunks - 1)) * rows_per_chunk;
+      const uint64_t rows_here = std::min<uint64_t>(rows_per_chunk, 2 * H - first_row);
+      chunks.push_back({sums.buffer, first_row * sum_row_bytes, rows_here * sum_row_bytes, VK_NULL_HANDLE});
+    }
+    image_left_view = createView(image[0], VK_FORMAT_R8_UINT);
+    for (int i = 0; i < 2; ++i) census_views[i] = createView(census[i], VK_FORMAT_R32_UINT);
+    scratch_views[0] = createView(scratch, VK_FORMAT_R32G32B32A32_UINT);
+    scratch_views[1] = createView(scratch, VK_FORMAT_R32G32_UINT);
+    sums_view = createView(sums, VK_FORMAT_R32G32B32A32_UINT);
+    aggregate_stage = createStage("sgm_aggregate_rowpass",
+                                  {{0, image_left_view},
+                                   {1, census_views[0]},
+                                   {2, census_views[1]},
+                                   {3, scratch_views[0]},
+                                   {4, scratch_views[1]},
+                                   {5, {&scratch}},
+                                   {6, chunks}},
+                                  36, true);
+    wta_stage = createStage("sgm_wta_rowpass", {{0, sums_view}, {1, {&disp[0]}}, {2, {&disp[1]}}}, 20, true);
+  }
+
   ~Impl() {
     if (dev == VK_NULL_HANDLE) return;
     vkDeviceWaitIdle(dev);
@@ -260,8 +369,11 @@ struct StereoMatcher::Impl {
     if (queries) vkDestroyQueryPool(dev, queries, nullptr);
     if (fence) vkDestroyFence(dev, fence, nullptr);
     if (cmd_pool) vkDestroyCommandPool(dev, cmd_pool, nullptr);
+    for (VkBufferView v : views) vkDestroyBufferView(dev, v, nullptr);
     for (int i = 0; i < 2; ++i)
       for (Buffer* b : {&image[i], &census[i], &disp[i], &median[i], &raw[i]}) destroyBuffer(*b);
+    destroyBuffer(scratch);
+    destroyBuffer(sums);
     destroyBuffer(final_disp);
     destroyBuffer(filled_disp);
     destroyBuffer(maps);
@@ -322,11 +434,36 @@ struct StereoMatcher::Impl {
       bind(census_stage);
       const int32_t pc[2] = {W, H};
       push(census_stage, pc);
-      vkCmdDispatch(cmd, groups(W, 16), groups(H, 8), 2);
+      vkCmdDispatch(cmd, groups(W, 64), groups(H, kStrip), 2);
       barrier(cmd);
       timestamp("census");
     }
-    {
+    if (rows) {
+      bind(aggregate_stage);
+      // Both passes (two workgroups) in bands of rows: lavapipe ends an invocation after 65535 loop iterations.
+      const int band = std::max(1, kMaxLoopIterations / (W + 2));
+      for (int begin = 0; begin < H; begin += band) {
+        const int32_t pc[9] = {W,
+                               H,
+                               params.min_disparity,
+                               params.p1,
+                               params.p2,
+                               params.p2_slope,
+                               rows_per_chunk,
+                               begin,
+                               std::min(H, begin + band)};
+        push(aggregate_stage, pc);
+        vkCmdDispatch(cmd, 2, 1, 1);
+        barrier(cmd);
+      }
+      timestamp("aggregate");
+      bind(wta_stage);
+      const int32_t pw[5] = {W, H, params.min_disparity, params.uniqueness, params.subpixel ? 1 : 0};
+      push(wta_stage, pw);
+      vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
+      barrier(cmd);
+      timestamp("wta");
+    } else {
       bind(cost_stage);
       const int32_t pc[7] = {W,        H, params.num_disparities, params.min_disparity, params.paths, rows_per_chunk,
                              row_words};
@@ -334,26 +471,22 @@ struct StereoMatcher::Impl {
       vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
       barrier(cmd);
       timestamp("cost");
-    }
-    {
       bind(aggregate_stage);
       const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
       for (int r = 0; r < params.paths; ++r) {
         const int dx = dirs[r][0], dy = dirs[r][1];
-        const int32_t pc[13] = {W,           H,         params.num_disparities, params.min_disparity,
+        const int32_t pa[13] = {W,           H,         params.num_disparities, params.min_disparity,
                                 params.p1,   params.p2, params.p2_slope,        r,
                                 dx,          dy,        rows_per_chunk,         row_words,
                                 params.paths};
-        push(aggregate_stage, pc);
+        push(aggregate_stage, pa);
         const int lines = dy == 0 ? H : (dx == 0 ? W : W + H - 1);
         vkCmdDispatch(cmd, static_cast<uint32_t>(lines), 1, 1);
       }
       barrier(cmd);
       timestamp("aggregate");
-    }
-    {
       bind(wta_stage);
-      const int32_t pc[9] = {W,
+      const int32_t pw[9] = {W,
                              H,
                              params.num_disparities,
                              params.min_disparity,
@@ -362,7 +495,7 @@ struct StereoMatcher::Impl {
                              params.subpixel ? 1 : 0,
                              rows_per_chunk,
                              row_words};
-      push(wta_stage, pc);
+      push(wta_stage, pw);
       vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
       barrier(cmd);
       timestamp("wta");
@@ -371,7 +504,7 @@ struct StereoMatcher::Impl {
       bind(median_stage);
       const int32_t pc[2] = {W, H};
       push(median_stage, pc);
-      vkCmdDispatch(cmd, groups(W, 16), groups(H, 8), 2);
+      vkCmdDispatch(cmd, groups(W, 64), groups(H, kStrip), 2);
       barrier(cmd);
       timestamp("median");
     }

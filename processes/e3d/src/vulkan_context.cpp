@@ -180,6 +180,16 @@ VulkanContext::VulkanContext(const std::string& choice_arg) {
     vkGetPhysicalDeviceFeatures(physical_, &supported);
     if (!supported.shaderStorageBufferArrayDynamicIndexing)
       throw std::runtime_error("VulkanContext: device lacks shaderStorageBufferArrayDynamicIndexing");
+    // Optional: the row-pass layout of the aggregation (64-bit stores, 8- and 64-bit texel formats).
+    row_layout_ = supported.shaderInt64 && supported.shaderStorageImageExtendedFormats;
+    features.shaderInt64 = supported.shaderInt64;
+    features.shaderStorageImageExtendedFormats = supported.shaderStorageImageExtendedFormats;
+    VkPhysicalDeviceMaintenance3Properties m3{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_MAINTENANCE_3_PROPERTIES};
+    VkPhysicalDeviceProperties2 p3{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+    p3.pNext = &m3;
+    vkGetPhysicalDeviceProperties2(physical_, &p3);
+    max_allocation_bytes_ = m3.maxMemoryAllocationSize;
+    max_texel_buffer_elements_ = p3.properties.limits.maxTexelBufferElements;
     VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
     dci.queueCreateInfoCount = 1;
     dci.pQueueCreateInfos = &qci;

@@ -47,6 +47,10 @@ struct SgmParams {
   bool median = true;         // 3x3 median on both maps before the left-right check
   int lr_max_diff = 1;        // left-right check tolerance [px]; < 0 = no check
   bool fill_invalid = false;  // fill invalid pixels from their row neighbours (see 7. above)
+  // How the device walks the paths (the results are the same): "rows" = two row passes, one per thread (for CPU
+  // devices: lavapipe), "lines" = one dispatch per path, one subgroup per image line (for GPUs), "auto" = rows on
+  // a CPU device, lines otherwise. Not an algorithm parameter: sgmReference ignores it.
+  std::string aggregation = "auto";
 
   // Throws std::invalid_argument naming the bad parameter.
   void validate() const;

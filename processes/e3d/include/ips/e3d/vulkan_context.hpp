@@ -40,6 +40,10 @@ class VulkanContext {
   uint32_t maxStorageBuffersPerStage() const { return max_storage_buffers_per_stage_; }
   double timestampPeriodNs() const { return timestamp_period_ns_; }
   bool timestampsSupported() const { return timestamps_; }
+  // Whether the device can run the row-pass aggregation (shaderInt64, shaderStorageImageExtendedFormats).
+  bool supportsRowLayout() const { return row_layout_; }
+  uint64_t maxAllocationBytes() const { return max_allocation_bytes_; }
+  uint64_t maxTexelBufferElements() const { return max_texel_buffer_elements_; }
   // A memory type index with all `required` flags (and `preferred` ones when possible) for `type_bits`.
   uint32_t findMemoryType(uint32_t type_bits, VkMemoryPropertyFlags required, VkMemoryPropertyFlags preferred) const;
 
@@ -55,6 +59,9 @@ class VulkanContext {
   uint32_t max_storage_buffers_per_stage_ = 0;
   double timestamp_period_ns_ = 1.0;
   bool timestamps_ = false;
+  bool row_layout_ = false;
+  uint64_t max_allocation_bytes_ = 0;
+  uint64_t max_texel_buffer_elements_ = 0;
   VkPhysicalDeviceMemoryProperties memory_{};
 };
 

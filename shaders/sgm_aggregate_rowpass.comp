@@ -1,0 +1,215 @@
+#version 450
+// SGM path aggregation in two row passes: the layout for CPU devices (lavapipe). sgm_aggregate.comp is the
+// layout for GPUs (one dispatch per path, one subgroup per image line); both give the same path costs.
+//
+// Workgroup 0 (the forward pass) walks the rows top to bottom and each row left to right and computes the paths
+// (1,0), (0,1), (1,1), (-1,1); workgroup 1 (the backward pass) walks bottom to top, right to left: (-1,0), (0,-1),
+// (-1,-1), (1,-1). With 4 paths each pass computes its first two. Each pass is one subgroup; lane l owns the
+// disparities l*K .. l*K+K-1 (the libSGM layout), neighbours d+-1 across lanes come from shuffles.
+//  - Matching costs are computed on the fly: C = popcount(census_left(x) ^ census_right(x - d_min - d)); along a
+//    row the right census values slide by one disparity per pixel (one load and one shuffle per pixel).
+//  - The horizontal path stays in registers. The three paths that come from the previous row read its path costs
+//    from a scratch buffer (two rows per pass, one byte per disparity: L <= 24 + P2 <= 255) and write the
+//    current row's.
+//  - Each pass writes the sum of its paths (16 bits per disparity) into its slice of the sum volume;
+//    sgm_wta_rowpass.comp adds the two slices and selects the disparities.
+// Why: on lavapipe a memory access whose address differs per lane costs 10-20 arithmetic instructions (a loop
+// over the lanes), and stores to a large volume are bound by memory bandwidth. Here each pixel costs about five
+// such accesses per pass (instead of two per path), the costs are never stored, and the volume written is 2 x 16
+// bits per disparity instead of 9 bytes. The two passes run on two threads.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+#extension GL_KHR_shader_subgroup_shuffle_relative : require
+#include "e3d_common.glsl"
+layout(local_size_x_id = 0) in;            // = subgroup size
+const uint SG = gl_WorkGroupSize.x;
+layout(constant_id = 4) const int LOG2_SG = 3;  // log2(SG): loops with a plain counter are unrolled
+layout(constant_id = 1) const int K = 16;  // disparities per lane, a multiple of 8
+layout(constant_id = 2) const int D = 128; // num_disparities
+layout(constant_id = 3) const int NUM_PATHS = 8;
+// Rows row_begin .. row_end - 1 of each walk (lavapipe ends any invocation after 65535 loop iterations in all,
+// so the host splits the walk over several dispatches; the scratch carries the state from one to the next).
+layout(push_constant) uniform Params {
+  int width, height, min_disp, p1;
+  int p2, p2_slope, rows_per_chunk, row_begin;
+  int row_end;
+} pc;
+layout(binding = 0, r8ui) uniform readonly uimageBuffer image_left;
+layout(binding = 1, r32ui) uniform readonly uimageBuffer census_left;
+layout(binding = 2, r32ui) uniform readonly uimageBuffer census_right;
+// The scratch rows, read as texels (one access per lane for 8 or 16 bytes) and written as a storage buffer.
+layout(binding = 3, rgba32ui) uniform readonly uimageBuffer scratch_read16;
+layout(binding = 4, rg32ui) uniform readonly uimageBuffer scratch_read8;
+// 64-bit components: lavapipe stores a vector component by component in a loop over the lanes.
+layout(std430, binding = 5) writeonly buffer ScratchWrite16 { u64vec2 scratch_write16[]; };
+layout(std430, binding = 5) writeonly buffer ScratchWrite8 { uint64_t scratch_write8[]; };
+// The sum volume [pass][y][x][lane][K x 16 bits], split by rows over buffers of at most maxStorageBufferRange.
+layout(std430, binding = 6) writeonly buffer Sums32 { u64vec4 v[]; } sums32[E3D_MAX_CHUNKS];
+layout(std430, binding = 6) writeonly buffer Sums16 { uvec4 v[]; } sums16[E3D_MAX_CHUNKS];
+
+const bool WIDE = (K % 16) == 0;              // 16-byte scratch accesses, 32-byte sum stores (else 8 and 16)
+const int ROW_DIRS = NUM_PATHS == 8 ? 3 : 1;  // paths that come from the previous row
+
+uint lane;
+
+uint butterflyMin(uint v) {
+  [[unroll]] for (int i = 0; i < LOG2_SG; ++i) v = min(v, subgroupShuffleXor(v, 1u << i));
+  return v;
+}
+
+uint laneMinimum(uint v[K]) {
+  uint m = v[0];
+  [[unroll]] for (int k = 1; k < K; ++k) m = min(m, v[k]);
+  return m;
+}
+
+// L(p) = C(p) + min(L(p-r, d), L(p-r, d+-1) + P1, min L(p-r) + P2') - min L(p-r)
+void pathStep(uint prev[K], uint cost[K], uint prev_min, uint p2, out uint cur[K]) {
+  uint below = subgroupShuffleUp(prev[K - 1], 1u);
+  uint above = subgroupShuffleDown(prev[0], 1u);
+  below = lane == 0u ? E3D_BIG : below;
+  above = lane == gl_SubgroupSize - 1u ? E3D_BIG : above;
+  const uint jump = prev_min + p2;
+  const uint P1 = uint(pc.p1);
+  [[unroll]] for (int k = 0; k < K; ++k) {
+    const uint lo = k == 0 ? below : prev[k - 1];
+    const uint hi = k == K - 1 ? above : prev[k + 1];
+    cur[k] = cost[k] + min(min(prev[k], jump), min(lo, hi) + P1) - prev_min;
+  }
+}
+
+// P2' = max(P1, P2 - p2_slope * |dI| / 16)
+uint adaptiveP2(uint a, uint b) {
+  return uint(max(pc.p1, pc.p2 - (pc.p2_slope * abs(int(a) - int(b))) / 16));
+}
+
+// Index of this lane's first 8-byte word in the scratch row (pass, half, dir) at column x.
+int scratchIndex(int pass, int half_row, int dir, int x) {
+  return ((((pass * 2 + half_row) * 3 + dir) * pc.width + x) * int(gl_SubgroupSize) + int(lane)) * (K / 8);
+}
+
+void loadScratch(int index8, out uint v[K]) {
+  if (WIDE) {
+    [[unroll]] for (int q = 0; q < K / 16; ++q) {
+      const uvec4 w = imageLoad(scratch_read16, index8 / 2 + q);
+      [[unroll]] for (int b = 0; b < 16; ++b) v[16 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
+    }
+  } else {
+    [[unroll]] for (int q = 0; q < K / 8; ++q) {
+      const uvec2 w = imageLoad(scratch_read8, index8 + q).xy;
+      [[unroll]] for (int b = 0; b < 8; ++b) v[8 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
+    }
+  }
+}
+
+uint packBytes(uint a, uint b, uint c, uint d) {
+  return min(a, 255u) | (min(b, 255u) << 8) | (min(c, 255u) << 16) | (min(d, 255u) << 24);
+}
+
+void storeScratch(int index8, uint v[K]) {
+  uint64_t words[K / 8];
+  [[unroll]] for (int q = 0; q < K / 8; ++q)
+    words[q] = packUint2x32(uvec2(packBytes(v[8 * q], v[8 * q + 1], v[8 * q + 2], v[8 * q + 3]),
+                                  packBytes(v[8 * q + 4], v[8 * q + 5], v[8 * q + 6], v[8 * q + 7])));
+  if (WIDE) {
+    [[unroll]] for (int q = 0; q < K / 16; ++q) scratch_write16[index8 / 2 + q] = u64vec2(words[2 * q], words[2 * q + 1]);
+  } else {
+    [[unroll]] for (int q = 0; q < K / 8; ++q) scratch_write8[index8 + q] = words[q];
+  }
+}
+
+// Stores this lane's K sums (16 bits each) of pixel x in row g = pass * height + y of the sum volume.
+void storeSums(int g, int x, uint s[K]) {
+  const int chunk = g / pc.rows_per_chunk;
+  const int index16 = (((g - chunk * pc.rows_per_chunk) * pc.width + x) * int(gl_SubgroupSize) + int(lane)) * (K / 8);
+  uint words[K / 2];
+  [[unroll]] for (int j = 0; j < K / 2; ++j) words[j] = s[2 * j] | (s[2 * j + 1] << 16);
+  if (WIDE) {
+    [[unroll]] for (int q = 0; q < K / 16; ++q)
+      sums32[chunk].v[index16 / 2 + q] = u64vec4(
+          packUint2x32(uvec2(words[8 * q], words[8 * q + 1])), packUint2x32(uvec2(words[8 * q + 2], words[8 * q + 3])),
+          packUint2x32(uvec2(words[8 * q + 4], words[8 * q + 5])), packUint2x32(uvec2(words[8 * q + 6], words[8 * q + 7])));
+  } else {
+    [[unroll]] for (int q = 0; q < K / 8; ++q)
+      sums16[chunk].v[index16 + q] = uvec4(words[4 * q], words[4 * q + 1], words[4 * q + 2], words[4 * q + 3]);
+  }
+}
+
+uint censusRight(int y, int x) { return imageLoad(census_right, y * pc.width + clamp(x, 0, pc.width - 1)).x; }
+uint intensity(int y, int x) { return imageLoad(image_left, y * pc.width + clamp(x, 0, pc.width - 1)).x; }
+
+void main() {
+  lane = gl_SubgroupInvocationID;
+  const int pass = int(gl_WorkGroupID.x);
+  const bool forward = pass == 0;
+  const int W = pc.width, H = pc.height;
+  const int step = forward ? 1 : -1;  // along the row and from row to row
+  const int k0 = int(lane) * K;
+  const uint last_lane = gl_SubgroupSize - 1u;
+  for (int i = pc.row_begin; i < pc.row_end; ++i) {
+    const int y = forward ? i : H - 1 - i;
+    const int y_prev = clamp(y - step, 0, H - 1);  // the previous row of the walk (unused in its first row)
+    const int read_half = i & 1, write_half = read_half ^ 1;
+    int x = forward ? 0 : W - 1;
+    // window[k] = census_right(x - d_min - (k0 + k)), x - d clamped into the row as in the reference
+    uint window[K];
+    [[unroll]] for (int k = 0; k < K; ++k) window[k] = censusRight(y, x - pc.min_disp - k0 - k);
+    uint h_prev[K];
+    [[unroll]] for (int k = 0; k < K; ++k) h_prev[k] = 0u;
+    uint h_min = 0u;
+    uint pixel_prev = 0u;
+    // Intensities of the previous row at x - step, x, x + step (for the adaptive P2 of the row paths).
+    uint row_behind = 0u, row_here = intensity(y_prev, x), row_ahead = intensity(y_prev, x + step);
+    for (int j = 0; j < W; ++j, x += step) {
+      if (j > 0) {
+        if (forward) {  // x grew by one: every disparity takes the value of the one below it
+          const uint carried = subgroupShuffleUp(window[K - 1], 1u);
+          [[unroll]] for (int k = K - 1; k > 0; --k) window[k] = window[k - 1];
+          const uint fresh = censusRight(y, x - pc.min_disp);
+          window[0] = lane == 0u ? fresh : carried;
+        } else {  // x fell by one: every disparity takes the value of the one above it
+          const uint carried = subgroupShuffleDown(window[0], 1u);
+          [[unroll]] for (int k = 0; k < K - 1; ++k) window[k] = window[k + 1];
+          const uint fresh = censusRight(y, x - pc.min_disp - (int(gl_SubgroupSize) * K - 1));
+          window[K - 1] = lane == last_lane ? fresh : carried;
+        }
+        row_behind = row_here;
+        row_here = row_ahead;
+        row_ahead = intensity(y_prev, x + step);
+      }
+      const uint centre = imageLoad(census_left, y * W + x).x;
+      uint cost[K];
+      // Disparities beyond the range (padding to whole lanes) cost 255: their path costs stay >= 255 and never
+      // win a minimum against real ones (<= 24 + P2).
+      [[unroll]] for (int k = 0; k < K; ++k) cost[k] = k0 + k < D ? uint(bitCount(centre ^ window[k])) : 255u;
+      const uint pixel = intensity(y, x);
+
+      uint cur[K], sum[K];
+      pathStep(h_prev, cost, h_min, j > 0 ? adaptiveP2(pixel, pixel_prev) : uint(pc.p2), cur);
+      [[unroll]] for (int k = 0; k < K; ++k) {
+        sum[k] = cur[k];
+        h_prev[k] = cur[k];
+      }
+      h_min = butterflyMin(laneMinimum(cur));
+      pixel_prev = pixel;
+
+      // dir 0: from (x, y_prev); dir 1: from (x - step, y_prev); dir 2: from (x + step, y_prev).
+      [[unroll]] for (int dir = 0; dir < ROW_DIRS; ++dir) {
+        const int from = x + (dir == 1 ? -step : (dir == 2 ? step : 0));
+        const bool inside = i > 0 && from >= 0 && from < W;  // else the path starts here: L = C
+        uint prev[K];
+        loadScratch(scratchIndex(pass, read_half, dir, clamp(from, 0, W - 1)), prev);
+        [[unroll]] for (int k = 0; k < K; ++k) prev[k] = inside ? prev[k] : 0u;
+        const uint prev_min = butterflyMin(laneMinimum(prev));
+        const uint above = dir == 0 ? row_here : (dir == 1 ? row_behind : row_ahead);
+        pathStep(prev, cost, prev_min, adaptiveP2(pixel, above), cur);
+        [[unroll]] for (int k = 0; k < K; ++k) sum[k] += cur[k];
+        storeScratch(scratchIndex(pass, write_half, dir, x), cur);
+      }
+      storeSums(pass * H + y, x, sum);
+    }
+  }
+}
