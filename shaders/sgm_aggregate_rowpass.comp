@@ -165,17 +165,18 @@ void main() {
     uint row_behind = 0u, row_here = intensity(y_prev, x), row_ahead = intensity(y_prev, x + step);
     for (int j = 0; j < W; ++j, x += step) {
       if (j > 0) {
-        if (forward) {  // x grew by one: every disparity takes the value of the one below it
-          const uint carried = subgroupShuffleUp(window[K - 1], 1u);
-          [[unroll]] for (int k = K - 1; k > 0; --k) window[k] = window[k - 1];
-          const uint fresh = censusRight(y, x - pc.min_disp);
-          window[0] = lane == 0u ? fresh : carried;
-        } else {  // x fell by one: every disparity takes the value of the one above it
-          const uint carried = subgroupShuffleDown(window[0], 1u);
-          [[unroll]] for (int k = 0; k < K - 1; ++k) window[k] = window[k + 1];
-          const uint fresh = censusRight(y, x - pc.min_disp - (int(gl_SubgroupSize) * K - 1));
-          window[K - 1] = lane == last_lane ? fresh : carried;
+        // The window slides by one disparity: forward (x grew by one) every disparity takes the value of the one
+        // below it, backward that of the one above it. Selects, not branches: lavapipe runs both sides of an if.
+        const uint from_below = subgroupShuffleUp(window[K - 1], 1u);
+        const uint from_above = subgroupShuffleDown(window[0], 1u);
+        const uint fresh = censusRight(y, x - pc.min_disp - (forward ? 0 : int(SG) * K - 1));
+        uint slid[K];
+        [[unroll]] for (int k = 0; k < K; ++k) {
+          const uint lower = k == 0 ? (lane == 0u ? fresh : from_below) : window[k - 1];
+          const uint upper = k == K - 1 ? (lane == last_lane ? fresh : from_above) : window[k + 1];
+          slid[k] = forward ? lower : upper;
         }
+        [[unroll]] for (int k = 0; k < K; ++k) window[k] = slid[k];
         row_behind = row_here;
         row_here = row_ahead;
         row_ahead = intensity(y_prev, x + step);

@@ -159,13 +159,20 @@ struct StereoMatcher::Impl {
     mi.pCode = code.words;
     VkShaderModule module;
     vkCheck(vkCreateShaderModule(dev, &mi, nullptr, &module), "vkCreateShaderModule");
-    // Constant ids: 0 subgroup size (= workgroup size), 1 K, 2 num_disparities, 3 paths, 4 log2(subgroup size).
+    // Constant ids: 0 subgroup size (= workgroup size), 1 K, 2 num_disparities, 3 paths, 4 log2(subgroup size),
+    // 6 min_disparity (5 is unused).
     int log2_sg = 0;
     while ((1u << (log2_sg + 1)) <= ctx.subgroupSize()) ++log2_sg;
-    const int32_t spec_values[5] = {static_cast<int32_t>(ctx.subgroupSize()), lane_disps, params.num_disparities,
-                                    params.paths, log2_sg};
-    const VkSpecializationMapEntry entries[5] = {{0, 0, 4}, {1, 4, 4}, {2, 8, 4}, {3, 12, 4}, {4, 16, 4}};
-    VkSpecializationInfo spec{5, entries, sizeof(spec_values), spec_values};
+    const int32_t spec_values[7] = {static_cast<int32_t>(ctx.subgroupSize()),
+                                    lane_disps,
+                                    params.num_disparities,
+                                    params.paths,
+                                    log2_sg,
+                                    0,
+                                    params.min_disparity};
+    const VkSpecializationMapEntry entries[7] = {{0, 0, 4},  {1, 4, 4},  {2, 8, 4}, {3, 12, 4},
+                                                 {4, 16, 4}, {5, 20, 4}, {6, 24, 4}};
+    VkSpecializationInfo spec{7, entries, sizeof(spec_values), spec_values};
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -356,7 +363,7 @@ struct StereoMatcher::Impl {
                                    {5, {&scratch}},
                                    {6, chunks}},
                                   36, true);
-    wta_stage = createStage("sgm_wta_rowpass", {{0, sums_view}, {1, {&disp[0]}}, {2, {&disp[1]}}}, 20, true);
+    wta_stage = createStage("sgm_wta_rowpass", {{0, sums_view}, {1, {&disp[0]}}, {2, {&disp[1]}}}, 16, true);
   }
 
   ~Impl() {
@@ -458,7 +465,7 @@ struct StereoMatcher::Impl {
       }
       timestamp("aggregate");
       bind(wta_stage);
-      const int32_t pw[5] = {W, H, params.min_disparity, params.uniqueness, params.subpixel ? 1 : 0};
+      const int32_t pw[4] = {W, H, params.uniqueness, params.subpixel ? 1 : 0};
       push(wta_stage, pw);
       vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
       barrier(cmd);
