@@ -1,22 +1,27 @@
 #version 450
-// SGM path aggregation in two row passes: the layout for CPU devices (lavapipe). sgm_aggregate.comp is the
-// layout for GPUs (one dispatch per path, one subgroup per image line); both give the same path costs.
+// SGM for CPU devices (lavapipe): path aggregation in two row passes with the winner-takes-all fused in.
+// sgm_aggregate.comp + sgm_wta.comp are the layout for GPUs; both give the same maps (see ips/e3d/sgm.hpp).
 //
-// Workgroup 0 (the forward pass) walks the rows top to bottom and each row left to right and computes the paths
-// (1,0), (0,1), (1,1), (-1,1); workgroup 1 (the backward pass) walks bottom to top, right to left: (-1,0), (0,-1),
-// (-1,-1), (1,-1). With 4 paths each pass computes its first two. Each pass is one subgroup; lane l owns the
-// disparities l*K .. l*K+K-1 (the libSGM layout), neighbours d+-1 across lanes come from shuffles.
+// Workgroup 0 (the forward pass) walks the rows top to bottom and each row left to right: paths (1,0), (0,1),
+// (1,1), (-1,1). Workgroup 1 (the backward pass) walks bottom to top, right to left: (-1,0), (0,-1), (-1,-1),
+// (1,-1). With 4 paths each pass computes its first two. Each pass is one subgroup; lane l owns the disparities
+// l*K .. l*K+K-1 (the libSGM layout), neighbours d+-1 across lanes come from shuffles.
 //  - Matching costs are computed on the fly: C = popcount(census_left(x) ^ census_right(x - d_min - d)); along a
 //    row the right census values slide by one disparity per pixel (one load and one shuffle per pixel).
 //  - The horizontal path stays in registers. The three paths that come from the previous row read its path costs
 //    from a scratch buffer (two rows per pass, one byte per disparity: L <= 24 + P2 <= 255) and write the
 //    current row's.
-//  - Each pass writes the sum of its paths (16 bits per disparity) into its slice of the sum volume;
-//    sgm_wta_rowpass.comp adds the two slices and selects the disparities.
-// Why: on lavapipe a memory access whose address differs per lane costs 10-20 arithmetic instructions (a loop
-// over the lanes), and stores to a large volume are bound by memory bandwidth. Here each pixel costs about five
-// such accesses per pass (instead of two per path), the costs are never stored, and the volume written is 2 x 16
-// bits per disparity instead of 9 bytes. The two passes run on two threads.
+//  - The image is split at row `split`. In the first dispatches (PHASE 0) the forward pass walks the rows above
+//    it and the backward pass the rows below it, each storing the sum of its paths (16 bits per disparity); then
+//    (PHASE 1) each walks on into the other part, adds the sums stored there by the other pass and selects the
+//    disparities at once: the smallest disparity of least S (uniqueness test as OpenCV's uniquenessRatio,
+//    equiangular subpixel in integer arithmetic, 1/16 px) and the right image's disparity by the diagonal search
+//    min_d S(xr + d_min + d, d), a shift register along the row. So half the sums are stored, the two passes run
+//    on two threads all the time, and no separate winner-takes-all walks over the sums.
+// Why: on lavapipe every memory access whose address differs per lane is a loop over the lanes (10-20 times an
+// arithmetic instruction); both sides of every if run (so the phases are specialisation constants, and
+// direction-dependent steps are selects); and an invocation ends after 65535 loop iterations in all (so the host
+// splits each walk over several dispatches; the scratch carries the state from one to the next).
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
@@ -30,12 +35,14 @@ layout(constant_id = 4) const int LOG2_SG = 3;  // log2(SG): loops with a plain 
 layout(constant_id = 1) const int K = 16;  // disparities per lane, a multiple of 8
 layout(constant_id = 2) const int D = 128; // num_disparities
 layout(constant_id = 3) const int NUM_PATHS = 8;
-// Rows row_begin .. row_end - 1 of each walk (lavapipe ends any invocation after 65535 loop iterations in all,
-// so the host splits the walk over several dispatches; the scratch carries the state from one to the next).
+layout(constant_id = 6) const int MIN_DISP = 0;  // min_disparity
+layout(constant_id = 7) const int PHASE = 0;     // 0: store the sums, 1: add the stored sums and select
+// Walk rows begin .. end - 1 of each pass (x: forward, y: backward; walk row i is image row i forward,
+// height - 1 - i backward).
 layout(push_constant) uniform Params {
-  int width, height, min_disp, p1;
-  int p2, p2_slope, rows_per_chunk, row_begin;
-  int row_end;
+  int width, height, p1, p2;
+  int p2_slope, rows_per_chunk, uniqueness, subpixel;
+  ivec2 begin, end;
 } pc;
 layout(binding = 0, r8ui) uniform readonly uimageBuffer image_left;
 layout(binding = 1, r32ui) uniform readonly uimageBuffer census_left;
@@ -46,17 +53,27 @@ layout(binding = 4, rg32ui) uniform readonly uimageBuffer scratch_read8;
 // 64-bit components: lavapipe stores a vector component by component in a loop over the lanes.
 layout(std430, binding = 5) writeonly buffer ScratchWrite16 { u64vec2 scratch_write16[]; };
 layout(std430, binding = 5) writeonly buffer ScratchWrite8 { uint64_t scratch_write8[]; };
-// The sum volume [pass][y][x][lane][K x 16 bits], split by rows over buffers of at most maxStorageBufferRange.
+// The sums [y][x][lane][K x 16 bits] (rows above split: forward, from split on: backward), stored in ranges of
+// at most maxStorageBufferRange rows and read as texels.
 layout(std430, binding = 6) writeonly buffer Sums32 { u64vec4 v[]; } sums32[E3D_MAX_CHUNKS];
 layout(std430, binding = 6) writeonly buffer Sums16 { uvec4 v[]; } sums16[E3D_MAX_CHUNKS];
+layout(binding = 7, rgba32ui) uniform readonly uimageBuffer sums_read;
+layout(std430, binding = 8) writeonly buffer DispLeft { int disp_left[]; };
+layout(std430, binding = 9) writeonly buffer DispRight { int disp_right[]; };
 
 const bool WIDE = (K % 16) == 0;              // 16-byte scratch accesses, 32-byte sum stores (else 8 and 16)
 const int ROW_DIRS = NUM_PATHS == 8 ? 3 : 1;  // paths that come from the previous row
+const uint NONE = 0xFFFFFFFFu;
 
 uint lane;
 
 uint butterflyMin(uint v) {
   [[unroll]] for (int i = 0; i < LOG2_SG; ++i) v = min(v, subgroupShuffleXor(v, 1u << i));
+  return v;
+}
+
+uint butterflyOr(uint v) {
+  [[unroll]] for (int i = 0; i < LOG2_SG; ++i) v |= subgroupShuffleXor(v, 1u << i);
   return v;
 }
 
@@ -71,7 +88,7 @@ void pathStep(uint prev[K], uint cost[K], uint prev_min, uint p2, out uint cur[K
   uint below = subgroupShuffleUp(prev[K - 1], 1u);
   uint above = subgroupShuffleDown(prev[0], 1u);
   below = lane == 0u ? E3D_BIG : below;
-  above = lane == gl_SubgroupSize - 1u ? E3D_BIG : above;
+  above = lane == SG - 1u ? E3D_BIG : above;
   const uint jump = prev_min + p2;
   const uint P1 = uint(pc.p1);
   [[unroll]] for (int k = 0; k < K; ++k) {
@@ -88,7 +105,7 @@ uint adaptiveP2(uint a, uint b) {
 
 // Index of this lane's first 8-byte word in the scratch row (pass, half, dir) at column x.
 int scratchIndex(int pass, int half_row, int dir, int x) {
-  return ((((pass * 2 + half_row) * 3 + dir) * pc.width + x) * int(gl_SubgroupSize) + int(lane)) * (K / 8);
+  return ((((pass * 2 + half_row) * 3 + dir) * pc.width + x) * int(SG) + int(lane)) * (K / 8);
 }
 
 void loadScratch(int index8, out uint v[K]) {
@@ -121,10 +138,14 @@ void storeScratch(int index8, uint v[K]) {
   }
 }
 
-// Stores this lane's K sums (16 bits each) of pixel x in row g = pass * height + y of the sum volume.
-void storeSums(int g, int x, uint s[K]) {
-  const int chunk = g / pc.rows_per_chunk;
-  const int index16 = (((g - chunk * pc.rows_per_chunk) * pc.width + x) * int(gl_SubgroupSize) + int(lane)) * (K / 8);
+int sumIndex(int y, int x) {  // this lane's first 16-byte texel of the sums of pixel (x, y)
+  return ((y * pc.width + x) * int(SG) + int(lane)) * (K / 8);
+}
+
+// Stores this lane's K sums (16 bits each) of pixel (x, y).
+void storeSums(int y, int x, uint s[K]) {
+  const int chunk = y / pc.rows_per_chunk;
+  const int index16 = sumIndex(y - chunk * pc.rows_per_chunk, x);
   uint words[K / 2];
   [[unroll]] for (int j = 0; j < K / 2; ++j) words[j] = s[2 * j] | (s[2 * j + 1] << 16);
   if (WIDE) {
@@ -138,6 +159,39 @@ void storeSums(int g, int x, uint s[K]) {
   }
 }
 
+// s += the other pass's sums at (x, y): each half word holds at most 4 x 255, so the packed add cannot carry.
+void addStoredSums(int y, int x, inout uint s[K]) {
+  const int index = sumIndex(y, x);
+  [[unroll]] for (int q = 0; q < K / 8; ++q) {
+    const uvec4 w = imageLoad(sums_read, index + q);
+    [[unroll]] for (int b = 0; b < 4; ++b) {
+      s[8 * q + 2 * b] += w[b] & 0xFFFFu;
+      s[8 * q + 2 * b + 1] += w[b] >> 16;
+    }
+  }
+}
+
+int rightDisparity(uint key) { return key == NONE ? E3D_INVALID : (MIN_DISP + int(key & 0xFFu)) * 16; }
+
+// Results of a row, one per lane: lane (x mod SG) keeps the value of pixel x. The walk goes up (forward) or down
+// (backward) one pixel at a time; a group is stored when the walk leaves it and, at the end of the row, by
+// storeGathered.
+void storeGathered(int gathered, int x, bool forward, int row_base, bool is_left) {
+  const int slot = x & int(SG - 1u);
+  const int first = x - slot;
+  const bool mine = forward ? int(lane) <= slot : int(lane) >= slot;
+  const int at = first + int(lane);
+  if (mine && at >= 0 && at < pc.width) {
+    if (is_left) disp_left[row_base + at] = gathered;
+    else disp_right[row_base + at] = gathered;
+  }
+}
+void gather(inout int gathered, int x, int v, bool forward, int row_base, bool is_left) {
+  const int slot = x & int(SG - 1u);
+  gathered = int(lane) == slot ? v : gathered;
+  if (slot == (forward ? int(SG) - 1 : 0)) storeGathered(gathered, x, forward, row_base, is_left);
+}
+
 uint censusRight(int y, int x) { return imageLoad(census_right, y * pc.width + clamp(x, 0, pc.width - 1)).x; }
 uint intensity(int y, int x) { return imageLoad(image_left, y * pc.width + clamp(x, 0, pc.width - 1)).x; }
 
@@ -148,28 +202,40 @@ void main() {
   const int W = pc.width, H = pc.height;
   const int step = forward ? 1 : -1;  // along the row and from row to row
   const int k0 = int(lane) * K;
-  const uint last_lane = gl_SubgroupSize - 1u;
-  for (int i = pc.row_begin; i < pc.row_end; ++i) {
+  const uint last_lane = SG - 1u;
+  // The slot of the diagonal search that is complete after each pixel: D - 1 forward, 0 backward.
+  const int done_d = forward ? D - 1 : 0;
+  const int begin = forward ? pc.begin.x : pc.begin.y, end = forward ? pc.end.x : pc.end.y;
+  for (int i = begin; i < end; ++i) {
     const int y = forward ? i : H - 1 - i;
     const int y_prev = clamp(y - step, 0, H - 1);  // the previous row of the walk (unused in its first row)
     const int read_half = i & 1, write_half = read_half ^ 1;
+    const int row_base = y * W;
     int x = forward ? 0 : W - 1;
     // window[k] = census_right(x - d_min - (k0 + k)), x - d clamped into the row as in the reference
     uint window[K];
-    [[unroll]] for (int k = 0; k < K; ++k) window[k] = censusRight(y, x - pc.min_disp - k0 - k);
+    [[unroll]] for (int k = 0; k < K; ++k) window[k] = censusRight(y, x - MIN_DISP - k0 - k);
     uint h_prev[K];
     [[unroll]] for (int k = 0; k < K; ++k) h_prev[k] = 0u;
-    uint h_min = 0u;
     uint pixel_prev = 0u;
     // Intensities of the previous row at x - step, x, x + step (for the adaptive P2 of the row paths).
     uint row_behind = 0u, row_here = intensity(y_prev, x), row_ahead = intensity(y_prev, x + step);
+    // Selection: the diagonal search, slot d holding the best (S << 8 | d) so far for xr = x - d_min - d.
+    uint shift[K];
+    [[unroll]] for (int k = 0; k < K; ++k) shift[k] = NONE;
+    int left = E3D_INVALID, right = E3D_INVALID;
+    if (PHASE == 1) {
+      // Right-image pixels that no left pixel reaches: [0, -d_min - D + 1) and (W - 1 - d_min, W - 1].
+      for (int xr = int(lane); xr < min(W, -MIN_DISP - D + 1); xr += int(SG)) disp_right[row_base + xr] = E3D_INVALID;
+      for (int xr = max(0, W - MIN_DISP) + int(lane); xr < W; xr += int(SG)) disp_right[row_base + xr] = E3D_INVALID;
+    }
     for (int j = 0; j < W; ++j, x += step) {
       if (j > 0) {
         // The window slides by one disparity: forward (x grew by one) every disparity takes the value of the one
-        // below it, backward that of the one above it. Selects, not branches: lavapipe runs both sides of an if.
+        // below it, backward that of the one above it.
         const uint from_below = subgroupShuffleUp(window[K - 1], 1u);
         const uint from_above = subgroupShuffleDown(window[0], 1u);
-        const uint fresh = censusRight(y, x - pc.min_disp - (forward ? 0 : int(SG) * K - 1));
+        const uint fresh = censusRight(y, x - MIN_DISP - (forward ? 0 : int(SG) * K - 1));
         uint slid[K];
         [[unroll]] for (int k = 0; k < K; ++k) {
           const uint lower = k == 0 ? (lane == 0u ? fresh : from_below) : window[k - 1];
@@ -189,15 +255,15 @@ void main() {
       const uint pixel = intensity(y, x);
 
       uint cur[K], sum[K];
+      const uint h_min = butterflyMin(laneMinimum(h_prev));
       pathStep(h_prev, cost, h_min, j > 0 ? adaptiveP2(pixel, pixel_prev) : uint(pc.p2), cur);
       [[unroll]] for (int k = 0; k < K; ++k) {
         sum[k] = cur[k];
         h_prev[k] = cur[k];
       }
-      h_min = butterflyMin(laneMinimum(cur));
       pixel_prev = pixel;
 
-      // dir 0: from (x, y_prev); dir 1: from (x - step, y_prev); dir 2: from (x + step, y_prev).
+      // dir 0 comes from (x, y_prev), dir 1 from (x - step, y_prev), dir 2 from (x + step, y_prev).
       [[unroll]] for (int dir = 0; dir < ROW_DIRS; ++dir) {
         const int from = x + (dir == 1 ? -step : (dir == 2 ? step : 0));
         const bool inside = i > 0 && from >= 0 && from < W;  // else the path starts here: L = C
@@ -210,7 +276,69 @@ void main() {
         [[unroll]] for (int k = 0; k < K; ++k) sum[k] += cur[k];
         storeScratch(scratchIndex(pass, write_half, dir, x), cur);
       }
-      storeSums(pass * H + y, x, sum);
+
+      if (PHASE == 0) {
+        storeSums(y, x, sum);
+      } else {
+        addStoredSums(y, x, sum);
+        // Left image: winner-takes-all, uniqueness, subpixel.
+        uint local_key = NONE;
+        [[unroll]] for (int k = 0; k < K; ++k)
+          if (k0 + k < D) local_key = min(local_key, (sum[k] << 8) | uint(k0 + k));
+        const uint key = butterflyMin(local_key);
+        const int best = int(key & 0xFFu);
+        const uint best_cost = key >> 8;
+        uint local_second = NONE, local_neighbours = 0u;
+        [[unroll]] for (int k = 0; k < K; ++k) {
+          const int d = k0 + k;
+          if (d < D && abs(d - best) > 1) local_second = min(local_second, sum[k]);
+          if (d < D && d == best - 1) local_neighbours |= sum[k] << 16;
+          if (d < D && d == best + 1) local_neighbours |= sum[k];
+        }
+        const uint second = butterflyMin(local_second);
+        const uint neighbours = butterflyOr(local_neighbours);
+        const int c0 = int(neighbours >> 16), c2 = int(neighbours & 0xFFFFu), c1 = int(best_cost);
+        const bool valid =
+            !(pc.uniqueness > 0 && second != NONE && second * uint(100 - pc.uniqueness) < best_cost * 100u);
+        int d16 = (MIN_DISP + best) * 16;
+        const int den = max(c0, c2) - c1;
+        if (pc.subpixel != 0 && best > 0 && best + 1 < D && den > 0) {
+          const int num = 8 * (c0 - c2);
+          const int mag = (2 * abs(num) + den) / (2 * den);
+          d16 += num < 0 ? -mag : mag;
+        }
+        gather(left, x, valid ? d16 : E3D_INVALID, forward, row_base, true);
+
+        // Right image: the slots move by one disparity (forward up, backward down), this pixel's costs enter,
+        // and slot done_d is complete.
+        const uint from_below = subgroupShuffleUp(shift[K - 1], 1u);
+        const uint from_above = subgroupShuffleDown(shift[0], 1u);
+        uint moved[K];
+        [[unroll]] for (int k = 0; k < K; ++k) {
+          const uint lower = k == 0 ? (lane == 0u ? NONE : from_below) : shift[k - 1];
+          const uint upper = k == K - 1 ? (lane == last_lane ? NONE : from_above) : shift[k + 1];
+          moved[k] = forward ? lower : upper;
+          if (k0 + k < D) moved[k] = min(moved[k], (sum[k] << 8) | uint(k0 + k));
+        }
+        [[unroll]] for (int k = 0; k < K; ++k) shift[k] = moved[k];
+        const uint done_forward = subgroupShuffle(shift[(D - 1) % K], uint((D - 1) / K));
+        const uint done_backward = subgroupShuffle(shift[0], 0u);
+        const int xr = x - MIN_DISP - done_d;
+        // (xr outside the row: garbage that no store picks up)
+        gather(right, xr, rightDisparity(forward ? done_forward : done_backward), forward, row_base, false);
+      }
+    }
+    if (PHASE == 1) {
+      // The row ends: store the groups not yet stored, and the slots other than done_d (complete: no pixel of the
+      // row is left to contribute).
+      const int x_last = x - step;
+      storeGathered(left, x_last, forward, row_base, true);
+      storeGathered(right, x_last - MIN_DISP - done_d, forward, row_base, false);
+      [[unroll]] for (int k = 0; k < K; ++k) {
+        const int d = k0 + k;
+        const int xr = x_last - MIN_DISP - d;
+        if (d < D && d != done_d && xr >= 0 && xr < W) disp_right[row_base + xr] = rightDisparity(shift[k]);
+      }
     }
   }
 }

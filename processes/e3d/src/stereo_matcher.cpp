@@ -130,7 +130,7 @@ struct StereoMatcher::Impl {
   }
 
   Stage createStage(const std::string& shader, const std::vector<Binding>& bindings, uint32_t push_bytes,
-                    bool specialise) {
+                    bool specialise, int phase = 0) {
     Stage st;
     std::vector<VkDescriptorSetLayoutBinding> lb;
     for (const auto& b : bindings) {
@@ -160,19 +160,20 @@ struct StereoMatcher::Impl {
     VkShaderModule module;
     vkCheck(vkCreateShaderModule(dev, &mi, nullptr, &module), "vkCreateShaderModule");
     // Constant ids: 0 subgroup size (= workgroup size), 1 K, 2 num_disparities, 3 paths, 4 log2(subgroup size),
-    // 6 min_disparity (5 is unused).
+    // 6 min_disparity, 7 phase of the row passes (5 is unused).
     int log2_sg = 0;
     while ((1u << (log2_sg + 1)) <= ctx.subgroupSize()) ++log2_sg;
-    const int32_t spec_values[7] = {static_cast<int32_t>(ctx.subgroupSize()),
+    const int32_t spec_values[8] = {static_cast<int32_t>(ctx.subgroupSize()),
                                     lane_disps,
                                     params.num_disparities,
                                     params.paths,
                                     log2_sg,
                                     0,
-                                    params.min_disparity};
-    const VkSpecializationMapEntry entries[7] = {{0, 0, 4},  {1, 4, 4},  {2, 8, 4}, {3, 12, 4},
-                                                 {4, 16, 4}, {5, 20, 4}, {6, 24, 4}};
-    VkSpecializationInfo spec{7, entries, sizeof(spec_values), spec_values};
+                                    params.min_disparity,
+                                    phase};
+    const VkSpecializationMapEntry entries[8] = {{0, 0, 4},  {1, 4, 4},  {2, 8, 4},  {3, 12, 4},
+                                                 {4, 16, 4}, {5, 20, 4}, {6, 24, 4}, {7, 28, 4}};
+    VkSpecializationInfo spec{8, entries, sizeof(spec_values), spec_values};
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -322,8 +323,9 @@ struct StereoMatcher::Impl {
     wta_stage = createStage("sgm_wta", {{4, chunks}, {5, {&disp[0]}}, {6, {&disp[1]}}}, 36, true);
   }
 
-  // Rows: two row passes (forward, backward) with costs computed on the fly, each writing the sum of its paths
-  // (16 bits per disparity) into one buffer, read by sgm_wta_rowpass as texels.
+  // Rows: two row passes (forward, backward) with the costs computed on the fly and the winner-takes-all fused in:
+  // each stores the sums of its paths (16 bits per disparity) for half the rows and selects on the other half,
+  // reading the other pass's sums as texels. See sgm_aggregate_rowpass.comp.
   void initRows() {
     const int W = size.width, H = size.height;
     const int sg = static_cast<int>(ctx.subgroupSize());
@@ -331,14 +333,14 @@ struct StereoMatcher::Impl {
     lane_disps = (lane_disps + 7) / 8 * 8;
     padded_disps = lane_disps * sg;
     const uint64_t sum_row_bytes = static_cast<uint64_t>(W) * padded_disps * 2;
-    const uint64_t sum_bytes = sum_row_bytes * 2 * H;  // forward and backward slices
+    const uint64_t sum_bytes = sum_row_bytes * H;
     const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
     if (sum_bytes > ctx.maxAllocationBytes() || sum_bytes / 16 > ctx.maxTexelBufferElements())
       throw std::invalid_argument("StereoMatcher: the sums of " + std::to_string(sum_bytes >> 20) +
                                   " MiB exceed one allocation of this device (reduce size or num_disparities)");
     rows_per_chunk = static_cast<int>(max_range / sum_row_bytes);
-    num_chunks = (2 * H + rows_per_chunk - 1) / rows_per_chunk;
-    if (rows_per_chunk < 1 || num_chunks > kMaxChunks)
+    num_chunks = rows_per_chunk < 1 ? kMaxChunks + 1 : (H + rows_per_chunk - 1) / rows_per_chunk;
+    if (num_chunks > kMaxChunks)
       throw std::invalid_argument("StereoMatcher: sums too large for " + std::to_string(kMaxChunks) +
                                   " storage buffer ranges (reduce size or num_disparities)");
     sums = createBuffer(sum_bytes, false);
@@ -346,24 +348,66 @@ struct StereoMatcher::Impl {
     std::vector<Descriptor> chunks;
     for (int i = 0; i < kMaxChunks; ++i) {
       const uint64_t first_row = static_cast<uint64_t>(std::min(i, num_chunks - 1)) * rows_per_chunk;
-      const uint64_t rows_here = std::min<uint64_t>(rows_per_chunk, 2 * H - first_row);
+      const uint64_t rows_here = std::min<uint64_t>(rows_per_chunk, H - first_row);
       chunks.push_back({sums.buffer, first_row * sum_row_bytes, rows_here * sum_row_bytes, VK_NULL_HANDLE});
     }
-    image_left_view = createView(image[0], VK_FORMAT_R8_UINT);
-    for (int i = 0; i < 2; ++i) census_views[i] = createView(census[i], VK_FORMAT_R32_UINT);
-    scratch_views[0] = createView(scratch, VK_FORMAT_R32G32B32A32_UINT);
-    scratch_views[1] = createView(scratch, VK_FORMAT_R32G32_UINT);
-    sums_view = createView(sums, VK_FORMAT_R32G32B32A32_UINT);
-    aggregate_stage = createStage("sgm_aggregate_rowpass",
-                                  {{0, image_left_view},
-                                   {1, census_views[0]},
-                                   {2, census_views[1]},
-                                   {3, scratch_views[0]},
-                                   {4, scratch_views[1]},
-                                   {5, {&scratch}},
-                                   {6, chunks}},
-                                  36, true);
-    wta_stage = createStage("sgm_wta_rowpass", {{0, sums_view}, {1, {&disp[0]}}, {2, {&disp[1]}}}, 16, true);
+    const std::vector<Binding> bindings = {{0, createView(image[0], VK_FORMAT_R8_UINT)},
+                                           {1, createView(census[0], VK_FORMAT_R32_UINT)},
+                                           {2, createView(census[1], VK_FORMAT_R32_UINT)},
+                                           {3, createView(scratch, VK_FORMAT_R32G32B32A32_UINT)},
+                                           {4, createView(scratch, VK_FORMAT_R32G32_UINT)},
+                                           {5, {&scratch}},
+                                           {6, chunks},
+                                           {7, createView(sums, VK_FORMAT_R32G32B32A32_UINT)},
+                                           {8, {&disp[0]}},
+                                           {9, {&disp[1]}}};
+    aggregate_stage = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, 0);
+    wta_stage = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, 1);
+  }
+
+  // Push constants of sgm_aggregate_rowpass.comp.
+  struct RowPassParams {
+    int32_t width, height, p1, p2, p2_slope, rows_per_chunk, uniqueness, subpixel;
+    int32_t begin[2], end[2];
+  };
+
+  // Records the row passes: phase 0 (aggregate_stage) the forward pass on the rows above `split` and the backward
+  // pass on the rest, both storing sums; phase 1 (wta_stage) each on the other part, selecting. Each phase in
+  // dispatches of at most kMaxLoopIterations loop iterations per invocation.
+  void recordRowPasses() {
+    const int W = size.width, H = size.height, sg = static_cast<int>(ctx.subgroupSize());
+    const int split = H / 2;
+    const int row_cost = W + 4 + (std::abs(params.min_disparity) + params.num_disparities) / sg;  // loop iterations
+    const int rows_per_dispatch = std::max(1, kMaxLoopIterations / row_cost);
+    RowPassParams pc{W,
+                     H,
+                     params.p1,
+                     params.p2,
+                     params.p2_slope,
+                     rows_per_chunk,
+                     params.uniqueness,
+                     params.subpixel ? 1 : 0,
+                     {0, 0},
+                     {0, 0}};
+    // Walk rows (forward: image row i, backward: image row H - 1 - i) of the two phases.
+    const int phase_begin[2][2] = {{0, 0}, {split, H - split}};
+    const int phase_end[2][2] = {{split, H - split}, {H, H}};
+    for (int phase = 0; phase < 2; ++phase) {
+      const Stage& stage = phase == 0 ? aggregate_stage : wta_stage;
+      bind(stage);
+      for (int part = 0;; ++part) {
+        bool any = false;
+        for (int p = 0; p < 2; ++p) {
+          pc.begin[p] = std::min(phase_begin[phase][p] + part * rows_per_dispatch, phase_end[phase][p]);
+          pc.end[p] = std::min(pc.begin[p] + rows_per_dispatch, phase_end[phase][p]);
+          any = any || pc.end[p] > pc.begin[p];
+        }
+        if (!any) break;
+        push(stage, pc);
+        vkCmdDispatch(cmd, 2, 1, 1);
+        barrier(cmd);
+      }
+    }
   }
 
   ~Impl() {
@@ -446,30 +490,8 @@ struct StereoMatcher::Impl {
       timestamp("census");
     }
     if (rows) {
-      bind(aggregate_stage);
-      // Both passes (two workgroups) in bands of rows: lavapipe ends an invocation after 65535 loop iterations.
-      const int band = std::max(1, kMaxLoopIterations / (W + 2));
-      for (int begin = 0; begin < H; begin += band) {
-        const int32_t pc[9] = {W,
-                               H,
-                               params.min_disparity,
-                               params.p1,
-                               params.p2,
-                               params.p2_slope,
-                               rows_per_chunk,
-                               begin,
-                               std::min(H, begin + band)};
-        push(aggregate_stage, pc);
-        vkCmdDispatch(cmd, 2, 1, 1);
-        barrier(cmd);
-      }
+      recordRowPasses();
       timestamp("aggregate");
-      bind(wta_stage);
-      const int32_t pw[4] = {W, H, params.uniqueness, params.subpixel ? 1 : 0};
-      push(wta_stage, pw);
-      vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
-      barrier(cmd);
-      timestamp("wta");
     } else {
       bind(cost_stage);
       const int32_t pc[7] = {W,        H, params.num_disparities, params.min_disparity, params.paths, rows_per_chunk,
