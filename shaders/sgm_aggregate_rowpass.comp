@@ -64,6 +64,9 @@ layout(std430, binding = 9) writeonly buffer DispRight { int disp_right[]; };
 const bool WIDE = (K % 16) == 0;              // 16-byte scratch accesses, 32-byte sum stores (else 8 and 16)
 const int ROW_DIRS = NUM_PATHS == 8 ? 3 : 1;  // paths that come from the previous row
 const uint NONE = 0xFFFFFFFFu;
+// Whether the lanes hold disparities beyond the range (padding to whole lanes); when not, the tests are constants.
+const bool PADDED = D < int(SG) * K;
+bool real(int d) { return !PADDED || d < D; }
 
 uint lane;
 
@@ -123,7 +126,9 @@ void loadScratch(int index8, out uint v[K]) {
 }
 
 uint packBytes(uint a, uint b, uint c, uint d) {
-  return min(a, 255u) | (min(b, 255u) << 8) | (min(c, 255u) << 16) | (min(d, 255u) << 24);
+  // Only padded disparities exceed 255 (real ones: L <= 24 + P2 <= 255).
+  if (PADDED) return min(a, 255u) | (min(b, 255u) << 8) | (min(c, 255u) << 16) | (min(d, 255u) << 24);
+  return a | (b << 8) | (c << 16) | (d << 24);
 }
 
 void storeScratch(int index8, uint v[K]) {
@@ -251,7 +256,7 @@ void main() {
       uint cost[K];
       // Disparities beyond the range (padding to whole lanes) cost 255: their path costs stay >= 255 and never
       // win a minimum against real ones (<= 24 + P2).
-      [[unroll]] for (int k = 0; k < K; ++k) cost[k] = k0 + k < D ? uint(bitCount(centre ^ window[k])) : 255u;
+      [[unroll]] for (int k = 0; k < K; ++k) cost[k] = real(k0 + k) ? uint(bitCount(centre ^ window[k])) : 255u;
       const uint pixel = intensity(y, x);
 
       uint cur[K], sum[K];
@@ -284,16 +289,16 @@ void main() {
         // Left image: winner-takes-all, uniqueness, subpixel.
         uint local_key = NONE;
         [[unroll]] for (int k = 0; k < K; ++k)
-          if (k0 + k < D) local_key = min(local_key, (sum[k] << 8) | uint(k0 + k));
+          if (real(k0 + k)) local_key = min(local_key, (sum[k] << 8) | uint(k0 + k));
         const uint key = butterflyMin(local_key);
         const int best = int(key & 0xFFu);
         const uint best_cost = key >> 8;
         uint local_second = NONE, local_neighbours = 0u;
         [[unroll]] for (int k = 0; k < K; ++k) {
           const int d = k0 + k;
-          if (d < D && abs(d - best) > 1) local_second = min(local_second, sum[k]);
-          if (d < D && d == best - 1) local_neighbours |= sum[k] << 16;
-          if (d < D && d == best + 1) local_neighbours |= sum[k];
+          if (real(d) && abs(d - best) > 1) local_second = min(local_second, sum[k]);
+          if (real(d) && d == best - 1) local_neighbours |= sum[k] << 16;
+          if (real(d) && d == best + 1) local_neighbours |= sum[k];
         }
         const uint second = butterflyMin(local_second);
         const uint neighbours = butterflyOr(local_neighbours);
@@ -318,7 +323,7 @@ void main() {
           const uint lower = k == 0 ? (lane == 0u ? NONE : from_below) : shift[k - 1];
           const uint upper = k == K - 1 ? (lane == last_lane ? NONE : from_above) : shift[k + 1];
           moved[k] = forward ? lower : upper;
-          if (k0 + k < D) moved[k] = min(moved[k], (sum[k] << 8) | uint(k0 + k));
+          if (real(k0 + k)) moved[k] = min(moved[k], (sum[k] << 8) | uint(k0 + k));
         }
         [[unroll]] for (int k = 0; k < K; ++k) shift[k] = moved[k];
         const uint done_forward = subgroupShuffle(shift[(D - 1) % K], uint((D - 1) / K));
@@ -337,7 +342,7 @@ void main() {
       [[unroll]] for (int k = 0; k < K; ++k) {
         const int d = k0 + k;
         const int xr = x_last - MIN_DISP - d;
-        if (d < D && d != done_d && xr >= 0 && xr < W) disp_right[row_base + xr] = rightDisparity(shift[k]);
+        if (real(d) && d != done_d && xr >= 0 && xr < W) disp_right[row_base + xr] = rightDisparity(shift[k]);
       }
     }
   }
