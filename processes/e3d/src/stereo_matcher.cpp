@@ -371,10 +371,10 @@ struct StereoMatcher::Impl {
     int32_t begin[2], end[2];
   };
 
-  // Records the row passes: phase 0 (aggregate_stage) the forward pass on the rows above `split` and the backward
-  // pass on the rest, both storing sums; phase 1 (wta_stage) each on the other part, selecting. Each phase in
+  // Records one phase of the row passes: phase 0 (aggregate_stage) the forward pass on the rows above `split` and
+  // the backward pass on the rest, both storing sums; phase 1 (wta_stage) each on the other part, selecting. Each in
   // dispatches of at most kMaxLoopIterations loop iterations per invocation.
-  void recordRowPasses() {
+  void recordRowPasses(int phase) {
     const int W = size.width, H = size.height, sg = static_cast<int>(ctx.subgroupSize());
     const int split = H / 2;
     const int row_cost = W + 4 + (std::abs(params.min_disparity) + params.num_disparities) / sg;  // loop iterations
@@ -392,21 +392,19 @@ struct StereoMatcher::Impl {
     // Walk rows (forward: image row i, backward: image row H - 1 - i) of the two phases.
     const int phase_begin[2][2] = {{0, 0}, {split, H - split}};
     const int phase_end[2][2] = {{split, H - split}, {H, H}};
-    for (int phase = 0; phase < 2; ++phase) {
-      const Stage& stage = phase == 0 ? aggregate_stage : wta_stage;
-      bind(stage);
-      for (int part = 0;; ++part) {
-        bool any = false;
-        for (int p = 0; p < 2; ++p) {
-          pc.begin[p] = std::min(phase_begin[phase][p] + part * rows_per_dispatch, phase_end[phase][p]);
-          pc.end[p] = std::min(pc.begin[p] + rows_per_dispatch, phase_end[phase][p]);
-          any = any || pc.end[p] > pc.begin[p];
-        }
-        if (!any) break;
-        push(stage, pc);
-        vkCmdDispatch(cmd, 2, 1, 1);
-        barrier(cmd);
+    const Stage& stage = phase == 0 ? aggregate_stage : wta_stage;
+    bind(stage);
+    for (int part = 0;; ++part) {
+      bool any = false;
+      for (int p = 0; p < 2; ++p) {
+        pc.begin[p] = std::min(phase_begin[phase][p] + part * rows_per_dispatch, phase_end[phase][p]);
+        pc.end[p] = std::min(pc.begin[p] + rows_per_dispatch, phase_end[phase][p]);
+        any = any || pc.end[p] > pc.begin[p];
       }
+      if (!any) break;
+      push(stage, pc);
+      vkCmdDispatch(cmd, 2, 1, 1);
+      barrier(cmd);
     }
   }
 
@@ -490,8 +488,10 @@ struct StereoMatcher::Impl {
       timestamp("census");
     }
     if (rows) {
-      recordRowPasses();
+      recordRowPasses(0);
       timestamp("aggregate");
+      recordRowPasses(1);
+      timestamp("aggregate_select");
     } else {
       bind(cost_stage);
       const int32_t pc[7] = {W,        H, params.num_disparities, params.min_disparity, params.paths, rows_per_chunk,
