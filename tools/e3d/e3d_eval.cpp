@@ -175,7 +175,7 @@ int main(int argc, char** argv) {
     std::cout << "E3D: " << base.describe() << " (num_disparities per scene unless given)\n";
     std::cout << std::left << std::setw(18) << "scene" << std::setw(8) << "method" << std::right
               << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density\n";
-    double sum_e3d = 0, sum_cv = 0;
+    double sum_e3d[2] = {0, 0}, sum_cv[2] = {0, 0};  // bad 2.0 in the non-occluded region, in all pixels
     int count = 0;
     for (const auto& name : names) {
       Scene s = loadScene(data + "/" + name);
@@ -185,20 +185,27 @@ int main(int argc, char** argv) {
       cv::Mat disp = disparityToFloat(matcher.match(s.left, s.right).disparity);
       Scores e = score(s, disp);
       printRow(name, "e3d", e);
-      sum_e3d += e.bad_all[2];
+      sum_e3d[0] += e.bad_nonocc[2];
+      sum_e3d[1] += e.bad_all[2];
       if (!out_dir.empty()) cv::imwrite(out_dir + "/" + name + "_e3d.png", colourDisparity(disp, s.num_disparities));
       if (args.has("opencv")) {
         cv::Mat hh = openCvHH(s, s.num_disparities);
         Scores o = score(s, hh);
         printRow(name, "cv_hh", o);
-        sum_cv += o.bad_all[2];
+        sum_cv[0] += o.bad_nonocc[2];
+        sum_cv[1] += o.bad_all[2];
         if (!out_dir.empty()) cv::imwrite(out_dir + "/" + name + "_cv_hh.png", colourDisparity(hh, s.num_disparities));
       }
       ++count;
     }
-    std::cout << "average bad2.0 all: e3d " << sum_e3d / count;
-    if (args.has("opencv")) std::cout << "  cv_hh " << sum_cv / count;
-    std::cout << "\n";
+    // nonocc: the pixels each scene's evaluation mask marks as evaluated; all: occluded pixels too. Invalid
+    // pixels count as bad in both.
+    const char* region[2] = {"nonocc", "all"};
+    for (int r = 0; r < 2; ++r) {
+      std::cout << "average bad2.0 " << region[r] << ": e3d " << sum_e3d[r] / count;
+      if (args.has("opencv")) std::cout << "  cv_hh " << sum_cv[r] / count;
+      std::cout << "\n";
+    }
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "e3d_eval: " << e.what() << "\n";
