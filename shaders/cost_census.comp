@@ -11,6 +11,9 @@
 #include "e3d_common.glsl"
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const int K = 16;
+// The second match, right to left (SgmParams::right_map "match"): the census images are bound swapped and read
+// mirrored (popcount(a ^ b) does not change when both codes mirror their bits, so the codes are used as they are).
+layout(constant_id = 8) const bool MIRROR = false;
 layout(push_constant) uniform Params {
   int width, height, num_disp, min_disp;
   int cost_slice, rows_per_chunk, row_words;
@@ -19,6 +22,8 @@ layout(std430, binding = 2) readonly buffer CensusLeft { uint census_left[]; };
 layout(std430, binding = 3) readonly buffer CensusRight { uint census_right[]; };
 layout(std430, binding = 4) writeonly buffer Volume { uint v[]; } volume[E3D_MAX_CHUNKS];
 
+int column(int x) { return MIRROR ? pc.width - 1 - x : x; }
+
 void main() {
   const uint lane = gl_SubgroupInvocationID;
   const int y = int(gl_WorkGroupID.x);
@@ -26,7 +31,7 @@ void main() {
   const int k0 = int(lane) * K;
   const int row = y * W;
   uint window[K];  // census_right(x - d_min - k0 - k)
-  [[unroll]] for (int k = 0; k < K; ++k) window[k] = census_right[row + clamp(-pc.min_disp - k0 - k, 0, W - 1)];
+  [[unroll]] for (int k = 0; k < K; ++k) window[k] = census_right[row + column(clamp(-pc.min_disp - k0 - k, 0, W - 1))];
   const int g = pc.cost_slice * pc.height + y;
   const int chunk = g / pc.rows_per_chunk;
   const int row_base = (g - chunk * pc.rows_per_chunk) * pc.row_words + int(lane) * (K / 4);
@@ -34,9 +39,9 @@ void main() {
     if (x > 0) {
       const uint carried = subgroupShuffleUp(window[K - 1], 1u);
       [[unroll]] for (int k = K - 1; k > 0; --k) window[k] = window[k - 1];
-      window[0] = lane == 0u ? census_right[row + clamp(x - pc.min_disp, 0, W - 1)] : carried;
+      window[0] = lane == 0u ? census_right[row + column(clamp(x - pc.min_disp, 0, W - 1))] : carried;
     }
-    const uint cl = census_left[row + x];
+    const uint cl = census_left[row + column(x)];
     const int base = row_base + x * (K / 4) * int(gl_SubgroupSize);
     [[unroll]] for (int j = 0; j < K / 4; ++j) {
       uint word = 0u;

@@ -12,6 +12,7 @@
 #include "e3d_common.glsl"
 layout(local_size_x_id = 0) in;               // = subgroup size
 layout(constant_id = 1) const int K = 16;     // disparities per lane, a multiple of 4
+layout(constant_id = 8) const bool MIRROR = false;  // the second match: the right image, bound as image_left, mirrored
 layout(push_constant) uniform Params {
   int width, height, num_disp, min_disp;
   int p1, p2, p2_slope, path;
@@ -54,10 +55,10 @@ void main() {
   // Starting from L = 0 everywhere makes the first pixel of the line get L = C, as the recursion demands.
   uint prev[K];
   [[unroll]] for (int k = 0; k < K; ++k) prev[k] = 0u;
-  uint prev_pixel = E3D_PIXEL(image_left, y * W + x);
+  uint prev_pixel = E3D_PIXEL(image_left, y * W + (MIRROR ? W - 1 - x : x));
   while (x >= 0 && x < W && y >= 0 && y < H) {
     const int idx = y * W + x;
-    const uint pixel = E3D_PIXEL(image_left, idx);
+    const uint pixel = E3D_PIXEL(image_left, y * W + (MIRROR ? W - 1 - x : x));
     uint cost[K];
     int cost_chunk;
     const int cost_base = wordIndex(pc.cost_slice, x, y, cost_chunk);

@@ -37,6 +37,11 @@ layout(constant_id = 2) const int D = 128; // num_disparities
 layout(constant_id = 3) const int NUM_PATHS = 8;
 layout(constant_id = 6) const int MIN_DISP = 0;  // min_disparity
 layout(constant_id = 7) const int PHASE = 0;     // 0: store the sums, 1: add the stored sums and select
+// MIRROR: the second match, right to left, for SgmParams::right_map "match": the images (bound swapped) are read
+// mirrored, so that the mirrored right image is the left one, and the left map is stored mirrored back, as the
+// right image's map (binding 8 is then the right map). RIGHT_MAP: the diagonal search for the right map.
+layout(constant_id = 8) const bool MIRROR = false;
+layout(constant_id = 9) const bool RIGHT_MAP = true;
 // Walk rows begin .. end - 1 of each pass (x: forward, y: backward; walk row i is image row i forward,
 // height - 1 - i backward).
 layout(push_constant) uniform Params {
@@ -69,6 +74,8 @@ const bool PADDED = D < int(SG) * K;
 bool real(int d) { return !PADDED || d < D; }
 
 uint lane;
+
+int column(int x) { return MIRROR ? pc.width - 1 - x : x; }  // image column of walk column x
 
 uint butterflyMin(uint v) {
   [[unroll]] for (int i = 0; i < LOG2_SG; ++i) v = min(v, subgroupShuffleXor(v, 1u << i));
@@ -187,7 +194,7 @@ void storeGathered(int gathered, int x, bool forward, int row_base, bool is_left
   const bool mine = forward ? int(lane) <= slot : int(lane) >= slot;
   const int at = first + int(lane);
   if (mine && at >= 0 && at < pc.width) {
-    if (is_left) disp_left[row_base + at] = gathered;
+    if (is_left) disp_left[row_base + column(at)] = gathered;
     else disp_right[row_base + at] = gathered;
   }
 }
@@ -197,8 +204,8 @@ void gather(inout int gathered, int x, int v, bool forward, int row_base, bool i
   if (slot == (forward ? int(SG) - 1 : 0)) storeGathered(gathered, x, forward, row_base, is_left);
 }
 
-uint censusRight(int y, int x) { return imageLoad(census_right, y * pc.width + clamp(x, 0, pc.width - 1)).x; }
-uint intensity(int y, int x) { return imageLoad(image_left, y * pc.width + clamp(x, 0, pc.width - 1)).x; }
+uint censusRight(int y, int x) { return imageLoad(census_right, y * pc.width + column(clamp(x, 0, pc.width - 1))).x; }
+uint intensity(int y, int x) { return imageLoad(image_left, y * pc.width + column(clamp(x, 0, pc.width - 1))).x; }
 
 void main() {
   lane = gl_SubgroupInvocationID;
@@ -229,7 +236,7 @@ void main() {
     uint shift[K];
     [[unroll]] for (int k = 0; k < K; ++k) shift[k] = NONE;
     int left = E3D_INVALID, right = E3D_INVALID;
-    if (PHASE == 1) {
+    if (PHASE == 1 && RIGHT_MAP) {
       // Right-image pixels that no left pixel reaches: [0, -d_min - D + 1) and (W - 1 - d_min, W - 1].
       for (int xr = int(lane); xr < min(W, -MIN_DISP - D + 1); xr += int(SG)) disp_right[row_base + xr] = E3D_INVALID;
       for (int xr = max(0, W - MIN_DISP) + int(lane); xr < W; xr += int(SG)) disp_right[row_base + xr] = E3D_INVALID;
@@ -252,7 +259,7 @@ void main() {
         row_here = row_ahead;
         row_ahead = intensity(y_prev, x + step);
       }
-      const uint centre = imageLoad(census_left, y * W + x).x;
+      const uint centre = imageLoad(census_left, y * W + column(x)).x;
       uint cost[K];
       // Disparities beyond the range (padding to whole lanes) cost 255: their path costs stay >= 255 and never
       // win a minimum against real ones (<= 24 + P2).
@@ -316,6 +323,7 @@ void main() {
 
         // Right image: the slots move by one disparity (forward up, backward down), this pixel's costs enter,
         // and slot done_d is complete.
+        if (RIGHT_MAP) {
         const uint from_below = subgroupShuffleUp(shift[K - 1], 1u);
         const uint from_above = subgroupShuffleDown(shift[0], 1u);
         uint moved[K];
@@ -331,6 +339,7 @@ void main() {
         const int xr = x - MIN_DISP - done_d;
         // (xr outside the row: garbage that no store picks up)
         gather(right, xr, rightDisparity(forward ? done_forward : done_backward), forward, row_base, false);
+        }
       }
     }
     if (PHASE == 1) {
@@ -338,11 +347,13 @@ void main() {
       // row is left to contribute).
       const int x_last = x - step;
       storeGathered(left, x_last, forward, row_base, true);
-      storeGathered(right, x_last - MIN_DISP - done_d, forward, row_base, false);
-      [[unroll]] for (int k = 0; k < K; ++k) {
-        const int d = k0 + k;
-        const int xr = x_last - MIN_DISP - d;
-        if (real(d) && d != done_d && xr >= 0 && xr < W) disp_right[row_base + xr] = rightDisparity(shift[k]);
+      if (RIGHT_MAP) {
+        storeGathered(right, x_last - MIN_DISP - done_d, forward, row_base, false);
+        [[unroll]] for (int k = 0; k < K; ++k) {
+          const int d = k0 + k;
+          const int xr = x_last - MIN_DISP - d;
+          if (real(d) && d != done_d && xr >= 0 && xr < W) disp_right[row_base + xr] = rightDisparity(shift[k]);
+        }
       }
     }
   }

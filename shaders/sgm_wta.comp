@@ -9,6 +9,10 @@
 #include "e3d_common.glsl"
 layout(local_size_x_id = 0) in;
 layout(constant_id = 1) const int K = 16;
+// The second match (SgmParams::right_map "match"): its left map is stored mirrored back (binding 5 is then the
+// right map) and no diagonal search runs; RIGHT_MAP: the diagonal search for the right map.
+layout(constant_id = 8) const bool MIRROR = false;
+layout(constant_id = 9) const bool RIGHT_MAP = true;
 #define E3D_MAX_WIDTH 4096
 layout(push_constant) uniform Params {
   int width, height, num_disp, min_disp;
@@ -59,7 +63,7 @@ void main() {
       if (d == best - 1) local_c0 = s[k];
       if (d == best + 1) local_c2 = s[k];
       const int xr = x - pc.min_disp - d;
-      if (xr >= 0 && xr < W) atomicMin(best_right[xr], (s[k] << 8) | uint(d));
+      if (RIGHT_MAP && xr >= 0 && xr < W) atomicMin(best_right[xr], (s[k] << 8) | uint(d));
     }
     const uint second = subgroupMin(local_second);
     const int c0 = int(subgroupMax(local_c0)), c2 = int(subgroupMax(local_c2)), c1 = int(best_cost);
@@ -74,11 +78,11 @@ void main() {
           d16 += num < 0 ? -mag : mag;
         }
       }
-      disp_left[y * W + x] = valid ? d16 : E3D_INVALID;
+      disp_left[y * W + (MIRROR ? W - 1 - x : x)] = valid ? d16 : E3D_INVALID;
     }
   }
   barrier();
-  for (int x = int(lane); x < W; x += int(SG)) {
+  for (int x = int(lane); RIGHT_MAP && x < W; x += int(SG)) {
     const uint key = best_right[x];
     disp_right[y * W + x] = key == 0xFFFFFFFFu ? E3D_INVALID : (pc.min_disp + int(key & 0xFFu)) * 16;
   }

@@ -142,6 +142,25 @@ TEST(StereoMatcher, EqualsReferenceNegativeMinDisparityEightPaths) {
   expectDeviceEqualsReference(left, right, p);
 }
 
+TEST(StereoMatcher, SecondMatchRightToLeftEqualsReference) {
+  cv::Mat left = loadGrey("cones", "left.png")(cv::Rect(20, 30, 300, 200)).clone();
+  cv::Mat right = loadGrey("cones", "right.png")(cv::Rect(20, 30, 300, 200)).clone();
+  SgmParams p;
+  p.num_disparities = 60;
+  p.min_disparity = 3;
+  p.right_map = "match";
+  expectDeviceEqualsReference(left, right, p);
+  // The right map of a second match has subpixel values and mostly agrees with the diagonal search.
+  const cv::Mat matched = sgmReference(left, right, p).right;
+  p.right_map = "diagonal";
+  const cv::Mat diagonal = sgmReference(left, right, p).right;
+  const cv::Mat both = (matched != kInvalidDisparity) & (diagonal != kInvalidDisparity);
+  cv::Mat diff;
+  cv::absdiff(matched, diagonal, diff);
+  EXPECT_GT(cv::countNonZero(both & (diff <= kSubpixelScale)), cv::countNonZero(both) * 8 / 10);
+  EXPECT_GT(cv::countNonZero(both & (diff != 0) & (diff < kSubpixelScale)), 100);
+}
+
 TEST(StereoMatcher, EqualsReferenceWithoutChecks) {
   cv::Mat left = loadGrey("venus", "left.png"), right = loadGrey("venus", "right.png");
   SgmParams p;
@@ -259,6 +278,9 @@ TEST(StereoMatcher, BadInputThrows) {
   EXPECT_THROW(sgmReference(a, a, bad), std::invalid_argument);
   bad = p;
   bad.aggregation = "diagonal";
+  EXPECT_THROW(StereoMatcher(context(), cv::Size(64, 32), bad), std::invalid_argument);
+  bad = p;
+  bad.right_map = "rows";
   EXPECT_THROW(StereoMatcher(context(), cv::Size(64, 32), bad), std::invalid_argument);
   EXPECT_THROW(StereoMatcher(context(), cv::Size(5000, 10), p), std::invalid_argument);
 }

@@ -64,8 +64,8 @@ void Args::checkKnown(const std::vector<std::string>& known) const {
 }
 
 std::vector<std::string> paramKeys() {
-  return {"config",   "num-disparities", "min-disparity", "p1",          "p2",
-          "p2-slope", "paths",           "uniqueness",    "lr-max-diff", "aggregation"};
+  return {"config", "num-disparities", "min-disparity", "p1",          "p2",       "p2-slope",
+          "paths",  "uniqueness",      "lr-max-diff",   "aggregation", "right-map"};
 }
 std::vector<std::string> paramFlags() { return {"no-subpixel", "no-median", "fill"}; }
 
@@ -81,6 +81,7 @@ const char* kParamUsage =
     "    --lr-max-diff PX        < 0 = no left-right check\n"
     "    --no-subpixel --no-median\n"
     "    --fill                  fill invalid pixels from their row neighbours (background)\n"
+    "    --right-map diagonal|match  right map for the check: diagonal search, or a second match right to left\n"
     "    --aggregation auto|rows|lines  how the device walks the paths (same results; auto: rows on a CPU device)\n";
 
 SgmParams paramsFromArgs(const Args& a) {
@@ -97,6 +98,7 @@ SgmParams paramsFromArgs(const Args& a) {
   if (a.has("no-subpixel")) p.subpixel = false;
   if (a.has("no-median")) p.median = false;
   if (a.has("fill")) p.fill_invalid = true;
+  p.right_map = a.get("right-map", p.right_map);
   p.aggregation = a.get("aggregation", p.aggregation);
   p.validate();
   return p;

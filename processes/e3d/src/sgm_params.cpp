@@ -21,6 +21,8 @@ void SgmParams::validate() const {
   if (paths != 8 && paths != 4) fail("paths must be 4 or 8, got " + std::to_string(paths));
   if (uniqueness < 0 || uniqueness > 99) fail("uniqueness must be 0..99 percent");
   if (lr_max_diff > 256) fail("lr_max_diff must be <= 256 (negative disables the check)");
+  if (right_map != "diagonal" && right_map != "match")
+    fail("right_map must be diagonal or match, got '" + right_map + "'");
   if (aggregation != "auto" && aggregation != "rows" && aggregation != "lines")
     fail("aggregation must be auto, rows or lines, got '" + aggregation + "'");
 }
@@ -38,6 +40,7 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   p.median = c.getBool("median", p.median);
   p.lr_max_diff = c.getInt("lr_max_diff", p.lr_max_diff);
   p.fill_invalid = c.getBool("fill_invalid", p.fill_invalid);
+  p.right_map = c.getString("right_map", p.right_map);
   p.aggregation = c.getString("aggregation", p.aggregation);
   try {
     p.validate();
@@ -51,7 +54,8 @@ std::string SgmParams::describe() const {
   std::ostringstream s;
   s << "census5x5 D=" << num_disparities << " dmin=" << min_disparity << " P1=" << p1 << " P2=" << p2
     << " p2_slope=" << p2_slope << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel
-    << " median=" << median << " lr=" << lr_max_diff << " fill=" << fill_invalid << " aggregation=" << aggregation;
+    << " median=" << median << " lr=" << lr_max_diff << " right=" << right_map << " fill=" << fill_invalid
+    << " aggregation=" << aggregation;
   return s.str();
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdlib>
+#include <opencv2/core.hpp>
 #include <stdexcept>
 #include <vector>
 
@@ -60,10 +61,10 @@ cv::Mat census5x5(const cv::Mat& image) {
   return out;
 }
 
-SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& p) {
-  p.validate();
-  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
-    throw std::invalid_argument("sgmReference: need two CV_8UC1 images of the same size");
+namespace {
+
+// Steps 1-5: the left map by winner-takes-all and the right map by the diagonal search, before the median.
+void rawMaps(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, cv::Mat& dl, cv::Mat& dr) {
   const int W = left.cols, H = left.rows, D = p.num_disparities;
   const cv::Mat cl = census5x5(left), cr = census5x5(right);
 
@@ -113,7 +114,8 @@ SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParam
     for (size_t i = 0; i < sum.size(); ++i) sum[i] = static_cast<uint16_t>(sum[i] + path[i]);
   }
 
-  cv::Mat dl(H, W, CV_16S), dr(H, W, CV_16S);
+  dl.create(H, W, CV_16S);
+  dr.create(H, W, CV_16S);
   for (int y = 0; y < H; ++y) {
     std::vector<int> bestRight(W, -1), bestRightCost(W, 0);
     for (int x = 0; x < W; ++x) {
@@ -142,6 +144,26 @@ SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParam
       dr.at<int16_t>(y, xr) = bestRight[xr] < 0
                                   ? kInvalidDisparity
                                   : static_cast<int16_t>((p.min_disparity + bestRight[xr]) * kSubpixelScale);
+  }
+}
+
+}  // namespace
+
+SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& p) {
+  p.validate();
+  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
+    throw std::invalid_argument("sgmReference: need two CV_8UC1 images of the same size");
+  const int W = left.cols, H = left.rows;
+  cv::Mat dl, dr;
+  rawMaps(left, right, p, dl, dr);
+  if (p.right_map == "match") {
+    // The right image's map from a second match, right to left: the mirrored pair (mirrored right image as the
+    // left one) has the same disparities; its left map, mirrored back, is the right map.
+    cv::Mat mirrored_left, mirrored_right, mirrored_map, unused;
+    cv::flip(right, mirrored_left, 1);
+    cv::flip(left, mirrored_right, 1);
+    rawMaps(mirrored_left, mirrored_right, p, mirrored_map, unused);
+    cv::flip(mirrored_map, dr, 1);
   }
 
   if (p.median) {

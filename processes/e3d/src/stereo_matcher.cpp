@@ -47,6 +47,14 @@ struct Binding {
   }
 };
 
+// Specialisation of the matching stages: the phase of the row passes, the mirrored second match, the diagonal
+// search for the right map.
+struct Variant {
+  int phase = 0;
+  bool mirror = false;
+  bool right_map = true;
+};
+
 struct Stage {
   VkDescriptorSetLayout set_layout = VK_NULL_HANDLE;
   VkPipelineLayout layout = VK_NULL_HANDLE;
@@ -80,7 +88,12 @@ struct StereoMatcher::Impl {
   bool has_rect = false;
 
   VkDescriptorPool pool = VK_NULL_HANDLE;
-  Stage census_stage, cost_stage, aggregate_stage, wta_stage, median_stage, lr_stage, fill_stage, rectify_stage;
+  // The matching stages of one match: rows use aggregate (phase 0) and wta (phase 1), lines all three.
+  struct MatchStages {
+    Stage cost, aggregate, wta;
+  };
+  MatchStages left_match, right_match;  // right_match: the mirrored second match (right_map "match")
+  Stage census_stage, median_stage, lr_stage, fill_stage, rectify_stage;
   VkCommandPool cmd_pool = VK_NULL_HANDLE;
   VkCommandBuffer cmd = VK_NULL_HANDLE;
   VkFence fence = VK_NULL_HANDLE;
@@ -130,7 +143,7 @@ struct StereoMatcher::Impl {
   }
 
   Stage createStage(const std::string& shader, const std::vector<Binding>& bindings, uint32_t push_bytes,
-                    bool specialise, int phase = 0) {
+                    bool specialise, Variant variant = {}) {
     Stage st;
     std::vector<VkDescriptorSetLayoutBinding> lb;
     for (const auto& b : bindings) {
@@ -160,20 +173,22 @@ struct StereoMatcher::Impl {
     VkShaderModule module;
     vkCheck(vkCreateShaderModule(dev, &mi, nullptr, &module), "vkCreateShaderModule");
     // Constant ids: 0 subgroup size (= workgroup size), 1 K, 2 num_disparities, 3 paths, 4 log2(subgroup size),
-    // 6 min_disparity, 7 phase of the row passes (5 is unused).
+    // 6 min_disparity, 7 phase of the row passes, 8 mirror, 9 right map (5 is unused).
     int log2_sg = 0;
     while ((1u << (log2_sg + 1)) <= ctx.subgroupSize()) ++log2_sg;
-    const int32_t spec_values[8] = {static_cast<int32_t>(ctx.subgroupSize()),
-                                    lane_disps,
-                                    params.num_disparities,
-                                    params.paths,
-                                    log2_sg,
-                                    0,
-                                    params.min_disparity,
-                                    phase};
-    const VkSpecializationMapEntry entries[8] = {{0, 0, 4},  {1, 4, 4},  {2, 8, 4},  {3, 12, 4},
-                                                 {4, 16, 4}, {5, 20, 4}, {6, 24, 4}, {7, 28, 4}};
-    VkSpecializationInfo spec{8, entries, sizeof(spec_values), spec_values};
+    const int32_t spec_values[10] = {static_cast<int32_t>(ctx.subgroupSize()),
+                                     lane_disps,
+                                     params.num_disparities,
+                                     params.paths,
+                                     log2_sg,
+                                     0,
+                                     params.min_disparity,
+                                     variant.phase,
+                                     variant.mirror ? 1 : 0,
+                                     variant.right_map ? 1 : 0};
+    VkSpecializationMapEntry entries[10];
+    for (uint32_t i = 0; i < 10; ++i) entries[i] = {i, 4 * i, 4};
+    VkSpecializationInfo spec{10, entries, sizeof(spec_values), spec_values};
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -318,9 +333,15 @@ struct StereoMatcher::Impl {
     }
     std::vector<const Buffer*> chunks;
     for (int i = 0; i < kMaxChunks; ++i) chunks.push_back(&volume[std::min<int>(i, num_chunks - 1)]);
-    cost_stage = createStage("cost_census", {{2, {&census[0]}}, {3, {&census[1]}}, {4, chunks}}, 28, true);
-    aggregate_stage = createStage("sgm_aggregate", {{0, {&image[0]}}, {4, chunks}}, 52, true);
-    wta_stage = createStage("sgm_wta", {{4, chunks}, {5, {&disp[0]}}, {6, {&disp[1]}}}, 36, true);
+    const bool second_match = params.right_map == "match";
+    for (int m = 0; m < (second_match ? 2 : 1); ++m) {
+      // The second match reads the images swapped (and mirrored, in the shaders) and its left map is the right one.
+      const Variant variant{0, m == 1, !second_match};
+      MatchStages& st = m == 0 ? left_match : right_match;
+      st.cost = createStage("cost_census", {{2, {&census[m]}}, {3, {&census[1 - m]}}, {4, chunks}}, 28, true, variant);
+      st.aggregate = createStage("sgm_aggregate", {{0, {&image[m]}}, {4, chunks}}, 52, true, variant);
+      st.wta = createStage("sgm_wta", {{4, chunks}, {5, {&disp[m]}}, {6, {&disp[1]}}}, 36, true, variant);
+    }
   }
 
   // Rows: two row passes (forward, backward) with the costs computed on the fly and the winner-takes-all fused in:
@@ -351,18 +372,27 @@ struct StereoMatcher::Impl {
       const uint64_t rows_here = std::min<uint64_t>(rows_per_chunk, H - first_row);
       chunks.push_back({sums.buffer, first_row * sum_row_bytes, rows_here * sum_row_bytes, VK_NULL_HANDLE});
     }
-    const std::vector<Binding> bindings = {{0, createView(image[0], VK_FORMAT_R8_UINT)},
-                                           {1, createView(census[0], VK_FORMAT_R32_UINT)},
-                                           {2, createView(census[1], VK_FORMAT_R32_UINT)},
-                                           {3, createView(scratch, VK_FORMAT_R32G32B32A32_UINT)},
-                                           {4, createView(scratch, VK_FORMAT_R32G32_UINT)},
-                                           {5, {&scratch}},
-                                           {6, chunks},
-                                           {7, createView(sums, VK_FORMAT_R32G32B32A32_UINT)},
-                                           {8, {&disp[0]}},
-                                           {9, {&disp[1]}}};
-    aggregate_stage = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, 0);
-    wta_stage = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, 1);
+    const VkBufferView scratch16 = createView(scratch, VK_FORMAT_R32G32B32A32_UINT);
+    const VkBufferView scratch8 = createView(scratch, VK_FORMAT_R32G32_UINT);
+    const VkBufferView sums_texels = createView(sums, VK_FORMAT_R32G32B32A32_UINT);
+    const bool second_match = params.right_map == "match";
+    for (int m = 0; m < (second_match ? 2 : 1); ++m) {
+      // The second match reads the images swapped (and mirrored, in the shader) and its left map is the right one.
+      const std::vector<Binding> bindings = {{0, createView(image[m], VK_FORMAT_R8_UINT)},
+                                             {1, createView(census[m], VK_FORMAT_R32_UINT)},
+                                             {2, createView(census[1 - m], VK_FORMAT_R32_UINT)},
+                                             {3, scratch16},
+                                             {4, scratch8},
+                                             {5, {&scratch}},
+                                             {6, chunks},
+                                             {7, sums_texels},
+                                             {8, {&disp[m]}},
+                                             {9, {&disp[1]}}};
+      MatchStages& st = m == 0 ? left_match : right_match;
+      st.aggregate =
+          createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, {0, m == 1, !second_match});
+      st.wta = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, {1, m == 1, !second_match});
+    }
   }
 
   // Push constants of sgm_aggregate_rowpass.comp.
@@ -374,7 +404,7 @@ struct StereoMatcher::Impl {
   // Records one phase of the row passes: phase 0 (aggregate_stage) the forward pass on the rows above `split` and
   // the backward pass on the rest, both storing sums; phase 1 (wta_stage) each on the other part, selecting. Each in
   // dispatches of at most kMaxLoopIterations loop iterations per invocation.
-  void recordRowPasses(int phase) {
+  void recordRowPasses(const MatchStages& stages, int phase) {
     const int W = size.width, H = size.height, sg = static_cast<int>(ctx.subgroupSize());
     const int split = H / 2;
     const int row_cost = W + 4 + (std::abs(params.min_disparity) + params.num_disparities) / sg;  // loop iterations
@@ -392,7 +422,7 @@ struct StereoMatcher::Impl {
     // Walk rows (forward: image row i, backward: image row H - 1 - i) of the two phases.
     const int phase_begin[2][2] = {{0, 0}, {split, H - split}};
     const int phase_end[2][2] = {{split, H - split}, {H, H}};
-    const Stage& stage = phase == 0 ? aggregate_stage : wta_stage;
+    const Stage& stage = phase == 0 ? stages.aggregate : stages.wta;
     bind(stage);
     for (int part = 0;; ++part) {
       bool any = false;
@@ -408,11 +438,59 @@ struct StereoMatcher::Impl {
     }
   }
 
+  // Records one match (cost, aggregation, winner-takes-all) with the given stages; `label` prefixes the stage
+  // names of the timing.
+  template <typename Timestamp>
+  void recordMatch(const MatchStages& st, Timestamp& timestamp, const std::string& label) {
+    const int W = size.width, H = size.height;
+    auto stamp = [&](const char* name) { timestamp((label + name).c_str()); };
+    if (rows) {
+      recordRowPasses(st, 0);
+      stamp("aggregate");
+      recordRowPasses(st, 1);
+      stamp("aggregate_select");
+      return;
+    }
+    bind(st.cost);
+    const int32_t pc[7] = {W, H, params.num_disparities, params.min_disparity, params.paths, rows_per_chunk, row_words};
+    push(st.cost, pc);
+    vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
+    barrier(cmd);
+    stamp("cost");
+    bind(st.aggregate);
+    const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
+    for (int r = 0; r < params.paths; ++r) {
+      const int dx = dirs[r][0], dy = dirs[r][1];
+      const int32_t pa[13] = {W,           H,         params.num_disparities, params.min_disparity,
+                              params.p1,   params.p2, params.p2_slope,        r,
+                              dx,          dy,        rows_per_chunk,         row_words,
+                              params.paths};
+      push(st.aggregate, pa);
+      const int lines = dy == 0 ? H : (dx == 0 ? W : W + H - 1);
+      vkCmdDispatch(cmd, static_cast<uint32_t>(lines), 1, 1);
+    }
+    barrier(cmd);
+    stamp("aggregate");
+    bind(st.wta);
+    const int32_t pw[9] = {W,
+                           H,
+                           params.num_disparities,
+                           params.min_disparity,
+                           params.paths,
+                           params.uniqueness,
+                           params.subpixel ? 1 : 0,
+                           rows_per_chunk,
+                           row_words};
+    push(st.wta, pw);
+    vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
+    barrier(cmd);
+    stamp("wta");
+  }
   ~Impl() {
     if (dev == VK_NULL_HANDLE) return;
     vkDeviceWaitIdle(dev);
-    for (Stage* s : {&census_stage, &cost_stage, &aggregate_stage, &wta_stage, &median_stage, &lr_stage, &fill_stage,
-                     &rectify_stage})
+    for (Stage* s : {&census_stage, &left_match.cost, &left_match.aggregate, &left_match.wta, &right_match.cost,
+                     &right_match.aggregate, &right_match.wta, &median_stage, &lr_stage, &fill_stage, &rectify_stage})
       destroyStage(*s);
     if (pool) vkDestroyDescriptorPool(dev, pool, nullptr);
     if (queries) vkDestroyQueryPool(dev, queries, nullptr);
@@ -487,48 +565,8 @@ struct StereoMatcher::Impl {
       barrier(cmd);
       timestamp("census");
     }
-    if (rows) {
-      recordRowPasses(0);
-      timestamp("aggregate");
-      recordRowPasses(1);
-      timestamp("aggregate_select");
-    } else {
-      bind(cost_stage);
-      const int32_t pc[7] = {W,        H, params.num_disparities, params.min_disparity, params.paths, rows_per_chunk,
-                             row_words};
-      push(cost_stage, pc);
-      vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
-      barrier(cmd);
-      timestamp("cost");
-      bind(aggregate_stage);
-      const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
-      for (int r = 0; r < params.paths; ++r) {
-        const int dx = dirs[r][0], dy = dirs[r][1];
-        const int32_t pa[13] = {W,           H,         params.num_disparities, params.min_disparity,
-                                params.p1,   params.p2, params.p2_slope,        r,
-                                dx,          dy,        rows_per_chunk,         row_words,
-                                params.paths};
-        push(aggregate_stage, pa);
-        const int lines = dy == 0 ? H : (dx == 0 ? W : W + H - 1);
-        vkCmdDispatch(cmd, static_cast<uint32_t>(lines), 1, 1);
-      }
-      barrier(cmd);
-      timestamp("aggregate");
-      bind(wta_stage);
-      const int32_t pw[9] = {W,
-                             H,
-                             params.num_disparities,
-                             params.min_disparity,
-                             params.paths,
-                             params.uniqueness,
-                             params.subpixel ? 1 : 0,
-                             rows_per_chunk,
-                             row_words};
-      push(wta_stage, pw);
-      vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
-      barrier(cmd);
-      timestamp("wta");
-    }
+    recordMatch(left_match, timestamp, "");
+    if (params.right_map == "match") recordMatch(right_match, timestamp, "right_");
     if (params.median) {
       bind(median_stage);
       const int32_t pc[2] = {W, H};

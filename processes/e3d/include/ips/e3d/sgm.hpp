@@ -14,7 +14,9 @@
 //     Uniqueness: invalid when min_{|k-k*|>1} S * (100 - uniqueness) < S(k*) * 100.
 //     Subpixel (equiangular, as rSGM): offset = (c0 - c2) / (2 (max(c0, c2) - c1)), rounded to 1/16 px
 //     in integer arithmetic, so the device and the reference agree exactly.
-//  5. Right disparity by the diagonal search in S: d_R(xr) = argmin_k S(xr + min_disparity + k, y, k).
+//  5. Right disparity (right_map "diagonal") by the diagonal search in S: d_R(xr) = argmin_k S(xr + min_disparity
+//     + k, y, k); or (right_map "match") by a second match right to left: steps 1-4 on the mirrored pair (the
+//     mirrored right image as the left one, which keeps the disparities), its left map mirrored back.
 //  6. 3x3 median of both maps (optional; invalid pixels take part as kInvalidDisparity), then the
 //     left-right check: invalid when |d_L(x) - d_R(x - round(d_L(x)))| > lr_max_diff.
 //  7. Optional (fill_invalid): each invalid pixel takes the smaller of the nearest valid disparities left and
@@ -38,14 +40,17 @@ struct SgmParams {
   int num_disparities = 128;  // search range size, 1..256
   int min_disparity = 0;      // smallest disparity searched [px]
   // Defaults: chosen on the six scenes of ../shared/data/stereo (processes/e3d/README.md); one set for all.
-  int p1 = 14;                // penalty for a disparity change of 1 px (census cost units, 0..24)
-  int p2 = 231;               // penalty for larger changes; p2 + 24 <= 255 (path costs fit one byte)
-  int p2_slope = 80;          // adaptive P2: P2' = max(P1, P2 - p2_slope * |dI| / 16); 0 = constant P2
-  int paths = 8;              // 8 or 4 (horizontal + vertical)
-  int uniqueness = 20;        // percent, 0 = off (as OpenCV's uniquenessRatio)
-  bool subpixel = true;       // equiangular interpolation (else integer disparities * 16)
-  bool median = true;         // 3x3 median on both maps before the left-right check
-  int lr_max_diff = 1;        // left-right check tolerance [px]; < 0 = no check
+  int p1 = 14;           // penalty for a disparity change of 1 px (census cost units, 0..24)
+  int p2 = 231;          // penalty for larger changes; p2 + 24 <= 255 (path costs fit one byte)
+  int p2_slope = 80;     // adaptive P2: P2' = max(P1, P2 - p2_slope * |dI| / 16); 0 = constant P2
+  int paths = 8;         // 8 or 4 (horizontal + vertical)
+  int uniqueness = 20;   // percent, 0 = off (as OpenCV's uniquenessRatio)
+  bool subpixel = true;  // equiangular interpolation (else integer disparities * 16)
+  bool median = true;    // 3x3 median on both maps before the left-right check
+  int lr_max_diff = 1;   // left-right check tolerance [px]; < 0 = no check
+  // How the right image's map for the check is found (see 5. above): "diagonal" (a search in the aggregated costs
+  // of the left match, cheap) or "match" (a second match right to left, about twice the time).
+  std::string right_map = "diagonal";
   bool fill_invalid = false;  // fill invalid pixels from their row neighbours (see 7. above)
   // How the device walks the paths (the results are the same): "rows" = two row passes, one per thread (for CPU
   // devices: lavapipe), "lines" = one dispatch per path, one subgroup per image line (for GPUs), "auto" = rows on
