@@ -6,10 +6,11 @@
 // (1,1), (-1,1). Workgroup 1 (the backward pass) walks bottom to top, right to left: (-1,0), (0,-1), (-1,-1),
 // (1,-1). With 4 paths each pass computes its first two. Each pass is one subgroup; lane l owns the disparities
 // l*K .. l*K+K-1 (the libSGM layout), neighbours d+-1 across lanes come from shuffles.
-//  - Matching costs are computed on the fly: C = popcount(census_left(x) ^ census_right(x - d_min - d)); along a
-//    row the right census values slide by one disparity per pixel (one load and one shuffle per pixel).
+//  - Census matching costs are computed on the fly: C = popcount(census_left(x) ^ census_right(x - d_min - d));
+//    along a row the right census values slide by one disparity per pixel (one load and one shuffle per pixel).
+//    The other costs (COST_VOLUME) are read from the cost volume their cost stage wrote (one texel per pixel).
 //  - The horizontal path stays in registers. The three paths that come from the previous row read its path costs
-//    from a scratch buffer (two rows per pass, one byte per disparity: L <= 24 + P2 <= 255) and write the
+//    from a scratch buffer (two rows per pass, one byte per disparity: L <= maxCost + P2 <= 255) and write the
 //    current row's.
 //  - The image is split at row `split`. In the first dispatches (PHASE 0) the forward pass walks the rows above
 //    it and the backward pass the rows below it, each storing the sum of its paths (16 bits per disparity); then
@@ -42,6 +43,9 @@ layout(constant_id = 7) const int PHASE = 0;     // 0: store the sums, 1: add th
 // right image's map (binding 8 is then the right map). RIGHT_MAP: the diagonal search for the right map.
 layout(constant_id = 8) const bool MIRROR = false;
 layout(constant_id = 9) const bool RIGHT_MAP = true;
+// COST_VOLUME: the matching costs (ad, sad, mi) come from the cost volume the cost stage wrote ([y][x][lane][K
+// bytes], in walk coordinates), not from the census codes.
+layout(constant_id = 10) const bool COST_VOLUME = false;
 // Walk rows begin .. end - 1 of each pass (x: forward, y: backward; walk row i is image row i forward,
 // height - 1 - i backward).
 layout(push_constant) uniform Params {
@@ -65,6 +69,8 @@ layout(std430, binding = 6) writeonly buffer Sums16 { uvec4 v[]; } sums16[E3D_MA
 layout(binding = 7, rgba32ui) uniform readonly uimageBuffer sums_read;
 layout(std430, binding = 8) writeonly buffer DispLeft { int disp_left[]; };
 layout(std430, binding = 9) writeonly buffer DispRight { int disp_right[]; };
+layout(binding = 10, rgba32ui) uniform readonly uimageBuffer costs16;
+layout(binding = 11, rg32ui) uniform readonly uimageBuffer costs8;
 
 const bool WIDE = (K % 16) == 0;              // 16-byte scratch accesses, 32-byte sum stores (else 8 and 16)
 const int ROW_DIRS = NUM_PATHS == 8 ? 3 : 1;  // paths that come from the previous row
@@ -133,7 +139,7 @@ void loadScratch(int index8, out uint v[K]) {
 }
 
 uint packBytes(uint a, uint b, uint c, uint d) {
-  // Only padded disparities exceed 255 (real ones: L <= 24 + P2 <= 255).
+  // Only padded disparities exceed 255 (real ones: L <= maxCost + P2 <= 255).
   if (PADDED) return min(a, 255u) | (min(b, 255u) << 8) | (min(c, 255u) << 16) | (min(d, 255u) << 24);
   return a | (b << 8) | (c << 16) | (d << 24);
 }
@@ -226,7 +232,7 @@ void main() {
     int x = forward ? 0 : W - 1;
     // window[k] = census_right(x - d_min - (k0 + k)), x - d clamped into the row as in the reference
     uint window[K];
-    [[unroll]] for (int k = 0; k < K; ++k) window[k] = censusRight(y, x - MIN_DISP - k0 - k);
+    [[unroll]] for (int k = 0; k < K; ++k) window[k] = COST_VOLUME ? 0u : censusRight(y, x - MIN_DISP - k0 - k);
     uint h_prev[K];
     [[unroll]] for (int k = 0; k < K; ++k) h_prev[k] = 0u;
     uint pixel_prev = 0u;
@@ -242,7 +248,7 @@ void main() {
       for (int xr = max(0, W - MIN_DISP) + int(lane); xr < W; xr += int(SG)) disp_right[row_base + xr] = E3D_INVALID;
     }
     for (int j = 0; j < W; ++j, x += step) {
-      if (j > 0) {
+      if (j > 0 && !COST_VOLUME) {
         // The window slides by one disparity: forward (x grew by one) every disparity takes the value of the one
         // below it, backward that of the one above it.
         const uint from_below = subgroupShuffleUp(window[K - 1], 1u);
@@ -255,15 +261,33 @@ void main() {
           slid[k] = forward ? lower : upper;
         }
         [[unroll]] for (int k = 0; k < K; ++k) window[k] = slid[k];
+      }
+      if (j > 0) {
         row_behind = row_here;
         row_here = row_ahead;
         row_ahead = intensity(y_prev, x + step);
       }
-      const uint centre = imageLoad(census_left, y * W + column(x)).x;
       uint cost[K];
-      // Disparities beyond the range (padding to whole lanes) cost 255: their path costs stay >= 255 and never
-      // win a minimum against real ones (<= 24 + P2).
-      [[unroll]] for (int k = 0; k < K; ++k) cost[k] = real(k0 + k) ? uint(bitCount(centre ^ window[k])) : 255u;
+      if (COST_VOLUME) {
+        const int index8 = ((y * W + x) * int(SG) + int(lane)) * (K / 8);
+        if (WIDE) {
+          [[unroll]] for (int q = 0; q < K / 16; ++q) {
+            const uvec4 w = imageLoad(costs16, index8 / 2 + q);
+            [[unroll]] for (int b = 0; b < 16; ++b) cost[16 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
+          }
+        } else {
+          [[unroll]] for (int q = 0; q < K / 8; ++q) {
+            const uvec2 w = imageLoad(costs8, index8 + q).xy;
+            [[unroll]] for (int b = 0; b < 8; ++b) cost[8 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
+          }
+        }
+        // Disparities beyond the range (padding to whole lanes) cost 255: their path costs stay >= 255 and never
+        // win a minimum against real ones (<= maxCost + P2).
+        [[unroll]] for (int k = 0; k < K; ++k) cost[k] = real(k0 + k) ? cost[k] : 255u;
+      } else {
+        const uint centre = imageLoad(census_left, y * W + column(x)).x;
+        [[unroll]] for (int k = 0; k < K; ++k) cost[k] = real(k0 + k) ? uint(bitCount(centre ^ window[k])) : 255u;
+      }
       const uint pixel = intensity(y, x);
 
       uint cur[K], sum[K];

@@ -3,6 +3,8 @@
 // cv::remap, and bad input.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -304,4 +306,128 @@ TEST(StereoMatcher, FillInvalidEqualsReferenceAndLeavesNoHoles) {
   cv::Mat was_valid = unfilled != kInvalidDisparity;
   EXPECT_EQ(cv::countNonZero((gpu.disparity != unfilled) & was_valid), 0);
   EXPECT_GT(cv::countNonZero(unfilled == kInvalidDisparity), 1000);
+}
+
+// ---- Matching costs other than census (ips/e3d/matching_cost.hpp) ----
+
+TEST(MatchingCost, AdAndSadByTheirDefinitions) {
+  cv::Mat left(20, 30, CV_8UC1), right(20, 30, CV_8UC1);
+  cv::RNG rng(3);
+  rng.fill(left, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(right, cv::RNG::UNIFORM, 0, 256);
+  SgmParams p = SgmParams::forCost("ad");
+  p.num_disparities = 6;
+  p.min_disparity = 2;
+  std::vector<uint8_t> ad = costVolume(left, right, p);
+  p.cost = "sad";
+  std::vector<uint8_t> sad = costVolume(left, right, p);
+  auto clampc = [](int v, int hi) { return std::min(std::max(v, 0), hi); };
+  for (int y : {0, 7, 19})
+    for (int x : {0, 1, 5, 29})
+      for (int k = 0; k < 6; ++k) {
+        const int d = 2 + k;
+        const size_t i = (static_cast<size_t>(y) * 30 + x) * 6 + k;
+        EXPECT_EQ(ad[i], std::min(63, std::abs(left.at<uint8_t>(y, x) - right.at<uint8_t>(y, clampc(x - d, 29)))));
+        int sum = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx)
+            sum += std::abs(left.at<uint8_t>(clampc(y + dy, 19), clampc(x + dx, 29)) -
+                            right.at<uint8_t>(clampc(y + dy, 19), clampc(x + dx - d, 29)));
+        EXPECT_EQ(sad[i], std::min(63, (sum + 4) / 9));
+      }
+}
+
+TEST(MatchingCost, Log2InQuarterBitsIsWithinItsResolution) {
+  for (uint64_t v : {1ull, 2ull, 3ull, 255ull, 256ull, 257ull, 1000ull, 65535ull, 123456789ull, 1ull << 40})
+    EXPECT_NEAR(log2q8(v) / 256.0, std::log2(static_cast<double>(v)), 1.0 / 128) << v;
+  EXPECT_EQ(log2q8(1024), 10 * 256);
+}
+
+TEST(MatchingCost, MutualInformationTableFollowsTheGreyMappingOfThePair) {
+  // The right image is the left one darkened (gain 0.5) at disparity 0: the table must be cheapest where the right
+  // grey is half the left grey, which no difference cost would find.
+  cv::Mat left = loadGrey("teddy", "left.png");
+  cv::Mat right;
+  left.convertTo(right, CV_8U, 0.5);
+  const cv::Mat zero(left.size(), CV_16S, cv::Scalar(0));
+  const cv::Mat table = miTable(left, right, zero);
+  int good = 0, rows = 0;
+  for (int i = 40; i < 220; i += 5) {
+    double lowest = 0;
+    cv::Point at;
+    cv::minMaxLoc(table.row(i), &lowest, nullptr, &at, nullptr);
+    ++rows;
+    good += std::abs(at.x - i / 2) <= 2;
+    // A right grey that occurs (the right image reaches 127), but never with this left grey, costs far more.
+    if (i / 2 + 40 <= 120) EXPECT_GE(table.at<uint8_t>(i, i / 2 + 40), table.at<uint8_t>(i, i / 2) + 20) << i;
+  }
+  EXPECT_GT(good, rows * 9 / 10);
+  // With no matched pixel at all, a uniform table.
+  const cv::Mat none(left.size(), CV_16S, cv::Scalar(kInvalidDisparity));
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(miTable(left, right, none), &lo, &hi);
+  EXPECT_EQ(lo, hi);
+}
+
+TEST(StereoMatcher, AdAndSadEqualReference) {
+  cv::Mat left = loadGrey("cones", "left.png")(cv::Rect(60, 40, 240, 150)).clone();
+  cv::Mat right = loadGrey("cones", "right.png")(cv::Rect(60, 40, 240, 150)).clone();
+  for (const char* cost : {"ad", "sad"}) {
+    SgmParams p = SgmParams::forCost(cost);
+    p.num_disparities = 56;
+    p.min_disparity = 2;
+    expectDeviceEqualsReference(left, right, p);
+    p.right_map = "match";
+    p.paths = 4;
+    expectDeviceEqualsReference(left, right, p);
+  }
+}
+
+TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
+  cv::Mat left = loadGrey("teddy", "left.png")(cv::Rect(30, 50, 300, 180)).clone();
+  cv::Mat right = loadGrey("teddy", "right.png")(cv::Rect(30, 50, 300, 180)).clone();
+  SgmParams p = SgmParams::forCost("mi");
+  p.num_disparities = 60;
+  p.mi_levels = 3;
+  expectDeviceEqualsReference(left, right, p);
+  p.mi_levels = 1;  // the full resolution only, learning from the start disparity and then from itself
+  p.mi_coarse_iterations = 3;
+  p.right_map = "match";
+  p.fill_invalid = true;
+  expectDeviceEqualsReference(left, right, p);
+}
+
+TEST(StereoMatcher, MutualInformationAndCensusHoldWhereTheRightImageIsDarkerAndAdDoesNot) {
+  // Radiometric robustness, the reason MI and census exist: gain 0.6 and gamma 1.3 on the right image.
+  cv::Mat left = loadGrey("cones", "left.png"), right = loadGrey("cones", "right.png");
+  cv::Mat changed(right.size(), CV_8UC1);
+  for (int y = 0; y < right.rows; ++y)
+    for (int x = 0; x < right.cols; ++x)
+      changed.at<uint8_t>(y, x) =
+          cv::saturate_cast<uint8_t>(0.6 * 255.0 * std::pow(right.at<uint8_t>(y, x) / 255.0, 1.3));
+  cv::Mat gt = cv::imread(std::string(IPS_DATA_DIR) + "/stereo/cones/disp_gt.png", cv::IMREAD_GRAYSCALE);
+  auto bad2 = [&](const cv::Mat& d16) {
+    int bad = 0, n = 0;
+    for (int y = 0; y < gt.rows; ++y)
+      for (int x = 0; x < gt.cols; ++x) {
+        if (gt.at<uint8_t>(y, x) == 0) continue;
+        ++n;
+        const int v = d16.at<int16_t>(y, x);
+        bad += v == kInvalidDisparity || std::abs(v / 16.0 - gt.at<uint8_t>(y, x) / 4.0) > 2.0;
+      }
+    return 100.0 * bad / n;
+  };
+  std::map<std::string, double> growth;
+  for (const char* cost : {"census", "mi", "ad"}) {
+    SgmParams p = SgmParams::forCost(cost);
+    p.num_disparities = 64;
+    p.fill_invalid = true;
+    StereoMatcher matcher(context(), left.size(), p);
+    const double before = bad2(matcher.match(left, right).disparity);
+    const double after = bad2(matcher.match(left, changed).disparity);
+    growth[cost] = after - before;
+  }
+  EXPECT_LT(growth["census"], 2.0);
+  EXPECT_LT(growth["mi"], 3.0);
+  EXPECT_GT(growth["ad"], 10.0);
 }

@@ -3,12 +3,16 @@
 // evaluated pixels (pixels without a disparity count as bad), mean absolute error of the valid disparities
 // (all region), density; writes colour-mapped disparity PNGs.
 //   e3d_eval [--data DIR] [--scenes a,b,..] [--out-dir DIR] [--opencv] [--device D] [SGM options]
+//   e3d_eval --radiometric [--costs census,ad,sad,mi] [...]: the right image changed before matching (gain 0.7,
+//       offset +30, gamma 1.5, vignetting 40 % at the corners); bad 2.0 (nonocc) of each cost and change, each cost
+//       with its own penalties (SgmParams::forCost) and the other options as given.
 // The search range is the scene's num_disparities unless --num-disparities is given.
 #include <dirent.h>
 
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -139,21 +143,88 @@ void printRow(const std::string& scene, const std::string& method, const Scores&
   std::cout << std::setw(7) << r.mean_error << std::setw(8) << r.density << "\n";
 }
 
+// The right image as another camera or exposure would see it: the radiometric changes of --radiometric.
+const char* const kChanges[] = {"none", "gain", "offset", "gamma", "vignetting"};
+
+cv::Mat changeRadiometry(const cv::Mat& image, const std::string& change) {
+  cv::Mat out(image.size(), CV_8UC1);
+  const double cx = (image.cols - 1) / 2.0, cy = (image.rows - 1) / 2.0, r2max = cx * cx + cy * cy;
+  for (int y = 0; y < image.rows; ++y)
+    for (int x = 0; x < image.cols; ++x) {
+      const double v = image.at<uint8_t>(y, x);
+      double w = v;
+      if (change == "gain") w = 0.7 * v;
+      if (change == "offset") w = v + 30;
+      if (change == "gamma") w = 255.0 * std::pow(v / 255.0, 1.5);
+      if (change == "vignetting") w = v * (1.0 - 0.4 * ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / r2max);
+      out.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(w);
+    }
+  return out;
+}
+
+// --radiometric: bad 2.0 (nonocc) of each cost under each change of the right image.
+int radiometricTable(const std::vector<std::string>& names, const std::string& data, const SgmParams& base,
+                     const Args& args, VulkanContext& ctx) {
+  std::vector<std::string> costs = {"census", "ad", "sad", "mi"};
+  if (args.has("costs")) {
+    costs.clear();
+    std::stringstream ss(args.get("costs", ""));
+    for (std::string c; std::getline(ss, c, ',');) costs.push_back(c);
+  }
+  std::cout << "bad 2.0 % (nonocc, invalid counted as bad) with the right image changed\n"
+            << std::left << std::setw(18) << "scene" << std::setw(8) << "cost" << std::right;
+  for (const char* c : kChanges) std::cout << std::setw(11) << c;
+  std::cout << "\n";
+  std::map<std::string, std::vector<double>> sums;
+  for (const auto& name : names) {
+    Scene s = loadScene(data + "/" + name);
+    for (const auto& cost : costs) {
+      SgmParams p = base;
+      const SgmParams penalties = SgmParams::forCost(cost);
+      p.cost = cost;
+      p.p1 = penalties.p1;
+      p.p2 = penalties.p2;
+      p.p2_slope = penalties.p2_slope;
+      if (!args.has("num-disparities")) p.num_disparities = s.num_disparities;
+      StereoMatcher matcher(ctx, s.left.size(), p);
+      std::cout << std::left << std::setw(18) << name << std::setw(8) << cost << std::right << std::fixed
+                << std::setprecision(2);
+      auto& sum = sums[cost];
+      sum.resize(std::size(kChanges), 0.0);
+      for (size_t c = 0; c < std::size(kChanges); ++c) {
+        const cv::Mat right = changeRadiometry(s.right, kChanges[c]);
+        const Scores e = score(s, disparityToFloat(matcher.match(s.left, right).disparity));
+        std::cout << std::setw(11) << e.bad_nonocc[2];
+        sum[c] += e.bad_nonocc[2];
+      }
+      std::cout << "\n";
+    }
+  }
+  for (const auto& cost : costs) {
+    std::cout << std::left << std::setw(18) << "average" << std::setw(8) << cost << std::right;
+    for (double v : sums[cost]) std::cout << std::setw(11) << v / names.size();
+    std::cout << "\n";
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   try {
     std::vector<std::string> flags = paramFlags();
     flags.push_back("opencv");
+    flags.push_back("radiometric");
     flags.push_back("help");
     Args args(argc, argv, flags);
     if (args.has("help")) {
       std::cout << "usage: e3d_eval [--data DIR] [--scenes a,b] [--out-dir DIR] [--opencv] [--device D]\n"
+                << "       e3d_eval --radiometric [--costs census,ad,sad,mi] [...]\n"
                 << kParamUsage;
       return 0;
     }
     std::vector<std::string> known = paramKeys();
-    for (const char* k : {"data", "scenes", "out-dir", "device"}) known.push_back(k);
+    for (const char* k : {"data", "scenes", "out-dir", "device", "costs"}) known.push_back(k);
     for (const auto& f : flags) known.push_back(f);
     args.checkKnown(known);
     const std::string data = args.get("data", std::string(IPS_DATA_DIR) + "/stereo");
@@ -172,6 +243,7 @@ int main(int argc, char** argv) {
     const std::string out_dir = args.get("out-dir", "");
     const SgmParams base = paramsFromArgs(args);
     VulkanContext ctx(args.get("device", ""));
+    if (args.has("radiometric")) return radiometricTable(names, data, base, args, ctx);
     std::cout << "E3D: " << base.describe() << " (num_disparities per scene unless given)\n";
     std::cout << std::left << std::setw(18) << "scene" << std::setw(8) << "method" << std::right
               << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density\n";

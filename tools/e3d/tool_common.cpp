@@ -64,17 +64,19 @@ void Args::checkKnown(const std::vector<std::string>& known) const {
 }
 
 std::vector<std::string> paramKeys() {
-  return {"config", "num-disparities", "min-disparity", "p1",          "p2",       "p2-slope",
-          "paths",  "uniqueness",      "lr-max-diff",   "aggregation", "right-map"};
+  return {"config", "cost",       "num-disparities", "min-disparity", "p1",        "p2",        "p2-slope",
+          "paths",  "uniqueness", "lr-max-diff",     "aggregation",   "right-map", "mi-levels", "mi-coarse-iterations"};
 }
 std::vector<std::string> paramFlags() { return {"no-subpixel", "no-median", "fill"}; }
 
 const char* kParamUsage =
     "  SGM options (defaults: config/e3d.yaml values, see processes/e3d/README.md):\n"
     "    --config FILE           YAML with a section 'sgm' (SgmParams keys)\n"
+    "    --cost census|ad|sad|mi matching cost (another cost than the config's takes that cost's penalties)\n"
+    "    --mi-levels N --mi-coarse-iterations N   the Mutual Information hierarchy (default 5, 2)\n"
     "    --num-disparities N     1..256\n"
     "    --min-disparity N\n"
-    "    --p1 N --p2 N           penalties (census cost units; p2 + 24 <= 255)\n"
+    "    --p1 N --p2 N           penalties in cost units (p2 + the cost's maximum, 24 or 63, <= 255)\n"
     "    --p2-slope N            adaptive P2 = max(P1, P2 - N*|dI|/16), 0 = off\n"
     "    --paths 8|4\n"
     "    --uniqueness PERCENT    0 = off\n"
@@ -87,6 +89,15 @@ const char* kParamUsage =
 SgmParams paramsFromArgs(const Args& a) {
   SgmParams p;
   if (a.has("config")) p = SgmParams::fromConfig(Config(a.get("config", "")).section("sgm"));
+  if (a.has("cost") && a.get("cost", "") != p.cost) {
+    const SgmParams penalties = SgmParams::forCost(a.get("cost", ""));
+    p.cost = penalties.cost;
+    p.p1 = penalties.p1;
+    p.p2 = penalties.p2;
+    p.p2_slope = penalties.p2_slope;
+  }
+  p.mi_levels = a.getInt("mi-levels", p.mi_levels);
+  p.mi_coarse_iterations = a.getInt("mi-coarse-iterations", p.mi_coarse_iterations);
   p.num_disparities = a.getInt("num-disparities", p.num_disparities);
   p.min_disparity = a.getInt("min-disparity", p.min_disparity);
   p.p1 = a.getInt("p1", p.p1);

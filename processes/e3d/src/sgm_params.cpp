@@ -15,8 +15,17 @@ void SgmParams::validate() const {
   if (min_disparity < -4096 || min_disparity > 4096) fail("min_disparity out of range -4096..4096");
   if (p1 < 0 || p1 > 255) fail("p1 must be 0..255, got " + std::to_string(p1));
   if (p2 < p1) fail("p2 must be >= p1 (p1=" + std::to_string(p1) + ", p2=" + std::to_string(p2) + ")");
-  if (p2 + kCensusMaxCost > 255)
-    fail("p2 + 24 must be <= 255 (path costs are kept in one byte), got p2=" + std::to_string(p2));
+  int max_cost = 0;
+  try {
+    max_cost = maxCost(cost);
+  } catch (const std::invalid_argument& e) {
+    fail(e.what());
+  }
+  if (p2 + max_cost > 255)
+    fail("p2 + " + std::to_string(max_cost) + " must be <= 255 for cost " + cost +
+         " (path costs are kept in one byte), got p2=" + std::to_string(p2));
+  if (mi_levels < 1 || mi_levels > 8) fail("mi_levels must be 1..8");
+  if (mi_coarse_iterations < 1 || mi_coarse_iterations > 8) fail("mi_coarse_iterations must be 1..8");
   if (p2_slope < 0 || p2_slope > 4096) fail("p2_slope must be 0..4096");
   if (paths != 8 && paths != 4) fail("paths must be 4 or 8, got " + std::to_string(paths));
   if (uniqueness < 0 || uniqueness > 99) fail("uniqueness must be 0..99 percent");
@@ -27,8 +36,25 @@ void SgmParams::validate() const {
     fail("aggregation must be auto, rows or lines, got '" + aggregation + "'");
 }
 
+SgmParams SgmParams::forCost(const std::string& cost) {
+  SgmParams p;
+  p.cost = cost;
+  if (cost == "census") return p;
+  maxCost(cost);  // throws for an unknown name
+  // Costs 0..63 (grey levels, or quarter bits for mi); chosen like the census ones (processes/e3d/README.md).
+  p.p1 = 7;
+  p.p2 = 96;
+  p.p2_slope = 40;
+  return p;
+}
+
 SgmParams SgmParams::fromConfig(const Config& c) {
   SgmParams p;
+  try {
+    p = forCost(c.getString("cost", "census"));
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(c.path() + ": " + e.what());
+  }
   p.num_disparities = c.getInt("num_disparities", p.num_disparities);
   p.min_disparity = c.getInt("min_disparity", p.min_disparity);
   p.p1 = c.getInt("p1", p.p1);
@@ -41,6 +67,8 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   p.lr_max_diff = c.getInt("lr_max_diff", p.lr_max_diff);
   p.fill_invalid = c.getBool("fill_invalid", p.fill_invalid);
   p.right_map = c.getString("right_map", p.right_map);
+  p.mi_levels = c.getInt("mi_levels", p.mi_levels);
+  p.mi_coarse_iterations = c.getInt("mi_coarse_iterations", p.mi_coarse_iterations);
   p.aggregation = c.getString("aggregation", p.aggregation);
   try {
     p.validate();
@@ -52,10 +80,11 @@ SgmParams SgmParams::fromConfig(const Config& c) {
 
 std::string SgmParams::describe() const {
   std::ostringstream s;
-  s << "census5x5 D=" << num_disparities << " dmin=" << min_disparity << " P1=" << p1 << " P2=" << p2
-    << " p2_slope=" << p2_slope << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel
-    << " median=" << median << " lr=" << lr_max_diff << " right=" << right_map << " fill=" << fill_invalid
-    << " aggregation=" << aggregation;
+  s << cost;
+  if (cost == "mi") s << " levels=" << mi_levels << "x" << mi_coarse_iterations;
+  s << " D=" << num_disparities << " dmin=" << min_disparity << " P1=" << p1 << " P2=" << p2 << " p2_slope=" << p2_slope
+    << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel << " median=" << median
+    << " lr=" << lr_max_diff << " right=" << right_map << " fill=" << fill_invalid << " aggregation=" << aggregation;
   return s.str();
 }
 

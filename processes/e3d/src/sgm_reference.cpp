@@ -42,42 +42,12 @@ cv::Mat median3x3(const cv::Mat& in) {
 
 }  // namespace
 
-cv::Mat census5x5(const cv::Mat& image) {
-  if (image.empty() || image.type() != CV_8UC1) throw std::invalid_argument("census5x5: need a CV_8UC1 image");
-  const int W = image.cols, H = image.rows;
-  cv::Mat out(image.size(), CV_32S);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) {
-      const int c = image.at<uint8_t>(y, x);
-      uint32_t code = 0;
-      for (int dy = -2; dy <= 2; ++dy)
-        for (int dx = -2; dx <= 2; ++dx) {
-          if (dx == 0 && dy == 0) continue;
-          const int q = image.at<uint8_t>(clampi(y + dy, 0, H - 1), clampi(x + dx, 0, W - 1));
-          code = (code << 1) | (q < c ? 1u : 0u);
-        }
-      out.at<int32_t>(y, x) = static_cast<int32_t>(code);
-    }
-  return out;
-}
-
 namespace {
 
-// Steps 1-5: the left map by winner-takes-all and the right map by the diagonal search, before the median.
-void rawMaps(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, cv::Mat& dl, cv::Mat& dr) {
+// Steps 3-5: from the matching costs [y][x][k], the left map by winner-takes-all and the right map by the
+// diagonal search, before the median.
+void rawMaps(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& p, cv::Mat& dl, cv::Mat& dr) {
   const int W = left.cols, H = left.rows, D = p.num_disparities;
-  const cv::Mat cl = census5x5(left), cr = census5x5(right);
-
-  // Matching costs, [y][x][k].
-  std::vector<uint8_t> cost(static_cast<size_t>(W) * H * D);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
-      for (int k = 0; k < D; ++k) {
-        const int xr = clampi(x - (p.min_disparity + k), 0, W - 1);
-        const uint32_t a = static_cast<uint32_t>(cl.at<int32_t>(y, x));
-        const uint32_t b = static_cast<uint32_t>(cr.at<int32_t>(y, xr));
-        cost[(static_cast<size_t>(y) * W + x) * D + k] = static_cast<uint8_t>(__builtin_popcount(a ^ b));
-      }
 
   std::vector<uint16_t> sum(cost.size(), 0);
   std::vector<int> path(cost.size());
@@ -147,22 +117,54 @@ void rawMaps(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, cv::
   }
 }
 
-}  // namespace
+// The parameters of pyramid level l (0 = full resolution) of the Mutual Information hierarchy: the level's
+// search range (the tables learn from the checked maps, before any fill).
+SgmParams levelParams(const SgmParams& p, int level) {
+  SgmParams lp = p;
+  levelRange(p.min_disparity, p.num_disparities, level, lp.min_disparity, lp.num_disparities);
+  return lp;
+}
 
-SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& p) {
-  p.validate();
-  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
-    throw std::invalid_argument("sgmReference: need two CV_8UC1 images of the same size");
+// Step 7: each invalid pixel takes the smaller (background) of the nearest valid disparities on its row.
+void fillInvalid(cv::Mat& dl) {
+  const int W = dl.cols, H = dl.rows;
+  for (int y = 0; y < H; ++y) {
+    const cv::Mat row = dl.row(y).clone();
+    std::vector<int> next_valid(W, kInvalidDisparity);
+    int next = kInvalidDisparity;
+    for (int x = W - 1; x >= 0; --x) {
+      if (row.at<int16_t>(x) != kInvalidDisparity) next = row.at<int16_t>(x);
+      next_valid[x] = next;
+    }
+    int last = kInvalidDisparity;
+    for (int x = 0; x < W; ++x) {
+      const int d = row.at<int16_t>(x);
+      if (d != kInvalidDisparity) {
+        last = d;
+      } else if (last != kInvalidDisparity) {
+        dl.at<int16_t>(y, x) =
+            static_cast<int16_t>(next_valid[x] == kInvalidDisparity ? last : std::min(last, next_valid[x]));
+      } else {
+        dl.at<int16_t>(y, x) = static_cast<int16_t>(next_valid[x]);
+      }
+    }
+  }
+}
+
+// One match with a given Mutual Information table (ignored by the other costs): steps 3-6 (no fill).
+SgmResult matchWithTable(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, const cv::Mat& mi_table) {
   const int W = left.cols, H = left.rows;
   cv::Mat dl, dr;
-  rawMaps(left, right, p, dl, dr);
+  rawMaps(left, costVolume(left, right, p, mi_table), p, dl, dr);
   if (p.right_map == "match") {
     // The right image's map from a second match, right to left: the mirrored pair (mirrored right image as the
-    // left one) has the same disparities; its left map, mirrored back, is the right map.
-    cv::Mat mirrored_left, mirrored_right, mirrored_map, unused;
+    // left one) has the same disparities; its left map, mirrored back, is the right map. The Mutual Information
+    // table of the swapped pair is the transposed one.
+    cv::Mat mirrored_left, mirrored_right, mirrored_map, unused, swapped_table;
     cv::flip(right, mirrored_left, 1);
     cv::flip(left, mirrored_right, 1);
-    rawMaps(mirrored_left, mirrored_right, p, mirrored_map, unused);
+    if (!mi_table.empty()) cv::transpose(mi_table, swapped_table);
+    rawMaps(mirrored_left, costVolume(mirrored_left, mirrored_right, p, swapped_table), p, mirrored_map, unused);
     cv::flip(mirrored_map, dr, 1);
   }
 
@@ -184,30 +186,41 @@ SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParam
         if (r == kInvalidDisparity || std::abs(int(d) - int(r)) > p.lr_max_diff * kSubpixelScale) d = kInvalidDisparity;
       }
   }
-  if (p.fill_invalid) {
-    for (int y = 0; y < H; ++y) {
-      const cv::Mat row = dl.row(y).clone();
-      std::vector<int> next_valid(W, kInvalidDisparity);
-      int next = kInvalidDisparity;
-      for (int x = W - 1; x >= 0; --x) {
-        if (row.at<int16_t>(x) != kInvalidDisparity) next = row.at<int16_t>(x);
-        next_valid[x] = next;
-      }
-      int last = kInvalidDisparity;
-      for (int x = 0; x < W; ++x) {
-        const int d = row.at<int16_t>(x);
-        if (d != kInvalidDisparity) {
-          last = d;
-        } else if (last != kInvalidDisparity) {
-          dl.at<int16_t>(y, x) =
-              static_cast<int16_t>(next_valid[x] == kInvalidDisparity ? last : std::min(last, next_valid[x]));
-        } else {
-          dl.at<int16_t>(y, x) = static_cast<int16_t>(next_valid[x]);
-        }
-      }
-    }
-  }
   return {dl, dr};
+}
+
+}  // namespace
+
+SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& p) {
+  p.validate();
+  if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
+    throw std::invalid_argument("sgmReference: need two CV_8UC1 images of the same size");
+  if (p.cost != "mi") {
+    SgmResult result = matchWithTable(left, right, p, cv::Mat());
+    if (p.fill_invalid) fillInvalid(result.left);
+    return result;
+  }
+  // Mutual Information, hierarchically: the pyramid, the coarsest level from the start disparity (repeatedly),
+  // then each finer level from the checked left map of the level below, doubled.
+  std::vector<cv::Mat> lefts{left}, rights{right};
+  for (int l = 1; l < p.mi_levels; ++l) {
+    lefts.push_back(halfSize(lefts.back()));
+    rights.push_back(halfSize(rights.back()));
+  }
+  cv::Mat guide;  // the disparity the next table learns from, at the next level's resolution
+  SgmResult result;
+  for (int l = p.mi_levels - 1; l >= 0; --l) {
+    SgmParams lp = levelParams(p, l);
+    const int iterations = l == p.mi_levels - 1 ? p.mi_coarse_iterations : 1;
+    if (l == p.mi_levels - 1) guide = miStartDisparity(lefts[l].size(), lp.min_disparity, lp.num_disparities);
+    for (int it = 0; it < iterations; ++it) {
+      result = matchWithTable(lefts[l], rights[l], lp, miTable(lefts[l], rights[l], guide));
+      guide = result.left;
+    }
+    if (l > 0) guide = doubleDisparity(result.left, lefts[l - 1].size());
+  }
+  if (p.fill_invalid) fillInvalid(result.left);
+  return result;
 }
 
 }  // namespace e3d

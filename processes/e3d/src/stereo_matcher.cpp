@@ -14,7 +14,7 @@ namespace {
 
 constexpr int kMaxChunks = 24;   // E3D_MAX_CHUNKS in shaders/e3d_common.glsl
 constexpr int kMaxWidth = 4096;  // E3D_MAX_WIDTH in shaders/sgm_wta.comp
-constexpr uint32_t kMaxTimestamps = 16;
+constexpr uint32_t kMaxTimestamps = 32;
 // lavapipe (gallivm) ends a shader invocation after 65535 loop iterations counted over all its loops; shaders that
 // walk far are dispatched in parts that stay below this (with a margin for loops the compiler does not unroll).
 constexpr int kMaxLoopIterations = 60000;
@@ -27,11 +27,12 @@ struct Buffer {
   void* mapped = nullptr;
 };
 
-// One descriptor: a storage buffer (a range of `buffer`) or a storage texel buffer (`view`).
+// One descriptor: a storage (or uniform) buffer (a range of `buffer`) or a storage texel buffer (`view`).
 struct Descriptor {
   VkBuffer buffer = VK_NULL_HANDLE;
   VkDeviceSize offset = 0, range = VK_WHOLE_SIZE;
   VkBufferView view = VK_NULL_HANDLE;
+  bool uniform = false;
 };
 
 struct Binding {
@@ -42,8 +43,12 @@ struct Binding {
   }
   Binding(uint32_t b, std::vector<Descriptor> descriptors) : binding(b), items(std::move(descriptors)) {}
   Binding(uint32_t b, VkBufferView view) : binding(b), items{{VK_NULL_HANDLE, 0, 0, view}} {}
+  static Binding uniformBuffer(uint32_t b, const Buffer& buf) {
+    return Binding(b, std::vector<Descriptor>{{buf.buffer, 0, VK_WHOLE_SIZE, VK_NULL_HANDLE, true}});
+  }
   VkDescriptorType type() const {
-    return items.front().view ? VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+    if (items.front().view) return VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
+    return items.front().uniform ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
   }
 };
 
@@ -53,6 +58,7 @@ struct Variant {
   int phase = 0;
   bool mirror = false;
   bool right_map = true;
+  bool cost_volume = false;  // the row passes read the costs from the cost volume (not census on the fly)
 };
 
 struct Stage {
@@ -78,8 +84,19 @@ struct StereoMatcher::Impl {
   size_t memory_bytes = 0;
 
   Buffer image[2], census[2], disp[2], median[2], final_disp, filled_disp;
-  std::vector<Buffer> volume;  // lines: path-cost volume split over buffers
-  Buffer scratch, sums;        // rows: two rows of path costs per pass, the sums of both passes
+  std::vector<Buffer> volume;           // lines: path-cost volume split over buffers
+  Buffer scratch, sums;                 // rows: two rows of path costs per pass, the sums of both passes
+  Buffer costs;                         // rows, costs other than census: the cost volume
+  std::vector<Descriptor> cost_chunks;  // where the cost stages write (rows: costs, lines: the volume's cost slice)
+  int cost_base_row = 0, cost_rows_per_chunk = 0, cost_row_words = 0;
+  VkBufferView cost_views[2] = {};  // rows: the cost volume as 16- and 8-byte texels
+  // Mutual Information: the histogram (65536 bins + count), the table, work space, the log2 fractions; the
+  // coarser levels of the hierarchy (levels[0]: half size, ...), each a matcher of its own that records into this
+  // one's command buffer; a level reads the images of the level above it (downsample).
+  Buffer mi_histogram, mi_table_buffer, mi_work64, mi_work32, mi_log2;
+  Stage mi_start_histogram, mi_guided_histogram, mi_table_stage, downsample_stage;
+  std::vector<std::unique_ptr<Impl>> levels;
+  bool is_level = false;  // a coarser level: no command buffer of its own
   std::vector<VkBufferView> views;
   VkBufferView image_left_view = VK_NULL_HANDLE, census_views[2] = {}, scratch_views[2] = {},
                sums_view = VK_NULL_HANDLE;
@@ -106,7 +123,8 @@ struct StereoMatcher::Impl {
     b.size = std::max<VkDeviceSize>(bytes, 4);
     VkBufferCreateInfo bi{VK_STRUCTURE_TYPE_BUFFER_CREATE_INFO};
     bi.size = b.size;
-    bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT;
+    bi.usage = VK_BUFFER_USAGE_STORAGE_BUFFER_BIT | VK_BUFFER_USAGE_STORAGE_TEXEL_BUFFER_BIT |
+               VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT | VK_BUFFER_USAGE_TRANSFER_DST_BIT;
     bi.sharingMode = VK_SHARING_MODE_EXCLUSIVE;
     vkCheck(vkCreateBuffer(dev, &bi, nullptr, &b.buffer), "vkCreateBuffer");
     VkMemoryRequirements req;
@@ -173,10 +191,10 @@ struct StereoMatcher::Impl {
     VkShaderModule module;
     vkCheck(vkCreateShaderModule(dev, &mi, nullptr, &module), "vkCreateShaderModule");
     // Constant ids: 0 subgroup size (= workgroup size), 1 K, 2 num_disparities, 3 paths, 4 log2(subgroup size),
-    // 6 min_disparity, 7 phase of the row passes, 8 mirror, 9 right map (5 is unused).
+    // 6 min_disparity, 7 phase of the row passes, 8 mirror, 9 right map, 10 cost volume (5 is unused).
     int log2_sg = 0;
     while ((1u << (log2_sg + 1)) <= ctx.subgroupSize()) ++log2_sg;
-    const int32_t spec_values[10] = {static_cast<int32_t>(ctx.subgroupSize()),
+    const int32_t spec_values[11] = {static_cast<int32_t>(ctx.subgroupSize()),
                                      lane_disps,
                                      params.num_disparities,
                                      params.paths,
@@ -185,10 +203,11 @@ struct StereoMatcher::Impl {
                                      params.min_disparity,
                                      variant.phase,
                                      variant.mirror ? 1 : 0,
-                                     variant.right_map ? 1 : 0};
-    VkSpecializationMapEntry entries[10];
-    for (uint32_t i = 0; i < 10; ++i) entries[i] = {i, 4 * i, 4};
-    VkSpecializationInfo spec{10, entries, sizeof(spec_values), spec_values};
+                                     variant.right_map ? 1 : 0,
+                                     variant.cost_volume ? 1 : 0};
+    VkSpecializationMapEntry entries[11];
+    for (uint32_t i = 0; i < 11; ++i) entries[i] = {i, 4 * i, 4};
+    VkSpecializationInfo spec{11, entries, sizeof(spec_values), spec_values};
     VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
     ci.stage.sType = VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO;
     ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
@@ -264,12 +283,13 @@ struct StereoMatcher::Impl {
     final_disp = createBuffer(pixels * 4, true);
     filled_disp = createBuffer(pixels * 4, true);
 
-    VkDescriptorPoolSize ps[2] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 4 * kMaxChunks + 32},
-                                  {VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 16}};
+    VkDescriptorPoolSize ps[3] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 10 * kMaxChunks + 64},
+                                  {VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, 48},
+                                  {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 4}};
     VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     pi.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
-    pi.maxSets = 10;
-    pi.poolSizeCount = 2;
+    pi.maxSets = 24;
+    pi.poolSizeCount = 3;
     pi.pPoolSizes = ps;
     vkCheck(vkCreateDescriptorPool(dev, &pi, nullptr, &pool), "vkCreateDescriptorPool");
 
@@ -279,15 +299,19 @@ struct StereoMatcher::Impl {
                                         createView(disp[1], VK_FORMAT_R32_SINT)};
     census_stage = createStage(
         "census5x5", {{0, image_words[0]}, {1, image_words[1]}, {2, {&census[0]}}, {3, {&census[1]}}}, 8, false);
+    if (params.cost == "mi") initMutualInformation(image_words);
     if (rows)
       initRows();
     else
       initLines();
+    if (params.cost != "census") initCostStages(image_words);
     median_stage = createStage(
         "median3x3", {{0, disp_views[0]}, {1, disp_views[1]}, {2, {&median[0]}}, {3, {&median[1]}}}, 8, false);
     const Buffer* lr_in = params.median ? median : disp;
     lr_stage = createStage("lr_check", {{0, {&lr_in[0]}}, {1, {&lr_in[1]}}, {2, {&final_disp}}}, 12, false);
     fill_stage = createStage("fill_invalid", {{0, {&checkedLeft()}}, {1, {&filled_disp}}}, 8, false);
+    if (params.cost == "mi" && params.mi_levels > 1 && !is_level) initLevels(image_words);
+    if (is_level) return;  // records into the top level's command buffer
 
     VkCommandPoolCreateInfo ci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
     ci.flags = VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT;
@@ -333,12 +357,18 @@ struct StereoMatcher::Impl {
     }
     std::vector<const Buffer*> chunks;
     for (int i = 0; i < kMaxChunks; ++i) chunks.push_back(&volume[std::min<int>(i, num_chunks - 1)]);
+    for (const Buffer* b : chunks) cost_chunks.push_back({b->buffer, 0, VK_WHOLE_SIZE, VK_NULL_HANDLE});
+    cost_base_row = params.paths * H;  // the cost slice
+    cost_rows_per_chunk = rows_per_chunk;
+    cost_row_words = row_words;
     const bool second_match = params.right_map == "match";
     for (int m = 0; m < (second_match ? 2 : 1); ++m) {
       // The second match reads the images swapped (and mirrored, in the shaders) and its left map is the right one.
       const Variant variant{0, m == 1, !second_match};
       MatchStages& st = m == 0 ? left_match : right_match;
-      st.cost = createStage("cost_census", {{2, {&census[m]}}, {3, {&census[1 - m]}}, {4, chunks}}, 28, true, variant);
+      if (params.cost == "census")
+        st.cost =
+            createStage("cost_census", {{2, {&census[m]}}, {3, {&census[1 - m]}}, {4, chunks}}, 28, true, variant);
       st.aggregate = createStage("sgm_aggregate", {{0, {&image[m]}}, {4, chunks}}, 52, true, variant);
       st.wta = createStage("sgm_wta", {{4, chunks}, {5, {&disp[m]}}, {6, {&disp[1]}}}, 36, true, variant);
     }
@@ -375,6 +405,26 @@ struct StereoMatcher::Impl {
     const VkBufferView scratch16 = createView(scratch, VK_FORMAT_R32G32B32A32_UINT);
     const VkBufferView scratch8 = createView(scratch, VK_FORMAT_R32G32_UINT);
     const VkBufferView sums_texels = createView(sums, VK_FORMAT_R32G32B32A32_UINT);
+    const bool cost_volume = params.cost != "census";
+    if (cost_volume) {
+      // The cost volume [y][x][lane][K bytes], written by the cost stage through storage-buffer ranges and read
+      // by the row passes as texels.
+      const uint64_t cost_row_bytes = static_cast<uint64_t>(W) * padded_disps;
+      costs = createBuffer(cost_row_bytes * H, false);
+      cost_rows_per_chunk = static_cast<int>(max_range / cost_row_bytes);
+      cost_row_words = static_cast<int>(cost_row_bytes / 4);
+      const int cost_chunk_count = (H + cost_rows_per_chunk - 1) / cost_rows_per_chunk;
+      for (int i = 0; i < kMaxChunks; ++i) {
+        const uint64_t first_row = static_cast<uint64_t>(std::min(i, cost_chunk_count - 1)) * cost_rows_per_chunk;
+        const uint64_t rows_here = std::min<uint64_t>(cost_rows_per_chunk, H - first_row);
+        cost_chunks.push_back({costs.buffer, first_row * cost_row_bytes, rows_here * cost_row_bytes, VK_NULL_HANDLE});
+      }
+      cost_views[0] = createView(costs, VK_FORMAT_R32G32B32A32_UINT);
+      cost_views[1] = createView(costs, VK_FORMAT_R32G32_UINT);
+    } else {
+      cost_views[0] = scratch16;  // unused
+      cost_views[1] = scratch8;
+    }
     const bool second_match = params.right_map == "match";
     for (int m = 0; m < (second_match ? 2 : 1); ++m) {
       // The second match reads the images swapped (and mirrored, in the shader) and its left map is the right one.
@@ -387,13 +437,103 @@ struct StereoMatcher::Impl {
                                              {6, chunks},
                                              {7, sums_texels},
                                              {8, {&disp[m]}},
-                                             {9, {&disp[1]}}};
+                                             {9, {&disp[1]}},
+                                             {10, cost_views[0]},
+                                             {11, cost_views[1]}};
       MatchStages& st = m == 0 ? left_match : right_match;
-      st.aggregate =
-          createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, {0, m == 1, !second_match});
-      st.wta = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true, {1, m == 1, !second_match});
+      st.aggregate = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true,
+                                 {0, m == 1, !second_match, cost_volume});
+      st.wta = createStage("sgm_aggregate_rowpass", bindings, sizeof(RowPassParams), true,
+                           {1, m == 1, !second_match, cost_volume});
     }
   }
+
+  // The cost stage of each match for the costs other than census (cost_ad, cost_sad, cost_mi): they write the cost
+  // volume of the row layout or the cost slice of the line layout.
+  void initCostStages(const VkBufferView image_words[2]) {
+    const bool second_match = params.right_map == "match";
+    for (int m = 0; m < (second_match ? 2 : 1); ++m) {
+      std::vector<Binding> bindings = {{0, image_words[m]}, {1, image_words[1 - m]}, {4, cost_chunks}};
+      if (params.cost == "mi") bindings.push_back(Binding::uniformBuffer(5, mi_table_buffer));
+      (m == 0 ? left_match : right_match).cost =
+          createStage("cost_" + params.cost, bindings, 28, true, {0, m == 1, !second_match});
+    }
+  }
+
+  // Mutual Information: the histogram from this level's start disparity or own checked map (mode 0, 1) and the
+  // table (mi_table.comp). The histogram from the level below is wired by the top level (initLevels).
+  void initMutualInformation(const VkBufferView image_words[2]) {
+    mi_histogram = createBuffer((65536 + 1) * 4, false);
+    mi_table_buffer = createBuffer(65536, false);
+    mi_work64 = createBuffer(65536 * 8, false);
+    mi_work32 = createBuffer(2 * 65536 * 4, false);
+    mi_log2 = createBuffer(256 * 4, true);
+    std::memcpy(mi_log2.mapped, log2FractionTable().data(), 256 * 4);
+    mi_start_histogram =
+        createStage("mi_histogram",
+                    {{0, image_words[0]}, {1, image_words[1]}, {2, {&checkedLeft()}}, {3, {&mi_histogram}}}, 28, false);
+    mi_table_stage = createStage(
+        "mi_table",
+        {{0, {&mi_histogram}}, {1, {&mi_log2}}, {2, {&mi_work64}}, {3, {&mi_work32}}, {4, {&mi_table_buffer}}}, 4,
+        false);  // (no push constants: 4 bytes, the smallest range)
+  }
+
+  // The coarser levels of the Mutual Information hierarchy (half size each, the level's search range, no fill):
+  // each reads the images of the level above it and learns its table from the level below it.
+  void initLevels(const VkBufferView image_words[2]) {
+    Impl* above = this;
+    cv::Size level_size = size;
+    for (int l = 1; l < params.mi_levels; ++l) {
+      level_size = cv::Size((level_size.width + 1) / 2, (level_size.height + 1) / 2);
+      SgmParams lp = params;
+      levelRange(params.min_disparity, params.num_disparities, l, lp.min_disparity, lp.num_disparities);
+      lp.mi_levels = 1;
+      lp.fill_invalid = false;
+      auto level = std::make_unique<Impl>(ctx, level_size, lp);
+      level->is_level = true;
+      level->init();
+      const VkBufferView source[2] = {above->createView(above->image[0], VK_FORMAT_R32_UINT),
+                                      above->createView(above->image[1], VK_FORMAT_R32_UINT)};
+      level->downsample_stage = level->createStage(
+          "downsample", {{0, source[0]}, {1, source[1]}, {2, {&level->image[0]}}, {3, {&level->image[1]}}}, 16, false);
+      above = level.get();
+      levels.push_back(std::move(level));
+    }
+    // Each level but the coarsest learns from the one below it.
+    for (size_t l = 0; l < levels.size(); ++l) {
+      Impl& target = l == 0 ? *this : *levels[l - 1];
+      const Impl& below = *levels[l];
+      const VkBufferView words[2] = {target.createView(target.image[0], VK_FORMAT_R32_UINT),
+                                     target.createView(target.image[1], VK_FORMAT_R32_UINT)};
+      target.mi_guided_histogram = target.createStage(
+          "mi_histogram", {{0, words[0]}, {1, words[1]}, {2, {&below.checkedLeft()}}, {3, {&target.mi_histogram}}}, 28,
+          false);
+      target.guide_size = below.size;
+    }
+    (void)image_words;
+  }
+
+  // Records the Mutual Information table of this level: the histogram (mode 0 from the start disparity, 1 from this
+  // level's checked map, 2 from the checked map of the level below, doubled), then the table.
+  void recordMiTable(int mode) {
+    vkCmdFillBuffer(cmd, mi_histogram.buffer, 0, VK_WHOLE_SIZE, 0);
+    VkMemoryBarrier fill{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    fill.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+    fill.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &fill, 0,
+                         nullptr, 0, nullptr);
+    const Stage& stage = mode == 2 ? mi_guided_histogram : mi_start_histogram;
+    bind(stage);
+    const int32_t pc[7] = {size.width, size.height,          guide_size.width,      guide_size.height,
+                           mode,       params.min_disparity, params.num_disparities};
+    push(stage, pc);
+    vkCmdDispatch(cmd, groups(size.width, 64), static_cast<uint32_t>(size.height), 1);
+    barrier(cmd);
+    bind(mi_table_stage);
+    vkCmdDispatch(cmd, 1, 1, 1);
+    barrier(cmd);
+  }
+  cv::Size guide_size;  // the size of the level below (mode 2)
 
   // Push constants of sgm_aggregate_rowpass.comp.
   struct RowPassParams {
@@ -444,6 +584,21 @@ struct StereoMatcher::Impl {
   void recordMatch(const MatchStages& st, Timestamp& timestamp, const std::string& label) {
     const int W = size.width, H = size.height;
     auto stamp = [&](const char* name) { timestamp((label + name).c_str()); };
+    if (st.cost.pipeline) {  // lines: census into the cost slice; rows and lines: the other costs
+      bind(st.cost);
+      const bool census_slice = params.cost == "census";
+      const int32_t pc[7] = {W,
+                             H,
+                             params.num_disparities,
+                             params.min_disparity,
+                             census_slice ? params.paths : cost_base_row,
+                             census_slice ? rows_per_chunk : cost_rows_per_chunk,
+                             census_slice ? row_words : cost_row_words};
+      push(st.cost, pc);
+      vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
+      barrier(cmd);
+      stamp("cost");
+    }
     if (rows) {
       recordRowPasses(st, 0);
       stamp("aggregate");
@@ -451,12 +606,6 @@ struct StereoMatcher::Impl {
       stamp("aggregate_select");
       return;
     }
-    bind(st.cost);
-    const int32_t pc[7] = {W, H, params.num_disparities, params.min_disparity, params.paths, rows_per_chunk, row_words};
-    push(st.cost, pc);
-    vkCmdDispatch(cmd, static_cast<uint32_t>(H), 1, 1);
-    barrier(cmd);
-    stamp("cost");
     bind(st.aggregate);
     const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
     for (int r = 0; r < params.paths; ++r) {
@@ -490,7 +639,8 @@ struct StereoMatcher::Impl {
     if (dev == VK_NULL_HANDLE) return;
     vkDeviceWaitIdle(dev);
     for (Stage* s : {&census_stage, &left_match.cost, &left_match.aggregate, &left_match.wta, &right_match.cost,
-                     &right_match.aggregate, &right_match.wta, &median_stage, &lr_stage, &fill_stage, &rectify_stage})
+                     &right_match.aggregate, &right_match.wta, &median_stage, &lr_stage, &fill_stage, &rectify_stage,
+                     &mi_start_histogram, &mi_guided_histogram, &mi_table_stage, &downsample_stage})
       destroyStage(*s);
     if (pool) vkDestroyDescriptorPool(dev, pool, nullptr);
     if (queries) vkDestroyQueryPool(dev, queries, nullptr);
@@ -501,6 +651,7 @@ struct StereoMatcher::Impl {
       for (Buffer* b : {&image[i], &census[i], &disp[i], &median[i], &raw[i]}) destroyBuffer(*b);
     destroyBuffer(scratch);
     destroyBuffer(sums);
+    for (Buffer* b : {&costs, &mi_histogram, &mi_table_buffer, &mi_work64, &mi_work32, &mi_log2}) destroyBuffer(*b);
     destroyBuffer(final_disp);
     destroyBuffer(filled_disp);
     destroyBuffer(maps);
@@ -532,32 +683,13 @@ struct StereoMatcher::Impl {
 
   static uint32_t groups(int n, int local) { return static_cast<uint32_t>((n + local - 1) / local); }
 
-  MatchOutput run(bool rectify, bool want_right) {
-    const auto t0 = std::chrono::steady_clock::now();
+  // Records the matching of this level once its images (and, for mi, its table) are in place: the census (census
+  // cost), each match (the left one, and the mirrored second one for right_map "match"), the median and the
+  // left-right check; not the fill.
+  template <typename Timestamp>
+  void recordMatching(Timestamp& timestamp) {
     const int W = size.width, H = size.height;
-    std::vector<std::string> names;
-    uint32_t stamp = 0;
-    auto timestamp = [&](const char* name) {
-      if (!queries) return;
-      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, stamp++);
-      if (name) names.push_back(name);
-    };
-
-    vkCheck(vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
-    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
-    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
-    vkCheck(vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer");
-    if (queries) vkCmdResetQueryPool(cmd, queries, 0, kMaxTimestamps);
-    timestamp(nullptr);
-    if (rectify) {
-      bind(rectify_stage);
-      const int32_t pc[4] = {W, H, raw_size.width, raw_size.height};
-      push(rectify_stage, pc);
-      vkCmdDispatch(cmd, groups((W * H + 3) / 4, 64), 1, 2);
-      barrier(cmd);
-      timestamp("rectify");
-    }
-    {
+    if (params.cost == "census") {
       bind(census_stage);
       const int32_t pc[2] = {W, H};
       push(census_stage, pc);
@@ -582,6 +714,73 @@ struct StereoMatcher::Impl {
       vkCmdDispatch(cmd, groups(W, 16), groups(H, 8), 1);
       barrier(cmd);
       timestamp("lr_check");
+    }
+  }
+
+  // Records the Mutual Information hierarchy: the pyramid, the coarsest level from the start disparity
+  // (mi_coarse_iterations times, each learning from the one before), each finer level from the level below, and
+  // this level (the finest) last.
+  template <typename Timestamp>
+  void recordHierarchy(Timestamp& timestamp) {
+    if (!levels.empty()) {
+      const Impl* above = this;
+      for (auto& level : levels) {
+        level->cmd = cmd;
+        level->bind(level->downsample_stage);
+        const int32_t pc[4] = {above->size.width, above->size.height, level->size.width, level->size.height};
+        level->push(level->downsample_stage, pc);
+        vkCmdDispatch(cmd, groups((level->size.area() + 3) / 4, 64), 1, 2);
+        barrier(cmd);
+        above = level.get();
+      }
+      timestamp("pyramid");
+      auto none = [](const char*) {};
+      for (int l = static_cast<int>(levels.size()) - 1; l >= 0; --l) {
+        Impl& level = *levels[l];
+        const bool coarsest = l + 1 == static_cast<int>(levels.size());
+        for (int it = 0; it < (coarsest ? params.mi_coarse_iterations : 1); ++it) {
+          level.recordMiTable(coarsest ? (it == 0 ? 0 : 1) : 2);
+          level.recordMatching(none);
+        }
+        timestamp(("mi_level" + std::to_string(l + 1)).c_str());
+      }
+    }
+    for (int it = 0; it < (levels.empty() ? params.mi_coarse_iterations : 1); ++it) {
+      recordMiTable(levels.empty() ? (it == 0 ? 0 : 1) : 2);
+      timestamp("mi_table");
+      recordMatching(timestamp);
+    }
+  }
+
+  MatchOutput run(bool rectify, bool want_right) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const int W = size.width, H = size.height;
+    std::vector<std::string> names;
+    uint32_t stamp = 0;
+    auto timestamp = [&](const char* name) {
+      if (!queries || stamp >= kMaxTimestamps) return;
+      vkCmdWriteTimestamp(cmd, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries, stamp++);
+      if (name) names.push_back(name);
+    };
+
+    vkCheck(vkResetCommandBuffer(cmd, 0), "vkResetCommandBuffer");
+    VkCommandBufferBeginInfo bi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
+    bi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
+    vkCheck(vkBeginCommandBuffer(cmd, &bi), "vkBeginCommandBuffer");
+    if (queries) vkCmdResetQueryPool(cmd, queries, 0, kMaxTimestamps);
+    timestamp(nullptr);
+    if (rectify) {
+      bind(rectify_stage);
+      const int32_t pc[4] = {W, H, raw_size.width, raw_size.height};
+      push(rectify_stage, pc);
+      vkCmdDispatch(cmd, groups((W * H + 3) / 4, 64), 1, 2);
+      barrier(cmd);
+      timestamp("rectify");
+    }
+    if (params.cost == "mi") {
+      recordHierarchy(timestamp);
+    } else {
+      recordMatching(timestamp);
     }
     if (params.fill_invalid) {
       bind(fill_stage);
@@ -698,7 +897,11 @@ MatchOutput StereoMatcher::matchRaw(const cv::Mat& raw0, const cv::Mat& raw1, cv
 
 cv::Size StereoMatcher::size() const { return impl_->size; }
 const SgmParams& StereoMatcher::params() const { return impl_->params; }
-size_t StereoMatcher::deviceMemoryBytes() const { return impl_->memory_bytes; }
+size_t StereoMatcher::deviceMemoryBytes() const {
+  size_t bytes = impl_->memory_bytes;
+  for (const auto& level : impl_->levels) bytes += level->memory_bytes;
+  return bytes;
+}
 
 }  // namespace e3d
 }  // namespace ips

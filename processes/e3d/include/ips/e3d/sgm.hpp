@@ -2,14 +2,16 @@
 // Semi-Global Matching (Hirschmueller 2008) as E3D runs it, and its plain C++ reference.
 //
 // Algorithm (identical integer arithmetic on the device and in sgmReference):
-//  1. Census 5x5 of both rectified 8-bit images: 24 bits, bit set when the neighbour is darker than the
-//     centre; neighbours outside the image are clamped to the border.
-//  2. Matching cost C(x,y,d) = popcount(census_left(x,y) xor census_right(x-d,y)) (0..24), x-d clamped
-//     into the image, d = min_disparity + k, k = 0..num_disparities-1. Computed on the fly, never stored.
+//  1.-2. Matching cost C(x,y,d), d = min_disparity + k, k = 0..num_disparities-1, x-d clamped into the image:
+//     census 5x5 (the default), AD, SAD or Mutual Information, see ips/e3d/matching_cost.hpp. Census: 24 bits,
+//     bit set when the neighbour is darker than the centre (neighbours clamped), C = popcount of the xor (0..24).
+//     Mutual Information is learnt hierarchically (mi_levels): at 1/2^(levels-1) of the resolution from a
+//     pseudo-random disparity (mi_coarse_iterations times), then at each finer level from the left-right checked
+//     map of the level below, doubled; each level is a full match with the level's range.
 //  3. Path costs along 8 (or 4) directions r:
 //       L_r(p,k) = C(p,k) + min(L_r(p-r,k), L_r(p-r,k+-1) + P1, min_i L_r(p-r,i) + P2') - min_i L_r(p-r,i)
 //     with P2' = max(P1, P2 - (p2_slope * |I(p) - I(p-r)|) / 16) (p2_slope = 0: constant P2).
-//     Every L_r <= 24 + P2 <= 255, so the device keeps one byte per path, pixel and disparity.
+//     Every L_r <= maxCost + P2 <= 255, so the device keeps one byte per path, pixel and disparity.
 //  4. S = sum of the paths; winner-takes-all k* = argmin S (smallest k on ties).
 //     Uniqueness: invalid when min_{|k-k*|>1} S * (100 - uniqueness) < S(k*) * 100.
 //     Subpixel (equiangular, as rSGM): offset = (c0 - c2) / (2 (max(c0, c2) - c1)), rounded to 1/16 px
@@ -25,6 +27,8 @@
 #include <opencv2/core.hpp>
 #include <string>
 
+#include "ips/e3d/matching_cost.hpp"
+
 namespace ips {
 class Config;
 namespace e3d {
@@ -37,8 +41,11 @@ constexpr int kMaxDisparities = 256;
 constexpr int kCensusMaxCost = 24;
 
 struct SgmParams {
-  int num_disparities = 128;  // search range size, 1..256
-  int min_disparity = 0;      // smallest disparity searched [px]
+  int num_disparities = 128;     // search range size, 1..256
+  int min_disparity = 0;         // smallest disparity searched [px]
+  std::string cost = "census";   // census, ad, sad or mi (ips/e3d/matching_cost.hpp)
+  int mi_levels = 5;             // mi: pyramid levels (1 = full resolution only, from the start disparity)
+  int mi_coarse_iterations = 2;  // mi: matches at the coarsest level, each learning from the one before
   // Defaults: chosen on the six scenes of ../shared/data/stereo (processes/e3d/README.md); one set for all.
   int p1 = 14;           // penalty for a disparity change of 1 px (census cost units, 0..24)
   int p2 = 231;          // penalty for larger changes; p2 + 24 <= 255 (path costs fit one byte)
@@ -57,6 +64,8 @@ struct SgmParams {
   // a CPU device, lines otherwise. Not an algorithm parameter: sgmReference ignores it.
   std::string aggregation = "auto";
 
+  // The defaults with the penalties chosen for a cost function (census: the defaults above).
+  static SgmParams forCost(const std::string& cost);
   // Throws std::invalid_argument naming the bad parameter.
   void validate() const;
   // Reads the keys above (same names) from a Config section; absent keys keep their defaults.
@@ -72,9 +81,6 @@ struct SgmResult {
 // Plain C++ reference of the algorithm above (single-threaded, slow; for tests and for checking).
 // left, right: CV_8UC1, same size. Throws std::invalid_argument on bad input.
 SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params);
-
-// Census 5x5 transform as used above (CV_32S holding the 24-bit codes); exposed for tests.
-cv::Mat census5x5(const cv::Mat& image);
 
 // Converts a CV_16S disparity map to CV_32F pixels (invalid = +inf), the PFM convention.
 cv::Mat disparityToFloat(const cv::Mat& disparity16);

@@ -1,0 +1,35 @@
+#version 450
+// Matching cost AD: C(x,y,d) = min(|L(x,y) - R(x - d,y)|, 63), x - d clamped into the row (see
+// ips/e3d/matching_cost.hpp), written into the cost volume (cost_volume.glsl). One workgroup (= one subgroup) per
+// row; lane l owns disparities l*K .. l*K+K-1 and the right greys slide by one disparity per pixel (one load and one
+// shuffle per step).
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_shuffle_relative : require
+#include "e3d_common.glsl"
+layout(local_size_x_id = 0) in;
+layout(constant_id = 1) const int K = 16;
+layout(constant_id = 8) const bool MIRROR = false;
+#include "cost_volume.glsl"
+
+void main() {
+  const uint lane = gl_SubgroupInvocationID;
+  const int y = int(gl_WorkGroupID.x);
+  const int k0 = int(lane) * K;
+  uint window[K];  // R(x - d_min - k0 - k)
+  [[unroll]] for (int k = 0; k < K; ++k) window[k] = grey(true, y, -pc.min_disp - k0 - k);
+  for (int x = 0; x < pc.width; ++x) {
+    if (x > 0) {
+      const uint carried = subgroupShuffleUp(window[K - 1], 1u);
+      [[unroll]] for (int k = K - 1; k > 0; --k) window[k] = window[k - 1];
+      const uint fresh = grey(true, y, x - pc.min_disp);
+      window[0] = lane == 0u ? fresh : carried;
+    }
+    const int l = int(grey(false, y, x));
+    uint c[K];
+    [[unroll]] for (int k = 0; k < K; ++k) c[k] = k0 + k < pc.num_disp ? uint(min(abs(l - int(window[k])), 63)) : 255u;
+    storeCosts(y, x, c);
+  }
+}

@@ -1,0 +1,42 @@
+#version 450
+// Matching cost of Mutual Information: C(x,y,d) = T[L(x,y)][R(x - d,y)], x - d clamped into the row, with the
+// 256 x 256 table T learnt by mi_table.comp (ips/e3d/matching_cost.hpp), written into the cost volume
+// (cost_volume.glsl). The second match (MIRROR) uses the transposed table. One workgroup (= one subgroup) per row;
+// lane l owns disparities l*K .. l*K+K-1 and the right greys slide by one disparity per pixel.
+#extension GL_GOOGLE_include_directive : require
+#extension GL_EXT_control_flow_attributes : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_shuffle_relative : require
+#include "e3d_common.glsl"
+layout(local_size_x_id = 0) in;
+layout(constant_id = 1) const int K = 16;
+layout(constant_id = 8) const bool MIRROR = false;
+#include "cost_volume.glsl"
+// The table, one byte per entry (a uniform buffer: lavapipe gathers from it without a loop over the lanes).
+layout(std140, binding = 5) uniform Table { uvec4 table[4096]; };
+
+uint tableCost(uint left, uint right) {
+  const uint e = MIRROR ? (right << 8) | left : (left << 8) | right;
+  return (table[e >> 4][(e >> 2) & 3u] >> ((e & 3u) << 3)) & 0xFFu;
+}
+
+void main() {
+  const uint lane = gl_SubgroupInvocationID;
+  const int y = int(gl_WorkGroupID.x);
+  const int k0 = int(lane) * K;
+  uint window[K];  // R(x - d_min - k0 - k)
+  [[unroll]] for (int k = 0; k < K; ++k) window[k] = grey(true, y, -pc.min_disp - k0 - k);
+  for (int x = 0; x < pc.width; ++x) {
+    if (x > 0) {
+      const uint carried = subgroupShuffleUp(window[K - 1], 1u);
+      [[unroll]] for (int k = K - 1; k > 0; --k) window[k] = window[k - 1];
+      const uint fresh = grey(true, y, x - pc.min_disp);
+      window[0] = lane == 0u ? fresh : carried;
+    }
+    const uint l = grey(false, y, x);
+    uint c[K];
+    [[unroll]] for (int k = 0; k < K; ++k) c[k] = k0 + k < pc.num_disp ? tableCost(l, window[k]) : 255u;
+    storeCosts(y, x, c);
+  }
+}
