@@ -359,7 +359,9 @@ TEST(MatchingCost, MutualInformationTableFollowsTheGreyMappingOfThePair) {
     ++rows;
     good += std::abs(at.x - i / 2) <= 2;
     // A right grey that occurs (the right image reaches 127), but never with this left grey, costs far more.
-    if (i / 2 + 40 <= 120) EXPECT_GE(table.at<uint8_t>(i, i / 2 + 40), table.at<uint8_t>(i, i / 2) + 20) << i;
+    if (i / 2 + 40 <= 120) {
+      EXPECT_GE(table.at<uint8_t>(i, i / 2 + 40), table.at<uint8_t>(i, i / 2) + 20) << i;
+    }
   }
   EXPECT_GT(good, rows * 9 / 10);
   // With no matched pixel at all, a uniform table.
