@@ -41,10 +41,21 @@ SgmParams SgmParams::forCost(const std::string& cost) {
   p.cost = cost;
   if (cost == "census") return p;
   maxCost(cost);  // throws for an unknown name
-  // Costs 0..63 (grey levels, or quarter bits for mi); chosen like the census ones (processes/e3d/README.md).
-  p.p1 = 7;
-  p.p2 = 96;
-  p.p2_slope = 40;
+  // Costs 0..63 (grey levels, or quarter bits for mi); chosen like the census ones, by a small grid over (P1, P2,
+  // p2_slope) on the six scenes (processes/e3d/README.md).
+  if (cost == "ad") {
+    p.p1 = 14;
+    p.p2 = 160;
+    p.p2_slope = 40;
+  } else if (cost == "sad") {
+    p.p1 = 11;
+    p.p2 = 192;
+    p.p2_slope = 60;
+  } else {  // mi
+    p.p1 = 24;
+    p.p2 = 120;
+    p.p2_slope = 20;
+  }
   return p;
 }
 
