@@ -332,14 +332,31 @@ struct StereoMatcher::Impl {
     }
   }
 
+  // The disparities each subgroup lane owns (K, a multiple of `multiple`) and the padded range.
+  void laneLayout(int multiple) {
+    const int sg = static_cast<int>(ctx.subgroupSize());
+    lane_disps = (params.num_disparities + sg - 1) / sg;
+    lane_disps = (lane_disps + multiple - 1) / multiple * multiple;
+    padded_disps = lane_disps * sg;
+  }
+
+  // kMaxChunks storage-buffer ranges over a buffer of `rows` rows, rows_per_chunk rows each (the last repeated).
+  static std::vector<Descriptor> rowRanges(const Buffer& buffer, uint64_t row_bytes, int rows, int rows_per_chunk) {
+    const int count = (rows + rows_per_chunk - 1) / rows_per_chunk;
+    std::vector<Descriptor> ranges;
+    for (int i = 0; i < kMaxChunks; ++i) {
+      const uint64_t first_row = static_cast<uint64_t>(std::min(i, count - 1)) * rows_per_chunk;
+      const uint64_t rows_here = std::min<uint64_t>(rows_per_chunk, rows - first_row);
+      ranges.push_back({buffer.buffer, first_row * row_bytes, rows_here * row_bytes, VK_NULL_HANDLE});
+    }
+    return ranges;
+  }
+
   // Lines: costs stored once in a slice of the volume, one dispatch per path, one subgroup per image line, each
   // path's costs in its own slice (one byte per disparity), summed by sgm_wta.
   void initLines() {
     const int W = size.width, H = size.height;
-    const int sg = static_cast<int>(ctx.subgroupSize());
-    lane_disps = (params.num_disparities + sg - 1) / sg;
-    lane_disps = (lane_disps + 3) / 4 * 4;
-    padded_disps = lane_disps * sg;
+    laneLayout(4);
     const uint64_t row_bytes = static_cast<uint64_t>(W) * padded_disps;
     row_words = static_cast<int>(row_bytes / 4);
     const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
@@ -379,10 +396,7 @@ struct StereoMatcher::Impl {
   // reading the other pass's sums as texels. See sgm_aggregate_rowpass.comp.
   void initRows() {
     const int W = size.width, H = size.height;
-    const int sg = static_cast<int>(ctx.subgroupSize());
-    lane_disps = (params.num_disparities + sg - 1) / sg;
-    lane_disps = (lane_disps + 7) / 8 * 8;
-    padded_disps = lane_disps * sg;
+    laneLayout(8);
     const uint64_t sum_row_bytes = static_cast<uint64_t>(W) * padded_disps * 2;
     const uint64_t sum_bytes = sum_row_bytes * H;
     const uint64_t max_range = std::min<uint64_t>(ctx.maxStorageBufferRange(), 1ull << 31);
@@ -396,12 +410,7 @@ struct StereoMatcher::Impl {
                                   " storage buffer ranges (reduce size or num_disparities)");
     sums = createBuffer(sum_bytes, false);
     scratch = createBuffer(static_cast<uint64_t>(2 * 2 * 3) * W * padded_disps, false);
-    std::vector<Descriptor> chunks;
-    for (int i = 0; i < kMaxChunks; ++i) {
-      const uint64_t first_row = static_cast<uint64_t>(std::min(i, num_chunks - 1)) * rows_per_chunk;
-      const uint64_t rows_here = std::min<uint64_t>(rows_per_chunk, H - first_row);
-      chunks.push_back({sums.buffer, first_row * sum_row_bytes, rows_here * sum_row_bytes, VK_NULL_HANDLE});
-    }
+    const std::vector<Descriptor> chunks = rowRanges(sums, sum_row_bytes, H, rows_per_chunk);
     const VkBufferView scratch16 = createView(scratch, VK_FORMAT_R32G32B32A32_UINT);
     const VkBufferView scratch8 = createView(scratch, VK_FORMAT_R32G32_UINT);
     const VkBufferView sums_texels = createView(sums, VK_FORMAT_R32G32B32A32_UINT);
@@ -413,12 +422,7 @@ struct StereoMatcher::Impl {
       costs = createBuffer(cost_row_bytes * H, false);
       cost_rows_per_chunk = static_cast<int>(max_range / cost_row_bytes);
       cost_row_words = static_cast<int>(cost_row_bytes / 4);
-      const int cost_chunk_count = (H + cost_rows_per_chunk - 1) / cost_rows_per_chunk;
-      for (int i = 0; i < kMaxChunks; ++i) {
-        const uint64_t first_row = static_cast<uint64_t>(std::min(i, cost_chunk_count - 1)) * cost_rows_per_chunk;
-        const uint64_t rows_here = std::min<uint64_t>(cost_rows_per_chunk, H - first_row);
-        cost_chunks.push_back({costs.buffer, first_row * cost_row_bytes, rows_here * cost_row_bytes, VK_NULL_HANDLE});
-      }
+      cost_chunks = rowRanges(costs, cost_row_bytes, H, cost_rows_per_chunk);
       cost_views[0] = createView(costs, VK_FORMAT_R32G32B32A32_UINT);
       cost_views[1] = createView(costs, VK_FORMAT_R32G32_UINT);
     } else {
