@@ -693,22 +693,22 @@ struct StereoMatcher::Impl {
   template <typename Timestamp>
   void recordMatching(Timestamp& timestamp) {
     const int W = size.width, H = size.height;
-    if (params.cost == "census") {
-      bind(census_stage);
+    // census5x5 and median3x3: one invocation per column strip of kStrip rows, both images or maps (z).
+    auto strips = [&](const Stage& st) {
+      bind(st);
       const int32_t pc[2] = {W, H};
-      push(census_stage, pc);
+      push(st, pc);
       vkCmdDispatch(cmd, groups(W, 64), groups(H, kStrip), 2);
       barrier(cmd);
+    };
+    if (params.cost == "census") {
+      strips(census_stage);
       timestamp("census");
     }
     recordMatch(left_match, timestamp, "");
     if (params.right_map == "match") recordMatch(right_match, timestamp, "right_");
     if (params.median) {
-      bind(median_stage);
-      const int32_t pc[2] = {W, H};
-      push(median_stage, pc);
-      vkCmdDispatch(cmd, groups(W, 64), groups(H, kStrip), 2);
-      barrier(cmd);
+      strips(median_stage);
       timestamp("median");
     }
     if (params.lr_max_diff >= 0) {
