@@ -310,7 +310,7 @@ struct StereoMatcher::Impl {
     const Buffer* lr_in = params.median ? median : disp;
     lr_stage = createStage("lr_check", {{0, {&lr_in[0]}}, {1, {&lr_in[1]}}, {2, {&final_disp}}}, 12, false);
     fill_stage = createStage("fill_invalid", {{0, {&checkedLeft()}}, {1, {&filled_disp}}}, 8, false);
-    if (params.cost == "mi" && params.mi_levels > 1 && !is_level) initLevels(image_words);
+    if (params.cost == "mi" && params.mi_levels > 1 && !is_level) initLevels();
     if (is_level) return;  // records into the top level's command buffer
 
     VkCommandPoolCreateInfo ci{VK_STRUCTURE_TYPE_COMMAND_POOL_CREATE_INFO};
@@ -484,7 +484,7 @@ struct StereoMatcher::Impl {
 
   // The coarser levels of the Mutual Information hierarchy (half size each, the level's search range, no fill):
   // each reads the images of the level above it and learns its table from the level below it.
-  void initLevels(const VkBufferView image_words[2]) {
+  void initLevels() {
     Impl* above = this;
     cv::Size level_size = size;
     for (int l = 1; l < params.mi_levels; ++l) {
@@ -514,7 +514,6 @@ struct StereoMatcher::Impl {
           false);
       target.guide_size = below.size;
     }
-    (void)image_words;
   }
 
   // Records the Mutual Information table of this level: the histogram (mode 0 from the start disparity, 1 from this
