@@ -89,17 +89,16 @@ struct StereoMatcher::Impl {
   Buffer costs;                         // rows, costs other than census: the cost volume
   std::vector<Descriptor> cost_chunks;  // where the cost stages write (rows: costs, lines: the volume's cost slice)
   int cost_base_row = 0, cost_rows_per_chunk = 0, cost_row_words = 0;
-  VkBufferView cost_views[2] = {};  // rows: the cost volume as 16- and 8-byte texels
   // Mutual Information: the histogram (65536 bins + count), the table, work space, the log2 fractions; the
   // coarser levels of the hierarchy (levels[0]: half size, ...), each a matcher of its own that records into this
   // one's command buffer; a level reads the images of the level above it (downsample).
   Buffer mi_histogram, mi_table_buffer, mi_work64, mi_work32, mi_log2;
   Stage mi_start_histogram, mi_guided_histogram, mi_table_stage, downsample_stage;
   std::vector<std::unique_ptr<Impl>> levels;
+  cv::Size guide_size;  // the size of the level below, whose checked map mi_guided_histogram reads
   bool is_level = false;  // a coarser level: no command buffer of its own
   std::vector<VkBufferView> views;
-  VkBufferView image_left_view = VK_NULL_HANDLE, census_views[2] = {}, scratch_views[2] = {},
-               sums_view = VK_NULL_HANDLE;
+  VkBufferView image_words[2] = {};  // the 8-bit images as 32-bit texels (four pixels each)
   Buffer raw[2], maps;
   cv::Size raw_size;
   bool has_rect = false;
@@ -293,18 +292,18 @@ struct StereoMatcher::Impl {
     pi.pPoolSizes = ps;
     vkCheck(vkCreateDescriptorPool(dev, &pi, nullptr, &pool), "vkCreateDescriptorPool");
 
-    const VkBufferView image_words[2] = {createView(image[0], VK_FORMAT_R32_UINT),
-                                         createView(image[1], VK_FORMAT_R32_UINT)};
+    image_words[0] = createView(image[0], VK_FORMAT_R32_UINT);
+    image_words[1] = createView(image[1], VK_FORMAT_R32_UINT);
     const VkBufferView disp_views[2] = {createView(disp[0], VK_FORMAT_R32_SINT),
                                         createView(disp[1], VK_FORMAT_R32_SINT)};
     census_stage = createStage(
         "census5x5", {{0, image_words[0]}, {1, image_words[1]}, {2, {&census[0]}}, {3, {&census[1]}}}, 8, false);
-    if (params.cost == "mi") initMutualInformation(image_words);
+    if (params.cost == "mi") initMutualInformation();
     if (rows)
       initRows();
     else
       initLines();
-    if (params.cost != "census") initCostStages(image_words);
+    if (params.cost != "census") initCostStages();
     median_stage = createStage(
         "median3x3", {{0, disp_views[0]}, {1, disp_views[1]}, {2, {&median[0]}}, {3, {&median[1]}}}, 8, false);
     const Buffer* lr_in = params.median ? median : disp;
@@ -414,6 +413,7 @@ struct StereoMatcher::Impl {
     const VkBufferView scratch16 = createView(scratch, VK_FORMAT_R32G32B32A32_UINT);
     const VkBufferView scratch8 = createView(scratch, VK_FORMAT_R32G32_UINT);
     const VkBufferView sums_texels = createView(sums, VK_FORMAT_R32G32B32A32_UINT);
+    VkBufferView cost_views[2] = {scratch16, scratch8};  // the cost volume as texels (census: unused)
     const bool cost_volume = params.cost != "census";
     if (cost_volume) {
       // The cost volume [y][x][lane][K bytes], written by the cost stage through storage-buffer ranges and read
@@ -425,9 +425,6 @@ struct StereoMatcher::Impl {
       cost_chunks = rowRanges(costs, cost_row_bytes, H, cost_rows_per_chunk);
       cost_views[0] = createView(costs, VK_FORMAT_R32G32B32A32_UINT);
       cost_views[1] = createView(costs, VK_FORMAT_R32G32_UINT);
-    } else {
-      cost_views[0] = scratch16;  // unused
-      cost_views[1] = scratch8;
     }
     const bool second_match = params.right_map == "match";
     for (int m = 0; m < (second_match ? 2 : 1); ++m) {
@@ -454,7 +451,7 @@ struct StereoMatcher::Impl {
 
   // The cost stage of each match for the costs other than census (cost_ad, cost_sad, cost_mi): they write the cost
   // volume of the row layout or the cost slice of the line layout.
-  void initCostStages(const VkBufferView image_words[2]) {
+  void initCostStages() {
     const bool second_match = params.right_map == "match";
     for (int m = 0; m < (second_match ? 2 : 1); ++m) {
       std::vector<Binding> bindings = {{0, image_words[m]}, {1, image_words[1 - m]}, {4, cost_chunks}};
@@ -466,7 +463,7 @@ struct StereoMatcher::Impl {
 
   // Mutual Information: the histogram from this level's start disparity or own checked map (mode 0, 1) and the
   // table (mi_table.comp). The histogram from the level below is wired by the top level (initLevels).
-  void initMutualInformation(const VkBufferView image_words[2]) {
+  void initMutualInformation() {
     mi_histogram = createBuffer((65536 + 1) * 4, false);
     mi_table_buffer = createBuffer(65536, false);
     mi_work64 = createBuffer(65536 * 8, false);
@@ -496,10 +493,10 @@ struct StereoMatcher::Impl {
       auto level = std::make_unique<Impl>(ctx, level_size, lp);
       level->is_level = true;
       level->init();
-      const VkBufferView source[2] = {above->createView(above->image[0], VK_FORMAT_R32_UINT),
-                                      above->createView(above->image[1], VK_FORMAT_R32_UINT)};
       level->downsample_stage = level->createStage(
-          "downsample", {{0, source[0]}, {1, source[1]}, {2, {&level->image[0]}}, {3, {&level->image[1]}}}, 16, false);
+          "downsample",
+          {{0, above->image_words[0]}, {1, above->image_words[1]}, {2, {&level->image[0]}}, {3, {&level->image[1]}}},
+          16, false);
       above = level.get();
       levels.push_back(std::move(level));
     }
@@ -507,11 +504,12 @@ struct StereoMatcher::Impl {
     for (size_t l = 0; l < levels.size(); ++l) {
       Impl& target = l == 0 ? *this : *levels[l - 1];
       const Impl& below = *levels[l];
-      const VkBufferView words[2] = {target.createView(target.image[0], VK_FORMAT_R32_UINT),
-                                     target.createView(target.image[1], VK_FORMAT_R32_UINT)};
-      target.mi_guided_histogram = target.createStage(
-          "mi_histogram", {{0, words[0]}, {1, words[1]}, {2, {&below.checkedLeft()}}, {3, {&target.mi_histogram}}}, 28,
-          false);
+      target.mi_guided_histogram = target.createStage("mi_histogram",
+                                                      {{0, target.image_words[0]},
+                                                       {1, target.image_words[1]},
+                                                       {2, {&below.checkedLeft()}},
+                                                       {3, {&target.mi_histogram}}},
+                                                      28, false);
       target.guide_size = below.size;
     }
   }
@@ -536,7 +534,6 @@ struct StereoMatcher::Impl {
     vkCmdDispatch(cmd, 1, 1, 1);
     barrier(cmd);
   }
-  cv::Size guide_size;  // the size of the level below (mode 2)
 
   // Push constants of sgm_aggregate_rowpass.comp.
   struct RowPassParams {
