@@ -179,12 +179,7 @@ int radiometricTable(const std::vector<std::string>& names, const std::string& d
   for (const auto& name : names) {
     Scene s = loadScene(data + "/" + name);
     for (const auto& cost : costs) {
-      SgmParams p = base;
-      const SgmParams penalties = SgmParams::forCost(cost);
-      p.cost = cost;
-      p.p1 = penalties.p1;
-      p.p2 = penalties.p2;
-      p.p2_slope = penalties.p2_slope;
+      SgmParams p = base.withCost(cost);
       if (!args.has("num-disparities")) p.num_disparities = s.num_disparities;
       StereoMatcher matcher(ctx, s.left.size(), p);
       std::cout << std::left << std::setw(18) << name << std::setw(8) << cost << std::right << std::fixed

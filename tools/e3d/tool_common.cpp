@@ -89,13 +89,7 @@ const char* kParamUsage =
 SgmParams paramsFromArgs(const Args& a) {
   SgmParams p;
   if (a.has("config")) p = SgmParams::fromConfig(Config(a.get("config", "")).section("sgm"));
-  if (a.has("cost") && a.get("cost", "") != p.cost) {
-    const SgmParams penalties = SgmParams::forCost(a.get("cost", ""));
-    p.cost = penalties.cost;
-    p.p1 = penalties.p1;
-    p.p2 = penalties.p2;
-    p.p2_slope = penalties.p2_slope;
-  }
+  if (a.has("cost") && a.get("cost", "") != p.cost) p = p.withCost(a.get("cost", ""));
   p.mi_levels = a.getInt("mi-levels", p.mi_levels);
   p.mi_coarse_iterations = a.getInt("mi-coarse-iterations", p.mi_coarse_iterations);
   p.num_disparities = a.getInt("num-disparities", p.num_disparities);

@@ -59,6 +59,16 @@ SgmParams SgmParams::forCost(const std::string& cost) {
   return p;
 }
 
+SgmParams SgmParams::withCost(const std::string& new_cost) const {
+  const SgmParams penalties = forCost(new_cost);
+  SgmParams p = *this;
+  p.cost = penalties.cost;
+  p.p1 = penalties.p1;
+  p.p2 = penalties.p2;
+  p.p2_slope = penalties.p2_slope;
+  return p;
+}
+
 SgmParams SgmParams::fromConfig(const Config& c) {
   SgmParams p;
   try {

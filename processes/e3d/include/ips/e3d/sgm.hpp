@@ -66,6 +66,8 @@ struct SgmParams {
 
   // The defaults with the penalties chosen for a cost function (census: the defaults above).
   static SgmParams forCost(const std::string& cost);
+  // These parameters with another cost function and its penalties (P1, P2, p2_slope of forCost).
+  SgmParams withCost(const std::string& cost) const;
   // Throws std::invalid_argument naming the bad parameter.
   void validate() const;
   // Reads the keys above (same names) from a Config section; absent keys keep their defaults.
