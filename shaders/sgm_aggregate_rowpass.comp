@@ -124,15 +124,17 @@ int scratchIndex(int pass, int half_row, int dir, int x) {
   return ((((pass * 2 + half_row) * 3 + dir) * pc.width + x) * int(SG) + int(lane)) * (K / 8);
 }
 
-void loadScratch(int index8, out uint v[K]) {
+// This lane's K bytes at 8-byte word index8 of the scratch rows or (from_costs) of the cost volume: one texel load
+// per 16 (or 8) bytes. from_costs is a constant at every call, so only one of the images is read.
+void loadLaneBytes(bool from_costs, int index8, out uint v[K]) {
   if (WIDE) {
     [[unroll]] for (int q = 0; q < K / 16; ++q) {
-      const uvec4 w = imageLoad(scratch_read16, index8 / 2 + q);
+      const uvec4 w = from_costs ? imageLoad(costs16, index8 / 2 + q) : imageLoad(scratch_read16, index8 / 2 + q);
       [[unroll]] for (int b = 0; b < 16; ++b) v[16 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
     }
   } else {
     [[unroll]] for (int q = 0; q < K / 8; ++q) {
-      const uvec2 w = imageLoad(scratch_read8, index8 + q).xy;
+      const uvec2 w = (from_costs ? imageLoad(costs8, index8 + q) : imageLoad(scratch_read8, index8 + q)).xy;
       [[unroll]] for (int b = 0; b < 8; ++b) v[8 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
     }
   }
@@ -269,18 +271,7 @@ void main() {
       }
       uint cost[K];
       if (COST_VOLUME) {
-        const int index8 = ((y * W + x) * int(SG) + int(lane)) * (K / 8);
-        if (WIDE) {
-          [[unroll]] for (int q = 0; q < K / 16; ++q) {
-            const uvec4 w = imageLoad(costs16, index8 / 2 + q);
-            [[unroll]] for (int b = 0; b < 16; ++b) cost[16 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
-          }
-        } else {
-          [[unroll]] for (int q = 0; q < K / 8; ++q) {
-            const uvec2 w = imageLoad(costs8, index8 + q).xy;
-            [[unroll]] for (int b = 0; b < 8; ++b) cost[8 * q + b] = (w[b >> 2] >> (8 * (b & 3))) & 0xFFu;
-          }
-        }
+        loadLaneBytes(true, ((y * W + x) * int(SG) + int(lane)) * (K / 8), cost);
         // Disparities beyond the range (padding to whole lanes) cost 255: their path costs stay >= 255 and never
         // win a minimum against real ones (<= maxCost + P2).
         [[unroll]] for (int k = 0; k < K; ++k) cost[k] = real(k0 + k) ? cost[k] : 255u;
@@ -304,7 +295,7 @@ void main() {
         const int from = x + (dir == 1 ? -step : (dir == 2 ? step : 0));
         const bool inside = i > 0 && from >= 0 && from < W;  // else the path starts here: L = C
         uint prev[K];
-        loadScratch(scratchIndex(pass, read_half, dir, clamp(from, 0, W - 1)), prev);
+        loadLaneBytes(false, scratchIndex(pass, read_half, dir, clamp(from, 0, W - 1)), prev);
         [[unroll]] for (int k = 0; k < K; ++k) prev[k] = inside ? prev[k] : 0u;
         const uint prev_min = butterflyMin(laneMinimum(prev));
         const uint above = dir == 0 ? row_here : (dir == 1 ? row_behind : row_ahead);
