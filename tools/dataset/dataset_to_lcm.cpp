@@ -1,0 +1,127 @@
+// dataset_to_lcm: a public recording (EuRoC ASL or KITTI odometry folder) into an LCM log holding what the live
+// head would publish (STEREO, IMU when present, GT_POSE) plus FILE.lcmlog.calib.yaml in the project's format.
+// The log is written under a temporary name and renamed when complete: a bad folder leaves no output.
+#include <filesystem>
+#include <ips/ground_truth_t.hpp>
+#include <ips/imu_sample_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+
+#include "ips/args.hpp"
+#include "ips/dataset/dataset.hpp"
+#include "ips/framework/channels.hpp"
+#include "ips/framework/image.hpp"
+#include "ips/framework/process.hpp"
+#include "ips/log.hpp"
+
+namespace {
+
+namespace ch = ips::channels;
+
+template <class Msg>
+void write(lcm::LogFile& log, const char* channel, int64_t utime, const Msg& m, const std::string& path) {
+  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  lcm::LogEvent e;
+  e.eventnum = 0;  // numbered by the writer
+  e.timestamp = utime;
+  e.channel = channel;
+  e.datalen = static_cast<int32_t>(buf.size());
+  e.data = buf.data();
+  if (log.writeEvent(&e) != 0) throw std::runtime_error(path + ": write failed");
+}
+
+void copy3(const Eigen::Vector3d& v, double* out) {
+  for (int i = 0; i < 3; ++i) out[i] = v[i];
+}
+
+// Velocity and biases are zero when the source has none (GroundTruthPose::has_state).
+void writeGroundTruth(lcm::LogFile& log, const ips::dataset::GroundTruthPose& g, const std::string& path) {
+  ips::ground_truth_t m{};
+  m.utime = g.utime;
+  copy3(g.position, m.position);
+  m.orientation[0] = g.orientation.w();
+  m.orientation[1] = g.orientation.x();
+  m.orientation[2] = g.orientation.y();
+  m.orientation[3] = g.orientation.z();
+  copy3(g.velocity, m.velocity);
+  copy3(g.gyro_bias, m.gyro_bias);
+  copy3(g.accel_bias, m.accel_bias);
+  write(log, ch::kGtPose, m.utime, m, path);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return ips::fw::guardedMain("dataset_to_lcm", [&]() {
+    ips::Args args(argc, argv, "a EuRoC or KITTI recording into an LCM log (STEREO, IMU, GT_POSE) and its calibration");
+    args.required("--format", "euroc|kitti", "layout of the recording")
+        .required("--in", "DIR", "the recording's folder (EuRoC: holds mav0/; KITTI: holds sequences/ and poses/)")
+        .required("--out", "FILE.lcmlog", "the log to write (and FILE.lcmlog.calib.yaml)")
+        .option("--sequence", "NN", "KITTI sequence (default: the only one in sequences/)")
+        .option("--first", "N", "first frame, 0-based", "0")
+        .option("--last", "N", "last frame, inclusive (default: the last)", "-1")
+        .option("--gt", "FILE", "EuRoC: ground truth of the body as a TUM file (t tx ty tz qx qy qz qw)");
+    if (!args.parse()) return 0;
+    ips::dataset::ReadOptions opt;
+    opt.sequence = args.get("--sequence");
+    opt.first = args.getInt("--first");
+    opt.last = args.getInt("--last");
+    opt.gt_path = args.get("--gt");
+    const ips::dataset::Recording rec = ips::dataset::readRecording(args.get("--format"), args.get("--in"), opt);
+
+    const std::string out = args.get("--out");
+    const std::string tmp_log = out + ".partial", calib_path = out + ".calib.yaml",
+                      tmp_calib = calib_path + ".partial.yaml";
+    struct Cleanup {  // removes the partial files unless the job completed
+      std::vector<std::string> paths;
+      bool done = false;
+      ~Cleanup() {
+        if (!done)
+          for (const auto& p : paths) std::filesystem::remove(p);
+      }
+    } cleanup{{tmp_log, tmp_calib}};
+
+    ips::saveCalibration(tmp_calib, rec.calib);
+    int64_t pairs = 0, imu = 0, gt = 0;
+    {
+      lcm::LogFile log(tmp_log, "w");
+      if (!log.good()) throw std::runtime_error(out + ": cannot open for writing");
+      // Events in time order; at equal stamps IMU and ground truth go before the image (as the head sends them).
+      size_t i_imu = 0, i_gt = 0;
+      const int w = rec.calib.cam0.width, h = rec.calib.cam0.height;
+      for (const auto& f : rec.frames) {
+        for (; i_imu < rec.imu.size() && rec.imu[i_imu].utime <= f.utime; ++i_imu, ++imu) {
+          const auto& s = rec.imu[i_imu];
+          ips::imu_sample_t m;
+          m.utime = s.utime;
+          m.seq = static_cast<int64_t>(i_imu);
+          copy3(s.angular_rate, m.angular_rate);
+          copy3(s.specific_force, m.specific_force);
+          write(log, ch::kImu, m.utime, m, out);
+        }
+        for (; i_gt < rec.ground_truth.size() && rec.ground_truth[i_gt].utime <= f.utime; ++i_gt, ++gt) {
+          writeGroundTruth(log, rec.ground_truth[i_gt], out);
+        }
+        const cv::Mat left = ips::dataset::loadImage(f.left_path, w, h);
+        const cv::Mat right = ips::dataset::loadImage(f.right_path, w, h);
+        ips::stereo_pair_t m =
+            ips::fw::makeStereoPair(f.utime, f.index, left, right, rec.calib.cam0.serial, rec.calib.cam1.serial);
+        write(log, ch::kStereo, m.utime, m, out);
+        ++pairs;
+      }
+      // The samples after the last frame that the readers kept (one past the end, for interpolation).
+      for (; i_gt < rec.ground_truth.size(); ++i_gt, ++gt) {
+        writeGroundTruth(log, rec.ground_truth[i_gt], out);
+      }
+    }
+    std::filesystem::rename(tmp_calib, calib_path);
+    std::filesystem::rename(tmp_log, out);
+    cleanup.done = true;
+    std::printf("%s: %s, %lld stereo pairs %dx%d, %lld IMU samples, %lld ground-truth poses (%s); calibration %s\n",
+                out.c_str(), rec.format.c_str(), static_cast<long long>(pairs), rec.calib.cam0.width,
+                rec.calib.cam0.height, static_cast<long long>(imu), static_cast<long long>(gt),
+                rec.ground_truth_source.empty() ? "none" : rec.ground_truth_source.c_str(), calib_path.c_str());
+    return 0;
+  });
+}
