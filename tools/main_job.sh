@@ -41,10 +41,11 @@ print(int((last - first) / 1e6) if first else 0)
 PY
 )
 
-# 2. A deputy on this machine, private to this run (its own id), on the run's LCM URL.
+# 2. A deputy on this machine, on the run's LCM URL, with the id procman/main_job.pmd names ("mainjob"; a
+#    second main job on the same LCM URL is refused by the deputy's discovery, exit 2).
 export LCM_DEFAULT_URL=${LCM_DEFAULT_URL:-udpm://239.255.76.67:7667?ttl=0}
 export IPS_RUN_DIR=$run IPS_CONFIG=$ROOT/config IPS_REPLAY_SPEED=${IPS_REPLAY_SPEED:-1.0}
-deputy_id="mainjob-$$"
+deputy_id=mainjob
 say "2/4 starting procman-deputy '$deputy_id' on $LCM_DEFAULT_URL"
 procman-deputy --id "$deputy_id" > "$run/deputy.log" 2>&1 &
 deputy=$!
@@ -52,7 +53,7 @@ trap 'kill -TERM $deputy 2>/dev/null || true; wait $deputy 2>/dev/null || true' 
 
 # 3. The sheriff runs the processing stages over the walk; progress every 15 s.
 say "3/4 replaying ${walk_s} s of sensor data through tracker, filters (EKF, UKF) and e3d (procman/main_job.pmd)"
-procman-sheriff --config procman/main_job.pmd --default-deputy "$deputy_id" --timeout 1800 --script run \
+procman-sheriff --config procman/main_job.pmd --timeout 1800 --script run \
   > "$run/sheriff.log" 2>&1 &
 sheriff=$!
 while kill -0 $sheriff 2>/dev/null; do

@@ -98,8 +98,16 @@ Deputy::Deputy(DeputyOptions options) : opt_(std::move(options)), sys_(std::make
   pending_output_.deputy_id = opt_.deputy_id;
   pending_output_.num_commands = 0;
 
-  info_sub_ = lcm_->subscribe(kInfoChannel, &Deputy::onInfo, this);
-  lcm_->subscribe(kDiscoverChannel, &Deputy::onDiscovery, this);
+  subscriber_ = std::make_unique<SafeSubscriber>(
+      *lcm_, [this](const std::string& channel, const std::string& reason, uint64_t dropped) {
+        // Noted at the 1st, 10th, 100th, ... so that a flood of bad packets does not flood the output.
+        for (uint64_t p = 1; p <= dropped; p *= 10)
+          if (p == dropped)
+            note("", "dropped a message on " + channel + " (" + reason + "); " + std::to_string(dropped) +
+                         " dropped so far");
+      });
+  info_sub_ = subscriber_->subscribe(kInfoChannel, &Deputy::onInfo, this);
+  subscriber_->subscribe(kDiscoverChannel, &Deputy::onDiscovery, this);
   readSystemTimes(sys_->prev);
   sys_->have_prev = true;
 }
@@ -189,7 +197,7 @@ void Deputy::discoveryTick(int64_t now) {
   discovering_ = false;
   lcm_->unsubscribe(info_sub_);
   info_sub_ = nullptr;
-  orders_sub_ = lcm_->subscribe(kOrdersChannel, &Deputy::onOrders, this);
+  orders_sub_ = subscriber_->subscribe(kOrdersChannel, &Deputy::onOrders, this);
   if (opt_.verbose)
     std::fprintf(stderr, "%s procman-deputy[%s]: listening for orders\n", stamp().c_str(), opt_.deputy_id.c_str());
   updateCpuAndMemory();

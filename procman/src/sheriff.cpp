@@ -97,8 +97,15 @@ Sheriff::Sheriff(SheriffConfig config, SheriffOptions options) : opt_(std::move(
   }
   lcm_ = std::make_unique<lcm::LCM>(opt_.lcm_url);
   if (!lcm_->good()) throw std::runtime_error("procman-sheriff: cannot initialise LCM with URL '" + opt_.lcm_url + "'");
-  lcm_->subscribe(kInfoChannel, &Sheriff::onInfo, this);
-  lcm_->subscribe(kOutputChannel, &Sheriff::onOutput, this);
+  subscriber_ = std::make_unique<SafeSubscriber>(
+      *lcm_, [](const std::string& channel, const std::string& reason, uint64_t dropped) {
+        for (uint64_t p = 1; p <= dropped; p *= 10)
+          if (p == dropped)
+            std::fprintf(stderr, "procman-sheriff: dropped a message on %s (%s); %llu dropped so far\n",
+                         channel.c_str(), reason.c_str(), static_cast<unsigned long long>(dropped));
+      });
+  subscriber_->subscribe(kInfoChannel, &Sheriff::onInfo, this);
+  subscriber_->subscribe(kOutputChannel, &Sheriff::onOutput, this);
 }
 
 std::vector<std::string> Sheriff::configuredDeputies() const {
@@ -135,8 +142,11 @@ void Sheriff::onInfo(const lcm::ReceiveBuffer*, const std::string&, const procma
     it->mem_rss_bytes = s.mem_rss_bytes;
     it->mem_vsize_bytes = s.mem_vsize_bytes;
     if (!d.adopted) {
+      // Take over what the deputy does: a stopped command stays stopped, except an auto-respawn command,
+      // which may be between two runs (the deputy is about to respawn it) and is left alone as upstream's
+      // sheriff does; with desired = actual run id the deputy does not start it if it was stopped for good.
       it->desired_runid = s.actual_runid;
-      it->force_quit = s.pid == 0;
+      it->force_quit = s.pid == 0 && !it->config.auto_respawn;
     }
   }
   for (auto& c : commands_) {
@@ -179,7 +189,7 @@ void Sheriff::sendOrders() {
       desired.cmd.stop_signal = static_cast<int8_t>(c.config.stop_signal);
       desired.cmd.stop_time_allowed = static_cast<float>(c.config.stop_time_allowed);
       desired.desired_runid = c.desired_runid;
-      desired.force_quit = c.force_quit ? 1 : 0;
+      desired.force_quit = c.force_quit;
       orders.cmds.push_back(desired);
     }
     orders.ncmds = static_cast<int32_t>(orders.cmds.size());

@@ -106,6 +106,14 @@ check "sleeper restarted (run 2)" test "$(col sleeper 6 "$WORK/s4.txt")" = 2
 check "sleeper has a new pid" test "$(col sleeper 5 "$WORK/s4.txt")" != "$sleeper_pid"
 check "ticker untouched (run 1)" test "$(col ticker 6 "$WORK/s4.txt")" = 1
 
+# Sheriffs that restart another command take over a crash-looping auto-respawn command between two of its
+# runs (pid 0): they must leave it respawning, not stop it.
+for i in 1 2 3; do sheriff --restart g/sub --wait running > /dev/null; done
+"$BIN/procman-sheriff" --follow crasher --duration 3 > "$WORK/crasher.txt"
+check "crasher still respawning after three sheriffs restarted another command" grep -q '^crashing' "$WORK/crasher.txt"
+sheriff --status > "$WORK/s4b.txt"
+check "crasher not being stopped" test "$(col crasher 4 "$WORK/s4b.txt")" != Stopping
+
 # Stop with the configured signal.
 sheriff --stop ticker --status > "$WORK/s5.txt"
 check "stop ticker: exit 0" test $? -eq 0

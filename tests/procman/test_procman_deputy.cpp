@@ -81,7 +81,7 @@ procman_lcm::cmd_desired_t desired(const std::string& id, const std::string& exe
   d.cmd.stop_signal = static_cast<int8_t>(stop_signal);
   d.cmd.stop_time_allowed = stop_time_allowed;
   d.desired_runid = runid;
-  d.force_quit = force_quit ? 1 : 0;
+  d.force_quit = force_quit;
   return d;
 }
 
@@ -398,7 +398,7 @@ TEST_F(ProcmanDeputy, SurvivesMalformedOrders) {
   DeputyProcess deputy("d1", url_);
   waitReady("d1");
   order("d1",
-        {desired("", "sh -c 'echo empty id'", 1), desired("unparsable", "sh -c 'unterminated", 1),
+        {desired("", "sh -c 'echo empty id'", 1), desired("unparsable", "A=1 B=2", 1),
          desired("missing", "/nonexistent/program --flag", 1),
          desired("nan", "sleep 30", 1, false, false, 99, std::nanf("")), desired("fine", "sh -c 'echo fine'", 1)});
   ASSERT_TRUE(spinUntil([&] { return hasEnded("d1", "fine", 1) && outputHas("d1", "fine", "fine\n"); }, 10));
@@ -416,6 +416,33 @@ TEST_F(ProcmanDeputy, SurvivesMalformedOrders) {
   order("d1", {desired("nan", "sleep 30", 1, true, false, 99, std::nanf(""))});
   ASSERT_TRUE(spinUntil([&] { return hasEnded("d1", "nan", 1); }, 10));
   EXPECT_EQ(WTERMSIG(status("d1", "nan")->exit_code), SIGKILL);
+  EXPECT_FALSE(deputy.waitExit(0.1).has_value()) << "the deputy is still running";
+
+  // Orders with the right fingerprint whose lengths make the generated decoder throw: a string length of 0
+  // and a negative command count. The deputy drops them, says so, and keeps taking orders.
+  std::vector<uint8_t> head;
+  auto put = [&](uint64_t v, int bytes) {
+    for (int b = bytes - 1; b >= 0; --b) head.push_back(static_cast<uint8_t>(v >> (8 * b)));
+  };
+  put(static_cast<uint64_t>(procman_lcm::orders_t::getHash()), 8);
+  put(static_cast<uint64_t>(nowUs()), 8);
+  std::vector<uint8_t> zero_length_string = head;
+  for (int i = 0; i < 4; ++i) zero_length_string.push_back(0);
+  auto string_field = [&](const std::string& text) {
+    put(text.size() + 1, 4);
+    head.insert(head.end(), text.begin(), text.end());
+    head.push_back(0);
+  };
+  string_field("d1");
+  string_field("test-sheriff");
+  put(0xffffffffu, 4);  // ncmds = -1
+  for (int i = 0; i < 3; ++i) {
+    lcm_->publish("PM_ORDERS", zero_length_string.data(), static_cast<unsigned>(zero_length_string.size()));
+    lcm_->publish("PM_ORDERS", head.data(), static_cast<unsigned>(head.size()));
+  }
+  EXPECT_TRUE(spinUntil([&] { return outputHas("d1", "", "dropped a message on PM_ORDERS"); }, 5));
+  order("d1", {desired("after", "sh -c 'echo still taking orders'", 1)});
+  EXPECT_TRUE(spinUntil([&] { return outputHas("d1", "after", "still taking orders"); }, 10));
   EXPECT_FALSE(deputy.waitExit(0.1).has_value()) << "the deputy is still running";
 }
 

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <vector>
 
 #include "procman/exec_string.hpp"
@@ -37,55 +38,69 @@ namespace pm = ips::procman;
 
 namespace {
 
-std::string lookupIn(const std::map<std::string, std::string>& env, const std::string& name) {
+std::optional<std::string> lookupIn(const std::map<std::string, std::string>& env, const std::string& name) {
   auto it = env.find(name);
-  return it == env.end() ? "" : it->second;
+  if (it == env.end()) return std::nullopt;
+  return it->second;
 }
 
 pm::ExecSpec parse(const std::string& s, const std::map<std::string, std::string>& env = {}) {
   return pm::parseExecString(s, [&](const std::string& n) { return lookupIn(env, n); });
 }
 
+using Words = std::vector<std::string>;
+
 }  // namespace
 
-TEST(ExecString, SplitsWordsLikeAShell) {
-  // The upstream procman test configuration's argument test.
+// Expected words below are what the upstream deputy (ashuang/procman 3fc4a80, SeparateArgs + ExpandVariables
+// in src/procman/exec_string_utils.cpp) makes of the same strings; the shell-like cases were also checked by
+// running them under the real upstream deputy.
+TEST(ExecString, SplitsWordsLikeTheUpstreamDeputy) {
+  // The upstream procman test configuration's argument test (test/test.cfg).
   const auto spec = parse(R"(bash -c 'echo arg0: [$0] arg1: "$1" arg2: [$2]' abc "def ghi" 'jkl mno pqr')");
-  const std::vector<std::string> expected = {"bash", "-c",      R"(echo arg0: [$0] arg1: "$1" arg2: [$2])",
-                                             "abc",  "def ghi", "jkl mno pqr"};
-  EXPECT_EQ(spec.argv, expected);
+  EXPECT_EQ(spec.argv,
+            (Words{"bash", "-c", R"(echo arg0: [$0] arg1: "$1" arg2: [$2])", "abc", "def ghi", "jkl mno pqr"}));
   EXPECT_TRUE(spec.env.empty());
-  EXPECT_EQ(parse(R"(a\ b "c\"d" e\\f)").argv, (std::vector<std::string>{"a b", "c\"d", "e\\f"}));
-  EXPECT_EQ(parse("  x   y\t z  ").argv, (std::vector<std::string>{"x", "y", "z"}));
-  EXPECT_EQ(parse("x '' \"\"").argv, (std::vector<std::string>{"x", "", ""}));
+  EXPECT_EQ(parse(R"(a\ b "c\"d" e\\f)").argv, (Words{"a b", "c\"d", "e\\"}));  // "e\\f": backslash rule of expansion
+  EXPECT_EQ(parse("  x   y\t zz  ").argv, (Words{"x", "y", "zz"}));
+  EXPECT_EQ(parse("x '' \"\" yy").argv, (Words{"x", "", "", "yy"}));
+  // A backslash works inside single quotes too; the other quote character is literal inside a quote.
+  EXPECT_EQ(parse(R"(x 'it\'s' "say 'hi'" 'a"b')").argv, (Words{"x", "it's", "say 'hi'", "a\"b"}));
+  // An unclosed quote runs to the end; a trailing backslash stays.
+  EXPECT_EQ(parse("echo 'open end").argv, (Words{"echo", "open end"}));
+  EXPECT_EQ(parse("echo ab\\").argv, (Words{"echo", "ab\\"}));
 }
 
-TEST(ExecString, LeadingAssignmentsBecomeEnvironment) {
-  const auto spec = parse(R"(ABC=def GHI="jkl mno" bash -c 'echo $ABC' X=1)");
-  ASSERT_EQ(spec.env.size(), 2u);
+TEST(ExecString, LeadingWordsWithEqualsBecomeEnvironment) {
+  const auto spec = parse(R"(ABC=def GHI="jkl mno" P=$HOME bash -c 'echo $ABC' X=1)", {{"HOME", "/h"}});
+  ASSERT_EQ(spec.env.size(), 3u);
   EXPECT_EQ(spec.env[0], (std::pair<std::string, std::string>{"ABC", "def"}));
   EXPECT_EQ(spec.env[1], (std::pair<std::string, std::string>{"GHI", "jkl mno"}));
-  EXPECT_EQ(spec.argv, (std::vector<std::string>{"bash", "-c", "echo $ABC", "X=1"}));
+  EXPECT_EQ(spec.env[2], (std::pair<std::string, std::string>{"P", "$HOME"}));  // values are not expanded
+  EXPECT_EQ(spec.argv, (Words{"bash", "-c", "echo $ABC", "X=1"}));
+  EXPECT_EQ(parse("A=b=c prog").env[0], (std::pair<std::string, std::string>{"A", "b=c"}));
 }
 
-TEST(ExecString, ExpandsVariablesOutsideSingleQuotes) {
-  const std::map<std::string, std::string> env = {{"ROOT", "/opt/ips"}, {"SPACE", "a b"}};
-  EXPECT_EQ(parse("$ROOT/bin/tracker --config ${ROOT}/config/x.yaml '$ROOT' \"$SPACE\" $UNSET end $ 5", env).argv,
-            (std::vector<std::string>{"/opt/ips/bin/tracker", "--config", "/opt/ips/config/x.yaml", "$ROOT", "a b",
-                                      "end", "$", "5"}));
-  EXPECT_EQ(parse("play ${LOG:-out/run.lcmlog} ${ROOT:-/x}", env).argv,
-            (std::vector<std::string>{"play", "out/run.lcmlog", "/opt/ips"}));
+TEST(ExecString, ExpandsVariablesAfterQuoteRemoval) {
+  const std::map<std::string, std::string> env = {{"ROOT", "/opt/ips"}, {"SPACE", "a b"}, {"EMPTY", ""}};
+  // Single quotes do not protect: expansion runs on each word after quote removal. Values are not split.
+  EXPECT_EQ(parse("$ROOT/bin/tracker --config ${ROOT}/config/x.yaml '$ROOT' $SPACE \"<$EMPTY>\" end", env).argv,
+            (Words{"/opt/ips/bin/tracker", "--config", "/opt/ips/config/x.yaml", "/opt/ips", "a b", "<>", "end"}));
+  // Unset variables, bare $, names starting with a digit, and ${...} that is not ${NAME} stay literally.
+  EXPECT_EQ(parse("p $UNSET ${UNSET} $ $5 a$ ${} ${ROOT", env).argv,
+            (Words{"p", "$UNSET", "${UNSET}", "$", "$5", "a$", "${}", "${ROOT"}));
+  EXPECT_EQ(parse("play ${LOG:-out/run.lcmlog} ${ROOT:-/x} $ROOT_DIR $ROOT-x", env).argv,
+            (Words{"play", "${LOG:-out/run.lcmlog}", "${ROOT:-/x}", "$ROOT_DIR", "/opt/ips-x"}));
+  // An escaped $ is still expanded (the backslash is gone after splitting); a backslash left in a word keeps
+  // itself and drops the next character.
+  EXPECT_EQ(parse("p \\$ROOT a\\\\bc", env).argv, (Words{"p", "/opt/ips", "a\\c"}));
 }
 
-TEST(ExecString, RejectsMalformedStrings) {
-  EXPECT_THROW(parse("echo 'open"), pm::ExecStringError);
-  EXPECT_THROW(parse("echo \"open"), pm::ExecStringError);
-  EXPECT_THROW(parse("echo \\"), pm::ExecStringError);
-  EXPECT_THROW(parse("echo ${BROKEN"), pm::ExecStringError);
-  EXPECT_THROW(parse("echo ${1x}"), pm::ExecStringError);
+TEST(ExecString, RejectsStringsWithoutProgram) {
   EXPECT_THROW(parse(""), pm::ExecStringError);
   EXPECT_THROW(parse("   "), pm::ExecStringError);
   EXPECT_THROW(parse("A=1 B=2"), pm::ExecStringError);
+  EXPECT_THROW(parse("=1 prog"), pm::ExecStringError);
 }
 
 TEST(SheriffConfig, ParsesGroupsCommandsAndScripts) {
@@ -205,6 +220,25 @@ TEST(SheriffConfig, ProjectConfigurationsLoad) {
   for (const auto& c : replay.commands) has_player = has_player || c.exec.find("lcm-logplayer") != std::string::npos;
   EXPECT_TRUE(has_player);
   EXPECT_NE(replay.findScript("replay"), nullptr);
+}
+
+// What the upstream sheriff and deputy need of a configuration: a deputy named by every command (its sheriff
+// refuses a command without one), and no ${NAME:-default} that a deputy would hand literally to a program
+// (only to sh, which applies the default itself).
+TEST(SheriffConfig, ProjectConfigurationsRunUnderUpstreamProcman) {
+  for (const auto& entry : std::filesystem::directory_iterator(PROCMAN_SOURCE_DIR)) {
+    if (entry.path().extension() != ".pmd") continue;
+    const auto cfg = pm::loadSheriffConfig(entry.path().string());
+    ASSERT_FALSE(cfg.commands.empty()) << entry.path();
+    for (const auto& c : cfg.commands) {
+      EXPECT_FALSE(c.deputy.empty()) << entry.path() << ": " << c.id << " names no deputy";
+      // Every variable set: what is left of "${" is then a reference no deputy expands.
+      const auto spec = pm::parseExecString(c.exec, [](const std::string&) { return std::optional<std::string>("v"); });
+      if (spec.argv[0] == "sh") continue;
+      for (const auto& word : spec.argv)
+        EXPECT_EQ(word.find("${"), std::string::npos) << entry.path() << ": " << c.id << " passes " << word;
+    }
+  }
 }
 
 TEST(SheriffConfig, GroupContainment) {
@@ -332,7 +366,7 @@ TEST(WireCompatibility, OrdersEncodedByUsDecodeWithUpstreamCode) {
     d.cmd.stop_signal = 15;
     d.cmd.stop_time_allowed = 2.5f;
     d.desired_runid = 7 + i;
-    d.force_quit = static_cast<int8_t>(i);
+    d.force_quit = i == 1;
     orders.cmds.push_back(d);
   }
   orders.ncmds = 2;

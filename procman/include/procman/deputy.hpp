@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "procman/safe_subscribe.hpp"
 #include "procman_lcm/deputy_info_t.hpp"
 #include "procman_lcm/discovery_t.hpp"
 #include "procman_lcm/orders_t.hpp"
@@ -80,6 +81,7 @@ class Deputy {
 
   DeputyOptions opt_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<SafeSubscriber> subscriber_;  // drops (and notes) messages that do not decode
   lcm::Subscription* info_sub_ = nullptr;
   lcm::Subscription* orders_sub_ = nullptr;
   int signal_fd_ = -1;

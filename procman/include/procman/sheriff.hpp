@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "procman/safe_subscribe.hpp"
 #include "procman/sheriff_config.hpp"
 #include "procman_lcm/deputy_info_t.hpp"
 #include "procman_lcm/output_t.hpp"
@@ -122,6 +123,7 @@ class Sheriff {
   SheriffOptions opt_;
   SheriffConfig config_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::unique_ptr<SafeSubscriber> subscriber_;  // drops (and reports) messages that do not decode
   std::vector<SheriffCommand> commands_;
   std::map<std::string, DeputyView> deputies_;
   int64_t last_orders_us_ = 0;
