@@ -4,11 +4,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <csignal>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <optional>
 #include <vector>
@@ -458,4 +460,107 @@ TEST(WireCompatibility, InfoAndOutputEncodedByUpstreamCodeDecodeWithOurs) {
   ASSERT_GT(ours_disc.decode(buf.data(), 0, static_cast<int>(buf.size())), 0);
   EXPECT_EQ(ours_disc.transmitter_id, "processing");
   EXPECT_EQ(ours_disc.nonce, 5);
+}
+
+// upstream_exchange.lcmlog: what our sheriff and the upstream deputy ("up"), then the upstream sheriff and our
+// deputy ("ours") sent each other (procman 3fc4a80 built outside the project; see upstream_lcm/SOURCE.md):
+// start, restart and stop of a command, an auto-respawn command, and output. Every message, whoever sent it,
+// must decode with upstream's generated code and with ours to the same bytes; and each deputy's last report
+// must carry out the last orders the other side's sheriff gave it.
+namespace {
+
+template <class Ours, class UpstreamC>
+void expectSameBytes(const lcm::LogEvent* ev, int (*decode)(const void*, int, int, UpstreamC*),
+                     int (*cleanup)(UpstreamC*)) {
+  UpstreamC c;
+  ASSERT_EQ(decode(ev->data, 0, ev->datalen, &c), ev->datalen) << ev->channel << " #" << ev->eventnum;
+  cleanup(&c);
+  Ours ours;
+  ASSERT_EQ(ours.decode(ev->data, 0, ev->datalen), ev->datalen) << ev->channel << " #" << ev->eventnum;
+  std::vector<uint8_t> again(static_cast<size_t>(ours.getEncodedSize()));
+  ASSERT_EQ(ours.encode(again.data(), 0, static_cast<int>(again.size())), ev->datalen);
+  EXPECT_EQ(0, std::memcmp(again.data(), ev->data, again.size())) << ev->channel << " #" << ev->eventnum;
+}
+
+}  // namespace
+
+TEST(WireCompatibility, RecordedExchangeWithUpstreamDecodesBothWays) {
+  lcm::LogFile log(std::string(PROCMAN_TEST_DIR) + "/upstream_exchange.lcmlog", "r");
+  ASSERT_TRUE(log.good());
+  std::map<std::string, int> count;  // channel/sender
+  std::map<std::string, procman_lcm::orders_t> last_orders;
+  std::map<std::string, procman_lcm::deputy_info_t> last_info;
+  std::map<std::string, std::string> output;  // deputy/command -> text
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    const std::string ch = ev->channel;
+    if (ch == "PM_ORDERS") {
+      expectSameBytes<procman_lcm::orders_t>(ev, procman_lcm_orders_t_decode, procman_lcm_orders_t_decode_cleanup);
+      procman_lcm::orders_t m;
+      m.decode(ev->data, 0, ev->datalen);
+      last_orders[m.deputy_id] = m;
+      ++count[ch + "/" + m.deputy_id];
+    } else if (ch == "PM_INFO") {
+      expectSameBytes<procman_lcm::deputy_info_t>(ev, procman_lcm_deputy_info_t_decode,
+                                                  procman_lcm_deputy_info_t_decode_cleanup);
+      procman_lcm::deputy_info_t m;
+      m.decode(ev->data, 0, ev->datalen);
+      last_info[m.deputy_id] = m;
+      ++count[ch + "/" + m.deputy_id];
+    } else if (ch == "PM_OUTPUT") {
+      expectSameBytes<procman_lcm::output_t>(ev, procman_lcm_output_t_decode, procman_lcm_output_t_decode_cleanup);
+      procman_lcm::output_t m;
+      m.decode(ev->data, 0, ev->datalen);
+      for (size_t i = 0; i < m.command_ids.size(); ++i) output[m.deputy_id + "/" + m.command_ids[i]] += m.text[i];
+      ++count[ch + "/" + m.deputy_id];
+    } else if (ch == "PM_DISCOVER") {
+      expectSameBytes<procman_lcm::discovery_t>(ev, procman_lcm_discovery_t_decode,
+                                                procman_lcm_discovery_t_decode_cleanup);
+    } else {
+      ADD_FAILURE() << "unexpected channel " << ch;
+    }
+  }
+  // Both directions are in the recording: orders to and reports from the upstream deputy and ours.
+  for (const char* key :
+       {"PM_ORDERS/up", "PM_ORDERS/ours", "PM_INFO/up", "PM_INFO/ours", "PM_OUTPUT/up", "PM_OUTPUT/ours"})
+    EXPECT_GT(count[key], 0) << key;
+  EXPECT_EQ(last_orders["up"].sheriff_id.rfind("procman-sheriff@", 0), 0u) << "orders to 'up' came from ours";
+
+  // Each deputy did what the other side's sheriff ordered last: every command at the ordered run id, stopped
+  // where force_quit is set; the restarted ticker ran twice and ended by its stop signal (SIGTERM).
+  for (const char* deputy : {"up", "ours"}) {
+    const auto& orders = last_orders[deputy];
+    const auto& info = last_info[deputy];
+    ASSERT_EQ(info.cmds.size(), orders.cmds.size()) << deputy;
+    for (const auto& want : orders.cmds) {
+      const auto it = std::find_if(info.cmds.begin(), info.cmds.end(), [&](const procman_lcm::cmd_status_t& s) {
+        return s.cmd.command_id == want.cmd.command_id;
+      });
+      ASSERT_NE(it, info.cmds.end()) << deputy << "/" << want.cmd.command_id;
+      EXPECT_EQ(it->actual_runid, want.desired_runid) << deputy << "/" << want.cmd.command_id;
+      if (want.force_quit) {
+        EXPECT_EQ(it->pid, 0) << deputy << "/" << want.cmd.command_id;
+      }
+      EXPECT_EQ(it->cmd.auto_respawn, want.cmd.auto_respawn);
+      if (want.cmd.command_id == "ticker") {
+        EXPECT_EQ(it->actual_runid, 2) << deputy;
+        EXPECT_TRUE(want.force_quit) << deputy;
+        EXPECT_TRUE(WIFSIGNALED(it->exit_code) && WTERMSIG(it->exit_code) == SIGTERM) << deputy;
+      }
+    }
+    // Output: the auto-respawn command was respawned (printed more than once); exec strings expanded alike
+    // ($HOME inside single quotes by the deputy, ${NOPE:-d} left to sh).
+    const std::string crasher = output[std::string(deputy) + "/crasher"];
+    size_t runs = 0;
+    for (size_t p = crasher.find("crashing"); p != std::string::npos; p = crasher.find("crashing", p + 1)) ++runs;
+    EXPECT_GE(runs, 2u) << deputy;
+    EXPECT_NE(output[std::string(deputy) + "/expand"].find("default=[d] unset=[]"), std::string::npos) << deputy;
+    EXPECT_EQ(output[std::string(deputy) + "/expand"].find("single=[$HOME]"), std::string::npos) << deputy;
+  }
+  // What differs: the upstream deputy's pseudo-terminal turns "\n" into "\r\n"; ours does not. And its
+  // splitter drops a last one-character word ("echo a b c" prints "a b").
+  EXPECT_NE(output["up/ticker"].find("tick 0\r\n"), std::string::npos);
+  EXPECT_NE(output["ours/ticker"].find("tick 0\n"), std::string::npos);
+  EXPECT_EQ(output["ours/ticker"].find('\r'), std::string::npos);
+  EXPECT_NE(output["up/lastword"].find("a b\r\n"), std::string::npos);
+  EXPECT_NE(output["ours/lastword"].find("a b c\n"), std::string::npos);
 }
