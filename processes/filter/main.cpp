@@ -91,13 +91,8 @@ class FilterProcess {
       return false;
     }
     // Across streams the estimator sorts (and counts what comes too late); within one stream a stamp that
-    // does not increase is a fault of the source.
-    auto r = order.check(m.utime, m.seq);
-    if (!r.accept) {
-      node_.health().bad("time_backwards", std::string(what) + " stamp not after the previous one");
-      return false;
-    }
-    if (r.gap > 0) node_.health().dropped(std::string(what) + "_seq_gap", r.gap);
+    // does not increase, or leaps implausibly far, is a fault of the source and is never adopted.
+    if (!ips::fw::admitInOrder(order, m.utime, m.seq, node_.health(), what)) return false;
     node_.health().accepted();
     return true;
   }
@@ -128,10 +123,9 @@ class FilterProcess {
   }
 
   void onDelta(const ips::tracker_delta_t& m) {
-    node_.health().received(m.utime);
-    ips::fw::Verdict v = ips::fw::validate(m);
-    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
-    node_.health().accepted();
+    // A delta repeated, or sent by a second tracker for the same pair, does not advance the stream's time
+    // and is dropped here: each image interval is fused once.
+    if (!check(m, delta_order_, "delta")) return;
     if (!m.valid) return node_.health().count("tracker_invalid");
     ips::filter::TrackerDelta d;
     d.utime = m.utime;
@@ -159,7 +153,7 @@ class FilterProcess {
   ips::fw::Node& node_;
   ips::filter::Estimator& est_;
   std::string state_channel_, prior_channel_;
-  ips::fw::StreamOrder imu_order_, tilt_order_, stereo_order_;
+  ips::fw::StreamOrder imu_order_, tilt_order_, stereo_order_, delta_order_;
 };
 
 }  // namespace

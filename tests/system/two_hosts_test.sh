@@ -82,7 +82,7 @@ gaps=$(field monitor_processing_lossy.txt STEREO gaps)
 [ "${lossy_states}" -lt "${states}" ] || { echo "FAIL: 5 % loss lost no filter state?"; exit 1; }
 [ "${gaps:-0}" -gt 0 ] || { echo "FAIL: lost pairs not counted as sequence gaps"; exit 1; }
 # e3d on the processing host counted the pairs it never got in its health message (seen by the monitor there).
-grep -qE "e3d\.seq_gap=[1-9]" "$W/monitor_processing_lossy.txt" || { echo "FAIL: e3d did not count lost pairs"; exit 1; }
+grep -qE "e3d\.stereo_seq_gap=[1-9]" "$W/monitor_processing_lossy.txt" || { echo "FAIL: e3d did not count lost pairs"; exit 1; }
 # Every process ran to the end: none left with an error status.
 if grep -q "Stopped(Error)" "$W/status_lossy.log"; then echo "FAIL: a process died under loss"; cat "$W/status_lossy.log"; exit 1; fi
 echo "PASS: under 5 % loss $lossy_pairs of the pairs and $lossy_states filter states arrived; $gaps pairs counted lost"

@@ -9,6 +9,7 @@
 #include <ips/health_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "ips/framework/channels.hpp"
@@ -53,8 +54,10 @@ class Monitor {
   }
 
   void watchHealth() {
-    node_.subscribe<ips::health_t>(std::string(ips::channels::kHealthPrefix) + ".*",
-                                   [this](const ips::health_t& h) { health_[h.process] = h; });
+    node_.subscribe<ips::health_t>(std::string(ips::channels::kHealthPrefix) + ".*", [this](const ips::health_t& h) {
+      health_[h.process] = h;
+      publishers_[h.process].insert(h.host + ":" + std::to_string(h.pid));
+    });
   }
 
   int64_t received(const std::string& channel) { return stats_[channel].received; }
@@ -78,6 +81,13 @@ class Monitor {
                     h.input_rate_hz, h.output_rate_hz, h.latency_ms, h.queue_length, static_cast<long long>(h.received),
                     static_cast<long long>(h.published), static_cast<long long>(h.dropped),
                     static_cast<long long>(h.bad));
+        const auto& pubs = publishers_.at(kv.first);
+        if (pubs.size() > 1) {
+          std::string list;
+          for (const auto& p : pubs) list += (list.empty() ? "" : ",") + p;
+          std::printf("    %s: WARNING: %zu processes publish this health channel (host:pid %s)\n", h.process.c_str(),
+                      pubs.size(), list.c_str());
+        }
         for (int i = 0; i < h.num_counters; ++i)
           std::printf("    %s.%s=%lld\n", h.process.c_str(), h.counter_names[i].c_str(),
                       static_cast<long long>(h.counter_values[i]));
@@ -133,6 +143,7 @@ class Monitor {
   std::vector<std::string> order_;
   std::map<std::string, ChannelStats> stats_;
   std::map<std::string, ips::health_t> health_;
+  std::map<std::string, std::set<std::string>> publishers_;  // per process name: every host:pid seen
 };
 
 }  // namespace
@@ -170,8 +181,9 @@ int main(int argc, char** argv) {
         break;
     }
     monitor.print();
-    std::printf("bus_monitor decode_error=%lld bad=%lld\n",
+    std::printf("bus_monitor decode_error=%lld duplicate=%lld bad=%lld\n",
                 static_cast<long long>(node.health().counter("decode_error")),
+                static_cast<long long>(node.health().counter("duplicate")),
                 static_cast<long long>(node.health().badCount()));
     return 0;
   });

@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
         node.lcm().publish(args.get("--channel"), junk, sizeof(junk));
       } else {
         if (bad == "nan") m.angular_rate[1] = std::nan("");
-        if (bad == "backwards") m.utime = 1'000'000 - 5'000 * i;
+        if (bad == "backwards") m.utime = 1'000'000 - 5'000 * (i + 1);  // each earlier than any sent before
         node.publish(args.get("--channel"), m);
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(args.getInt("--period-ms")));

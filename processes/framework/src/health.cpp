@@ -2,9 +2,16 @@
 
 #include <unistd.h>
 
+#include <cstdint>
+
 namespace ips::fw {
 
 namespace {
+// Counters saturate instead of wrapping: a nonsense increment must not turn a count negative.
+void addSaturating(int64_t& counter, int64_t increment) {
+  if (__builtin_add_overflow(counter, increment, &counter)) counter = increment > 0 ? INT64_MAX : INT64_MIN;
+}
+
 std::string hostName() {
   char buf[256] = {0};
   if (gethostname(buf, sizeof(buf) - 1) != 0) return "unknown";
@@ -50,13 +57,13 @@ void Health::bad(const std::string& reason, const std::string& detail) {
 
 void Health::dropped(const std::string& reason, int64_t count) {
   std::lock_guard<std::mutex> lock(mutex_);
-  dropped_ += count;
-  counters_[reason] += count;
+  addSaturating(dropped_, count);
+  addSaturating(counters_[reason], count);
 }
 
 void Health::count(const std::string& name, int64_t increment) {
   std::lock_guard<std::mutex> lock(mutex_);
-  counters_[name] += increment;
+  addSaturating(counters_[name], increment);
 }
 
 void Health::set(const std::string& name, int64_t value) {

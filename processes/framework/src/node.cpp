@@ -1,5 +1,7 @@
 #include "ips/framework/node.hpp"
 
+#include <unistd.h>
+
 #include <csignal>
 #include <cstdlib>
 #include <stdexcept>
@@ -44,6 +46,15 @@ Node::Node(const std::string& process_name, const std::string& lcm_url)
   if (!lcm_->good()) throw std::runtime_error("cannot initialise LCM with URL '" + resolveLcmUrl(lcm_url) + "'");
   setLogName(process_name);
   installSignalHandlers();
+  // A second process started under this name by mistake (two trackers) would publish on the same channels and
+  // the same health channel; its health messages carry another host or pid, which is counted and warned of.
+  subscribe<ips::health_t>(health_channel_, [this](const ips::health_t& h) {
+    if (h.pid == static_cast<int32_t>(getpid()) && h.host == health_.host()) return;
+    if (health_.counter("other_process_same_name") == 0)
+      IPS_WARN("another process named '" << name_ << "' runs on " << h.host << " (pid " << h.pid
+                                         << "): both publish on the same channels");
+    health_.count("other_process_same_name");
+  });
 }
 
 Node::~Node() {
@@ -57,6 +68,21 @@ void Node::subscribeRaw(const std::string& channel,
   // LCM 1.3.1 treats the channel as a regex anchored at both ends; escape nothing: our names are plain.
   lcm_->subscribe(channel, &RawSubscription::handle, sub.get());
   subscriptions_.push_back(std::move(sub));
+}
+
+bool Node::RecentMessages::seenBefore(const void* data, size_t size) {
+  // FNV-1a over the first bytes and the size.
+  uint64_t h = 1469598103934665603ull;
+  const auto* p = static_cast<const unsigned char*>(data);
+  const size_t n = size < kHashedBytes ? size : kHashedBytes;
+  for (size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 1099511628211ull;
+  h = (h ^ size) * 1099511628211ull;
+  for (size_t i = 0; i < count_; ++i)
+    if (fingerprints_[i] == h) return true;
+  fingerprints_[next_] = h;
+  next_ = (next_ + 1) % kRemembered;
+  if (count_ < kRemembered) ++count_;
+  return false;
 }
 
 bool Node::handleOnce(int timeout_ms) { return lcm_->handleTimeout(timeout_ms) >= 0; }

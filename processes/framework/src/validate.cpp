@@ -68,8 +68,16 @@ Verdict validate(const ips::tracker_delta_t& m) {
 Verdict validate(const ips::filter_state_t& m) {
   if (!finite(m.position, 3) || !finite(m.velocity, 3) || !finite(m.orientation, 4) || !finite(m.angular_rate, 3))
     return bad("nan", "filter state with NaN or inf");
+  if (!finite(m.acceleration, 3) || !finite(m.accel_bias, 3) || !finite(m.gyro_bias, 3))
+    return bad("nan", "filter state with a NaN or inf bias or acceleration");
   if (m.cov_dim < 0 || m.cov_dim > 64 || static_cast<int>(m.covariance.size()) != m.cov_dim)
     return bad("bad_size", "filter state covariance of size " + std::to_string(m.cov_dim));
+  for (const auto& row : m.covariance) {
+    if (static_cast<int>(row.size()) != m.cov_dim) return bad("bad_size", "filter state covariance row of wrong size");
+    if (!finite(row.data(), m.cov_dim)) return bad("nan", "filter state covariance with NaN or inf");
+  }
+  for (int i = 0; i < m.cov_dim; ++i)
+    if (m.covariance[i][i] < 0) return bad("bad_value", "filter state covariance with a negative variance");
   return {};
 }
 
@@ -85,14 +93,41 @@ Verdict validate(const ips::disparity_map_t& m) {
   return {};
 }
 
+const char* StreamOrder::reason(Outcome o) {
+  return o == Outcome::jump ? "time_jump" : o == Outcome::backwards ? "time_backwards" : "";
+}
+
 StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
   Result r;
-  if (!first_) {
-    if (utime <= last_utime_) {
+  if (!first_ && !fitsAfter(utime, last_utime_)) {
+    // Not on the current time line: a candidate for a new one, adopted only once confirmed.
+    if (candidate_count_ > 0 && fitsAfter(utime, candidate_utime_))
+      ++candidate_count_;
+    else
+      candidate_count_ = 1;
+    candidate_utime_ = utime;
+    if (candidate_count_ < limits_.confirm) {
       r.accept = false;
+      r.outcome = utime <= last_utime_ ? Outcome::backwards : Outcome::jump;
       return r;
     }
-    if (seq > last_seq_ + 1) r.gap = seq - last_seq_ - 1;
+    r.clock_step = true;
+    first_ = true;  // the new line starts here: no sequence gap is counted across the step
+  }
+  candidate_count_ = 0;
+  if (!first_) {
+    int64_t diff = 0;
+    const bool overflow = __builtin_sub_overflow(seq, last_seq_, &diff);
+    if (overflow || diff < 0) {
+      r.seq_reset = true;
+    } else if (diff > 1) {
+      // At most max_rate_hz messages fit in the elapsed time (plus one for rounding).
+      const double possible = (utime - last_utime_) * 1e-6 * limits_.max_rate_hz + 1.0;
+      if (static_cast<double>(diff - 1) <= possible)
+        r.gap = diff - 1;
+      else
+        r.seq_reset = true;
+    }
   }
   first_ = false;
   last_utime_ = utime;
@@ -113,12 +148,24 @@ bool StereoAdmission::admit(const ips::stereo_pair_t& m, Health& health) {
                                std::to_string(height_) + ")");
     return false;
   }
-  auto order = order_.check(m.utime, m.seq);
-  if (!order.accept) {
-    health.bad("time_backwards", "stereo pair stamp not after the previous one");
+  return admitInOrder(order_, m.utime, m.seq, health, "stereo");
+}
+
+bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health, const std::string& what) {
+  const StreamOrder::Result r = order.check(utime, seq);
+  if (!r.accept) {
+    health.bad(StreamOrder::reason(r.outcome),
+               what + " stamp " + std::to_string(utime) + " us " +
+                   (r.outcome == StreamOrder::Outcome::jump ? "implausibly far ahead of" : "not after") +
+                   " the stream's last one (" + std::to_string(order.lastUtime()) + " us)");
     return false;
   }
-  if (order.gap > 0) health.dropped("seq_gap", order.gap);
+  if (r.clock_step) {
+    health.count(what + "_clock_step");
+    IPS_WARN(what << ": the stream's clock stepped; following it from " << utime << " us");
+  }
+  if (r.seq_reset) health.count(what + "_seq_reset");
+  if (r.gap > 0) health.dropped(what + "_seq_gap", r.gap);
   return true;
 }
 

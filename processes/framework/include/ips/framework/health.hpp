@@ -29,6 +29,7 @@ class Health {
   void queueLength(int n);
 
   int64_t counter(const std::string& name) const;
+  const std::string& host() const { return host_; }
   int64_t badCount() const;
   int64_t droppedCount() const;
 

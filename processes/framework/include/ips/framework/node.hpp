@@ -36,8 +36,10 @@ class Node {
   lcm::LCM& lcm() { return *lcm_; }
 
   // Subscribes to a channel of type Msg. Messages that do not decode are counted as bad ("decode_error") and
-  // never reach the handler; an exception thrown by the handler is counted ("handler_error") and logged,
-  // and the process goes on.
+  // never reach the handler (the generated decoders bound every declared length by the datagram's size, see
+  // cmake/LcmGen.cmake, and any exception they still throw is caught here); a message that repeats one of the
+  // channel's recent messages byte for byte is dropped ("duplicate"); an exception thrown by the handler is
+  // counted ("handler_error") and logged, and the process goes on.
   template <class Msg>
   void subscribe(const std::string& channel, std::function<void(const Msg&)> handler);
 
@@ -59,6 +61,19 @@ class Node {
     std::function<void(const lcm::ReceiveBuffer*, const std::string&)> fn;
     void handle(const lcm::ReceiveBuffer* rbuf, const std::string& channel) { fn(rbuf, channel); }
   };
+  // Fingerprints of a channel's most recent messages, to drop exact repeats (a message sent twice by a
+  // faulty link or a replayed packet). Every message type starts with its stamp, so the first bytes and the
+  // size tell messages apart without hashing megabytes of image.
+  class RecentMessages {
+   public:
+    bool seenBefore(const void* data, size_t size);  // records the message; true if it repeats a recent one
+
+   private:
+    static constexpr size_t kRemembered = 64;
+    static constexpr size_t kHashedBytes = 4096;
+    uint64_t fingerprints_[kRemembered] = {};
+    size_t next_ = 0, count_ = 0;
+  };
   void subscribeRaw(const std::string& channel, std::function<void(const lcm::ReceiveBuffer*, const std::string&)> fn);
 
   std::string name_;
@@ -70,12 +85,24 @@ class Node {
 
 template <class Msg>
 void Node::subscribe(const std::string& channel, std::function<void(const Msg&)> handler) {
-  subscribeRaw(channel, [this, channel, handler](const lcm::ReceiveBuffer* rbuf, const std::string&) {
+  auto recent = std::make_shared<RecentMessages>();
+  subscribeRaw(channel, [this, channel, handler, recent](const lcm::ReceiveBuffer* rbuf, const std::string&) {
     Msg msg;
-    if (msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+    int decoded = -1;
+    std::string why = "does not decode";
+    try {
+      decoded = msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size));
+    } catch (const std::exception& e) {
+      why = std::string("makes the decoder throw (") + e.what() + ")";
+    }
+    if (decoded < 0) {
       health_.received(0);
-      health_.bad("decode_error", "a message on " + channel + " (" + std::to_string(rbuf->data_size) +
-                                      " bytes) does not decode as " + Msg::getTypeName());
+      health_.bad("decode_error", "a message on " + channel + " (" + std::to_string(rbuf->data_size) + " bytes) " +
+                                      why + " as " + Msg::getTypeName());
+      return;
+    }
+    if (recent->seenBefore(rbuf->data, rbuf->data_size)) {
+      health_.dropped("duplicate");
       return;
     }
     try {

@@ -31,22 +31,58 @@ Verdict validate(const ips::tracker_delta_t& m);
 Verdict validate(const ips::filter_state_t& m);
 Verdict validate(const ips::disparity_map_t& m);
 
-// Order of one stream of stamped messages: time must increase; a sequence number that jumps means lost
-// messages (counted, the message itself is fine).
+// Order and plausibility of one stream of stamped messages. Time must increase; a stamp far ahead of the
+// stream's recent ones (a forged or corrupt message, one bad clock read) is rejected, never adopted, so one bad
+// message cannot make every later real one look late. A genuine clock step (a restarted head, a replay started
+// again) is followed once `confirm` messages in a row agree with each other on the new time line and none
+// fits the old one; `clock_step` in the result says so, for a health warning. A sequence number that jumps
+// means lost messages (counted, the message itself is fine); a jump the stream's time cannot explain is a
+// sequence reset, not billions of lost messages.
 class StreamOrder {
  public:
-  struct Result {
-    bool accept = true;  // false: the time went backwards or repeated
-    int64_t gap = 0;     // messages missing before this one, from the sequence numbers
+  struct Limits {
+    // Largest plausible step between two consecutive stamps of one stream. Every sensor of the head sends
+    // continuously at 8 Hz or more; 10 s of silence followed by data is a different time line.
+    int64_t max_forward_step_us = 10'000'000;
+    // Messages in a row on a new time line before it is adopted: one forged stamp never is, and a real clock
+    // step costs this many messages.
+    int confirm = 5;
+    // Highest message rate any stream can have (the IMU's 200 Hz with a wide margin): a sequence jump beyond
+    // what this rate and the time elapsed allow is a reset of the source's counter, not lost messages.
+    double max_rate_hz = 10'000.0;
   };
+  enum class Outcome { accepted, backwards, jump };
+  struct Result {
+    bool accept = true;  // false: the time went backwards, repeated or jumped implausibly far
+    Outcome outcome = Outcome::accepted;
+    int64_t gap = 0;          // messages missing before this one, from the sequence numbers
+    bool clock_step = false;  // accepted as the first message after a confirmed step of the clock
+    bool seq_reset = false;   // the sequence number jumped further than the elapsed time allows
+  };
+  StreamOrder() : StreamOrder(Limits{}) {}
+  explicit StreamOrder(Limits limits) : limits_(limits) {}
   Result check(int64_t utime, int64_t seq);
   int64_t lastUtime() const { return last_utime_; }
+  // The health counter name for a rejected message ("time_backwards" or "time_jump").
+  static const char* reason(Outcome o);
 
  private:
+  bool fitsAfter(int64_t utime, int64_t previous) const {
+    return utime > previous && utime - previous <= limits_.max_forward_step_us;
+  }
+  Limits limits_;
   bool first_ = true;
   int64_t last_utime_ = 0;
   int64_t last_seq_ = 0;
+  // The candidate new time line: its newest stamp and how many messages in a row agree with it.
+  int64_t candidate_utime_ = 0;
+  int candidate_count_ = 0;
 };
+
+// Checks one message of a stream with `order` and counts the outcome in `health` under the stream's name
+// `what`: rejected stamps as bad ("time_backwards", "time_jump"), lost messages as dropped ("<what>_seq_gap"),
+// sequence resets and confirmed clock steps as counters with a warning. False means: drop this message.
+bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health, const std::string& what);
 
 // The checks every consumer of stereo pairs makes before it uses one: a valid message of the calibrated size
 // whose stamp goes forward. Counts what it rejects (bad) and the pairs lost before this one (dropped, from

@@ -1,0 +1,252 @@
+// Messages crafted to break the receiver: every 4-byte field of a valid encoding of each type replaced by a
+// hostile length (negative, zero, INT32_MIN, INT32_MAX, larger than the datagram). The generated decoders
+// (bounded by cmake/lcm_bound_lengths.cmake) must reject them without throwing and without allocating from a
+// length the bytes cannot hold; the framework's stream checks must not adopt a forged stamp.
+#include <gtest/gtest.h>
+
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <ips/disparity_map_t.hpp>
+#include <ips/filter_state_t.hpp>
+#include <ips/ground_truth_t.hpp>
+#include <ips/health_t.hpp>
+#include <ips/imu_sample_t.hpp>
+#include <ips/point_cloud_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <ips/tilt_sample_t.hpp>
+#include <ips/tracker_delta_t.hpp>
+#include <limits>
+#include <vector>
+
+#include "ips/framework/image.hpp"
+#include "ips/framework/node.hpp"
+#include "ips/framework/validate.hpp"
+
+namespace {
+
+template <class Msg>
+std::vector<uint8_t> encode(const Msg& m) {
+  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
+  EXPECT_EQ(m.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
+  return buf;
+}
+
+void putBigEndian32(std::vector<uint8_t>& buf, size_t at, int32_t v) {
+  const auto u = static_cast<uint32_t>(v);
+  for (int i = 0; i < 4; ++i) buf[at + i] = static_cast<uint8_t>(u >> (24 - 8 * i));
+}
+
+// Decodes every variant of `valid` with one 4-byte window replaced by a hostile length; `check` then looks at
+// the message the decoder filled (or partly filled before it gave up).
+template <class Msg, class Check>
+void decodeEveryHostileLength(const Msg& valid, Check check) {
+  const std::vector<uint8_t> good = encode(valid);
+  const int32_t size = static_cast<int32_t>(good.size());
+  const int32_t hostile[] = {INT32_MIN, -1, 0, size + 1, size * 4, INT32_MAX};
+  for (size_t at = 8; at + 4 <= good.size(); ++at) {  // the first 8 bytes are the type's fingerprint
+    for (int32_t v : hostile) {
+      std::vector<uint8_t> bad = good;
+      putBigEndian32(bad, at, v);
+      Msg m;
+      int rc = 0;
+      ASSERT_NO_THROW(rc = m.decode(bad.data(), 0, size)) << Msg::getTypeName() << " at byte " << at << " = " << v;
+      check(m, rc, size);
+    }
+  }
+}
+
+// Every vector the decoder allocated holds at most as many elements as the datagram has bytes.
+template <class T>
+void expectBounded(const std::vector<T>& v, int32_t datagram) {
+  EXPECT_LE(v.capacity(), static_cast<size_t>(datagram));
+}
+
+TEST(HostileInput, StereoPairLengthsAreBoundedByTheDatagram) {
+  ips::stereo_pair_t m = ips::fw::makeStereoPair(1000, 1, cv::Mat(3, 4, CV_8UC1, cv::Scalar(7)),
+                                                 cv::Mat(3, 4, CV_8UC1, cv::Scalar(9)), "L123", "R456");
+  decodeEveryHostileLength(m, [](const ips::stereo_pair_t& d, int, int32_t size) {
+    expectBounded(d.left, size);
+    expectBounded(d.right, size);
+    EXPECT_LE(d.serial_left.size(), static_cast<size_t>(size));
+  });
+}
+
+TEST(HostileInput, DataSizeOfTwoGigabytesInASmallMessageIsRejectedAtOnce) {
+  ips::stereo_pair_t m =
+      ips::fw::makeStereoPair(1000, 1, cv::Mat(2, 2, CV_8UC1, cv::Scalar(1)), cv::Mat(2, 2, CV_8UC1, cv::Scalar(2)));
+  std::vector<uint8_t> buf = encode(m);
+  // data_size sits right before the 4 + 4 image bytes at the end of the message.
+  putBigEndian32(buf, buf.size() - 8 - 4, INT32_MAX);
+  ips::stereo_pair_t d;
+  EXPECT_LT(d.decode(buf.data(), 0, static_cast<int>(buf.size())), 0);
+  EXPECT_LE(d.left.capacity(), buf.size());
+}
+
+TEST(HostileInput, DisparityMapLengthsAreBoundedByTheDatagram) {
+  ips::disparity_map_t m{};
+  m.utime = 5;
+  m.width = 3;
+  m.height = 2;
+  m.subpixel_scale = 16;
+  m.data.assign(2, std::vector<int16_t>(3, 32));
+  m.confidence_size = 6;
+  m.confidence.assign(6, 200);
+  decodeEveryHostileLength(m, [](const ips::disparity_map_t& d, int, int32_t size) {
+    expectBounded(d.data, size);
+    for (const auto& row : d.data) expectBounded(row, size);
+    expectBounded(d.confidence, size);
+  });
+}
+
+TEST(HostileInput, FilterStateLengthsAreBoundedByTheDatagram) {
+  ips::filter_state_t m{};
+  m.utime = 5;
+  m.orientation[0] = 1;
+  m.cov_dim = 3;
+  m.covariance.assign(3, std::vector<double>(3, 0.0));
+  m.num_sensors = 1;
+  m.sensor_names = {"tracker"};
+  m.accepted = {1};
+  m.rejected = {0};
+  m.too_late = {0};
+  decodeEveryHostileLength(m, [](const ips::filter_state_t& d, int, int32_t size) {
+    expectBounded(d.covariance, size);
+    for (const auto& row : d.covariance) expectBounded(row, size);
+    expectBounded(d.sensor_names, size);
+    expectBounded(d.accepted, size);
+  });
+}
+
+TEST(HostileInput, HealthPointCloudAndFixedSizeTypesNeverThrow) {
+  ips::health_t h{};
+  h.utime = 1;
+  h.process = "tracker";
+  h.host = "head";
+  h.num_counters = 2;
+  h.counter_names = {"a", "bb"};
+  h.counter_values = {1, 2};
+  decodeEveryHostileLength(h, [](const ips::health_t& d, int, int32_t size) {
+    expectBounded(d.counter_names, size);
+    expectBounded(d.counter_values, size);
+  });
+  ips::point_cloud_t pc{};
+  pc.utime = 1;
+  pc.frame = "world";
+  pc.num_points = 2;
+  pc.points = {{1, 2, 3}, {4, 5, 6}};
+  pc.intensity = {10, 20};
+  decodeEveryHostileLength(pc, [](const ips::point_cloud_t& d, int, int32_t size) {
+    expectBounded(d.points, size);
+    expectBounded(d.intensity, size);
+  });
+  auto none = [](const auto&, int, int32_t) {};
+  decodeEveryHostileLength(ips::imu_sample_t{}, none);
+  decodeEveryHostileLength(ips::tilt_sample_t{}, none);
+  decodeEveryHostileLength(ips::tracker_delta_t{}, none);
+  ips::ground_truth_t gt{};
+  decodeEveryHostileLength(gt, none);
+}
+
+TEST(HostileInput, NodeCountsAMessageWhoseStringLengthIsZero) {
+  ips::fw::Node node("t", "memq://");
+  int delivered = 0;
+  node.subscribe<ips::health_t>("HEALTH_X", [&](const ips::health_t&) { ++delivered; });
+  ips::health_t h{};
+  h.process = "x";
+  h.host = "y";
+  std::vector<uint8_t> buf = encode(h);
+  putBigEndian32(buf, 8 + 8, 0);  // the length of `process` (which counts its NUL) set to 0
+  node.lcm().publish("HEALTH_X", buf.data(), static_cast<unsigned>(buf.size()));
+  node.publish("HEALTH_X", h);
+  node.handleOnce(10);
+  node.handleOnce(10);
+  EXPECT_EQ(delivered, 1);
+  EXPECT_EQ(node.health().counter("decode_error"), 1);
+}
+
+TEST(HostileInput, NodeDropsExactRepeats) {
+  ips::fw::Node node("t", "memq://");
+  int delivered = 0;
+  node.subscribe<ips::imu_sample_t>("IMU", [&](const ips::imu_sample_t&) { ++delivered; });
+  ips::imu_sample_t a{};
+  a.utime = 100;
+  a.seq = 1;
+  ips::imu_sample_t b = a;
+  b.utime = 105;
+  b.seq = 2;
+  for (const auto* m : {&a, &a, &b, &a, &b}) node.publish("IMU", *m);
+  for (int i = 0; i < 5; ++i) node.handleOnce(10);
+  EXPECT_EQ(delivered, 2);
+  EXPECT_EQ(node.health().counter("duplicate"), 3);
+  EXPECT_EQ(node.health().droppedCount(), 3);
+}
+
+TEST(HostileInput, ForgedStampFarAheadIsNeverAdopted) {
+  ips::fw::StreamOrder order;
+  int64_t t = 1'000'000;
+  for (int i = 1; i <= 10; ++i) ASSERT_TRUE(order.check(t += 5'000, i).accept);
+  // An IMU sample stamped an hour ahead: rejected as a jump, and the real stream goes on.
+  auto forged = order.check(t + 3'600'000'000LL, 11);
+  EXPECT_FALSE(forged.accept);
+  EXPECT_EQ(forged.outcome, ips::fw::StreamOrder::Outcome::jump);
+  for (int i = 11; i <= 20; ++i) EXPECT_TRUE(order.check(t += 5'000, i).accept) << i;
+  EXPECT_EQ(order.lastUtime(), t);
+}
+
+TEST(HostileInput, GenuineClockStepIsFollowedAfterConfirmation) {
+  ips::fw::StreamOrder::Limits limits;
+  ips::fw::StreamOrder order(limits);
+  int64_t t = 50'000'000;
+  for (int i = 1; i <= 5; ++i) ASSERT_TRUE(order.check(t += 5'000, i).accept);
+  // The source restarts at a much earlier time (a replay started again): the first confirm-1 messages are
+  // rejected, then the new time line is adopted.
+  int64_t t2 = 1'000'000;
+  for (int i = 1; i < limits.confirm; ++i) EXPECT_FALSE(order.check(t2 += 5'000, i).accept) << i;
+  auto step = order.check(t2 += 5'000, limits.confirm);
+  EXPECT_TRUE(step.accept);
+  EXPECT_TRUE(step.clock_step);
+  EXPECT_EQ(step.gap, 0);
+  EXPECT_TRUE(order.check(t2 += 5'000, limits.confirm + 1).accept);
+}
+
+TEST(HostileInput, SequenceJumpBeyondTheElapsedTimeIsAResetNotLostMessages) {
+  ips::fw::Health health("t");
+  ips::fw::StreamOrder order;
+  EXPECT_TRUE(ips::fw::admitInOrder(order, 1'000'000, 1, health, "imu"));
+  EXPECT_TRUE(ips::fw::admitInOrder(order, 1'005'000, std::numeric_limits<int64_t>::max() - 1, health, "imu"));
+  EXPECT_TRUE(ips::fw::admitInOrder(order, 1'010'000, std::numeric_limits<int64_t>::min(), health, "imu"));
+  EXPECT_EQ(health.droppedCount(), 0);
+  EXPECT_EQ(health.counter("imu_seq_reset"), 2);
+  // A plausible gap is still counted as lost messages.
+  EXPECT_TRUE(ips::fw::admitInOrder(order, 1'030'000, std::numeric_limits<int64_t>::min() + 4, health, "imu"));
+  EXPECT_EQ(health.droppedCount(), 3);
+}
+
+TEST(HostileInput, HealthCountersSaturate) {
+  ips::fw::Health health("t");
+  health.dropped("x", std::numeric_limits<int64_t>::max());
+  health.dropped("x", 5);
+  EXPECT_EQ(health.counter("x"), std::numeric_limits<int64_t>::max());
+  EXPECT_EQ(health.droppedCount(), std::numeric_limits<int64_t>::max());
+}
+
+TEST(HostileInput, FilterStateWithNonFiniteCovarianceOrBiasIsRejected) {
+  ips::filter_state_t m{};
+  m.utime = 5;
+  m.orientation[0] = 1;
+  m.cov_dim = 2;
+  m.covariance.assign(2, std::vector<double>(2, 0.0));
+  EXPECT_TRUE(ips::fw::validate(m).ok());
+  ips::filter_state_t nan_cov = m;
+  nan_cov.covariance[1][0] = std::nan("");
+  EXPECT_EQ(ips::fw::validate(nan_cov).reason, "nan");
+  ips::filter_state_t inf_bias = m;
+  inf_bias.gyro_bias[2] = INFINITY;
+  EXPECT_EQ(ips::fw::validate(inf_bias).reason, "nan");
+  ips::filter_state_t ragged = m;
+  ragged.covariance[1].resize(1);
+  EXPECT_EQ(ips::fw::validate(ragged).reason, "bad_size");
+}
+
+}  // namespace
