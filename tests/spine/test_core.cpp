@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <opencv2/calib3d.hpp>
 
@@ -51,6 +52,46 @@ TEST(Config, ValuesAndErrorsNameFileAndKey) {
   EXPECT_THROW(c.getMatrix("v", 2, 2), ips::ConfigError);
   EXPECT_THROW(ips::Config("/nonexistent/x.yaml"), ips::ConfigError);
   EXPECT_THROW(ips::Config(writeFile("bad.yaml", "%YAML:1.0\n---\na: [1, 2\n")), ips::ConfigError);
+}
+
+TEST(Config, MalformedYamlIsAnErrorNotAHang) {
+  // 21 bytes on which cv::FileStorage alone loops forever (an unterminated flow sequence after the header).
+  const std::string p = writeFile("hang.yaml", "%YAML:1.\n---L:0\n[---\n");
+  try {
+    ips::Config c(p);
+    FAIL() << "a malformed file was accepted";
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(p + ":"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("not valid YAML"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Config, NonFiniteNumbersAreErrorsNamingTheKey) {
+  const std::string p = writeFile("nan.yaml",
+                                  "%YAML:1.0\n---\ninit:\n  heading_rad: .nan\ngravity: .inf\n"
+                                  "position: [0, .nan, 1]\n");
+  ips::Config c(p);
+  for (const char* key : {"init/heading_rad", "gravity"}) {
+    try {
+      c.getDouble(key);
+      FAIL() << key;
+    } catch (const ips::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find(key), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_THROW(c.getMatrix("position", 3, 1), ips::ConfigError);
+}
+
+TEST(Config, EveryShippedConfigurationIsWellFormed) {
+  int files = 0;
+  for (const char* dir : {IPS_SOURCE_DIR "/config", IPS_SOURCE_DIR "/tests"}) {
+    for (const auto& entry : std::filesystem::recursive_directory_iterator(dir)) {
+      if (entry.path().extension() != ".yaml" || entry.path().string().find("/fuzz/") != std::string::npos) continue;
+      EXPECT_NO_THROW(ips::Config c(entry.path().string())) << entry.path();
+      ++files;
+    }
+  }
+  EXPECT_GT(files, 5);
 }
 
 ips::StereoCalibration exampleHead() {

@@ -1,10 +1,61 @@
 #include "ips/config.hpp"
 
+#include <yaml.h>
+
+#include <cmath>
+#include <fstream>
+#include <iterator>
 #include <sstream>
 
 namespace ips {
 
+namespace {
+
+// OpenCV's YAML reader loops forever on some files (21 bytes are enough: a header, then a document that is
+// one plain scalar running over two lines). Every file is therefore first read by libyaml, a parser fuzzed
+// for years, and only a well-formed stream whose documents are maps (every configuration and calibration of
+// the project is) reaches cv::FileStorage. OpenCV writes its header as "%YAML:1.0", which is not YAML; that
+// line is blanked (kept as a line, so that libyaml's line numbers match the file's).
+void checkWellFormedYaml(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw ConfigError(path + ": cannot open config file");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (text.rfind("%YAML:", 0) == 0) {
+    const size_t eol = text.find('\n');
+    text.replace(0, eol == std::string::npos ? text.size() : eol, "");
+  }
+  yaml_parser_t parser;
+  if (!yaml_parser_initialize(&parser)) throw ConfigError(path + ": cannot initialise the YAML parser");
+  yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()), text.size());
+  std::string error;
+  int depth = 0;
+  for (bool done = false; !done;) {
+    yaml_event_t event;
+    if (!yaml_parser_parse(&parser, &event)) {
+      error = path + ":" + std::to_string(parser.problem_mark.line + 1) +
+              ": not valid YAML: " + (parser.problem ? parser.problem : "parse error") +
+              (parser.context ? std::string(" ") + parser.context : std::string());
+      break;
+    }
+    done = event.type == YAML_STREAM_END_EVENT;
+    // The first node of each document (depth 0) must open a map.
+    if (depth == 0 &&
+        (event.type == YAML_SCALAR_EVENT || event.type == YAML_SEQUENCE_START_EVENT || event.type == YAML_ALIAS_EVENT))
+      error = path + ":" + std::to_string(event.start_mark.line + 1) +
+              ": not valid YAML: a configuration must be a map of keys";
+    if (event.type == YAML_MAPPING_START_EVENT || event.type == YAML_SEQUENCE_START_EVENT) ++depth;
+    if (event.type == YAML_MAPPING_END_EVENT || event.type == YAML_SEQUENCE_END_EVENT) --depth;
+    yaml_event_delete(&event);
+    if (!error.empty()) break;
+  }
+  yaml_parser_delete(&parser);
+  if (!error.empty()) throw ConfigError(error);
+}
+
+}  // namespace
+
 Config::Config(const std::string& path) : path_(path) {
+  checkWellFormedYaml(path);
   try {
     fs_.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
   } catch (const cv::Exception& e) {
@@ -44,7 +95,11 @@ cv::FileNode Config::required(const std::string& key) const {
 double Config::getDouble(const std::string& key) const {
   cv::FileNode n = required(key);
   if (!n.isReal() && !n.isInt()) fail(key, "must be a number");
-  return static_cast<double>(n);
+  const double v = static_cast<double>(n);
+  // No parameter of a sensor head or a method is infinite or undefined: .nan and .inf are typing errors that
+  // would otherwise turn every state into NaN without a word.
+  if (!std::isfinite(v)) fail(key, "must be a finite number, not " + std::to_string(v));
+  return v;
 }
 
 int Config::getInt(const std::string& key) const {
@@ -78,6 +133,7 @@ cv::Mat Config::getMat(const std::string& key) const {
     for (const auto& e : n) {
       if (!e.isReal() && !e.isInt()) fail(key, "must be a sequence of numbers");
       v.push_back(static_cast<double>(e));
+      if (!std::isfinite(v.back())) fail(key, "must hold finite numbers only");
     }
     return cv::Mat(v, true).reshape(1, 1);
   }
@@ -88,6 +144,7 @@ cv::Mat Config::getMat(const std::string& key) const {
   }
   if (m.empty()) fail(key, "must be a matrix");
   m.convertTo(m, CV_64F);
+  if (!cv::checkRange(m)) fail(key, "must hold finite numbers only");
   return m;
 }
 

@@ -78,6 +78,9 @@ FilterParams loadFilterParams(const Config& c) {
 
   p.imu_gap_s = c.getDouble("imu_gap_s", p.imu_gap_s);
   positive(c, "imu_gap_s", p.imu_gap_s);
+  // Longer than any stream may stay silent before its next stamp counts as a new time line (10 s in the
+  // framework's stream checks); also keeps the microsecond conversion far from overflow.
+  if (p.imu_gap_s > 10.0) throw ConfigError(c.path() + ": key 'imu_gap_s' must be at most 10 s");
   p.gap_sigma_acceleration = c.getDouble("gap/sigma_acceleration", p.gap_sigma_acceleration);
   p.gap_sigma_angular_rate = c.getDouble("gap/sigma_angular_rate", p.gap_sigma_angular_rate);
   p.gap_process.jerk_psd = c.getDouble("gap/jerk_psd", p.gap_process.jerk_psd);
