@@ -7,11 +7,12 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config git
   liblcm-dev liblcm-bin liblcm-java
-  libeigen3-dev libopencv-dev
+  libeigen3-dev libopencv-dev libyaml-dev
   libvulkan-dev mesa-vulkan-drivers vulkan-tools
   glslang-tools glslang-dev
   libaravis-dev libusb-1.0-0-dev aravis-tools-cli
   libgtest-dev googletest
+  clang libclang-rt-14-dev
   default-jdk-headless libjchart2d-java
   iproute2 procps nftables
 )

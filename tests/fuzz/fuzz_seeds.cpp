@@ -1,0 +1,121 @@
+// Writes the seed corpus of the fuzz targets (tests/fuzz/corpus/<target>/): one valid encoding of each message
+// type, a few good IMU frames and tilt lines, and the project's own configuration files are the seeds the
+// fuzzers mutate. Run again when a message type changes:  build/bin/fuzz_seeds tests/fuzz/corpus
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <ips/disparity_map_t.hpp>
+#include <ips/filter_state_t.hpp>
+#include <ips/ground_truth_t.hpp>
+#include <ips/health_t.hpp>
+#include <ips/imu_sample_t.hpp>
+#include <ips/point_cloud_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <ips/tilt_sample_t.hpp>
+#include <ips/tracker_delta_t.hpp>
+#include <string>
+#include <vector>
+
+#include "ips/drivers/mmq50.hpp"
+#include "ips/drivers/pei_z260.hpp"
+#include "ips/framework/image.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+void writeBytes(const fs::path& file, const std::vector<uint8_t>& bytes) {
+  fs::create_directories(file.parent_path());
+  std::ofstream(file, std::ios::binary)
+      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+}
+
+template <class Msg>
+void writeMessage(const fs::path& dir, const Msg& m) {
+  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
+  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+  writeBytes(dir / ("fuzz_decode_" + std::string(Msg::getTypeName())) / "valid", buf);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 2) {
+    std::fprintf(stderr, "usage: fuzz_seeds DIR\n");
+    return 2;
+  }
+  const fs::path dir = argv[1];
+  writeMessage(dir, ips::fw::makeStereoPair(1000, 1, cv::Mat(4, 6, CV_8UC1, cv::Scalar(7)),
+                                            cv::Mat(4, 6, CV_8UC1, cv::Scalar(9)), "L", "R"));
+  ips::imu_sample_t imu{};
+  imu.utime = 1000;
+  imu.seq = 1;
+  imu.specific_force[2] = 9.81;
+  writeMessage(dir, imu);
+  ips::tilt_sample_t tilt{};
+  tilt.utime = 1000;
+  writeMessage(dir, tilt);
+  ips::tracker_delta_t delta{};
+  delta.utime = 2000;
+  delta.utime_prev = 1000;
+  delta.valid = 1;
+  delta.rotation[0] = 1;
+  for (int i = 0; i < 6; ++i) delta.covariance[i * 7] = 1e-4;
+  writeMessage(dir, delta);
+  ips::filter_state_t state{};
+  state.utime = 1000;
+  state.orientation[0] = 1;
+  state.cov_dim = 3;
+  state.covariance.assign(3, std::vector<double>(3, 0.0));
+  state.num_sensors = 1;
+  state.sensor_names = {"tracker"};
+  state.accepted = {1};
+  state.rejected = {0};
+  state.too_late = {0};
+  writeMessage(dir, state);
+  ips::disparity_map_t disp{};
+  disp.utime = 1000;
+  disp.width = 3;
+  disp.height = 2;
+  disp.subpixel_scale = 16;
+  disp.data.assign(2, std::vector<int16_t>(3, 32));
+  disp.confidence_size = 6;
+  disp.confidence.assign(6, 200);
+  writeMessage(dir, disp);
+  ips::point_cloud_t cloud{};
+  cloud.utime = 1000;
+  cloud.frame = "world";
+  cloud.num_points = 2;
+  cloud.points = {{1, 2, 3}, {4, 5, 6}};
+  cloud.intensity = {10, 20};
+  writeMessage(dir, cloud);
+  ips::health_t health{};
+  health.utime = 1000;
+  health.process = "tracker";
+  health.host = "head";
+  health.num_counters = 1;
+  health.counter_names = {"bad"};
+  health.counter_values = {3};
+  writeMessage(dir, health);
+  ips::ground_truth_t gt{};
+  gt.utime = 1000;
+  gt.orientation[0] = 1;
+  writeMessage(dir, gt);
+
+  // Serial: the first byte selects checksums (bit 0: MMQ-50 sum16, bit 1: Z260 XOR), then the line's bytes.
+  std::vector<uint8_t> serial = {1};
+  ips::drivers::Mmq50Format imu_format;
+  const double rate[3] = {0.01, -0.02, 0.03}, force[3] = {0.1, 0.2, 9.81};
+  for (uint32_t c = 0; c < 3; ++c) {
+    auto frame = ips::drivers::Mmq50Parser::encode(imu_format, c, rate, force);
+    serial.insert(serial.end(), frame.begin(), frame.end());
+  }
+  writeBytes(dir / "fuzz_serial" / "imu_frames", serial);
+  std::vector<uint8_t> lines = {0};
+  for (int i = 0; i < 3; ++i) {
+    const std::string line = ips::drivers::Z260Parser::format(ips::drivers::Z260Format{}, 0.01 * i, -0.02 * i);
+    lines.insert(lines.end(), line.begin(), line.end());
+  }
+  writeBytes(dir / "fuzz_serial" / "tilt_lines", lines);
+  return 0;
+}
