@@ -1,7 +1,9 @@
 // traj_eval: evaluates filter trajectories against ground truth.
 //
 //   traj_eval --est est.tum --gt gt.tum [--segment 10] [--plot out.png]
-//       ATE RMSE after SE(3) alignment, relative error per distance, end-point error (% of distance).
+//       ATE RMSE after SE(3) alignment, relative error per distance, end-point error (% of distance); with
+//       --lengths a second line: KITTI-devkit relative errors over sub-sequences of those lengths (every frame a
+//       start) and the end-point error with only the first pose aligned.
 //   traj_eval --simulate [--filter ekf|ukf|both] [--runs 10] [--seed 1] [--duration 125] [--config f.yaml]
 //             [--calib calib.yaml] [--no-tracker] [--no-tilt] [--init-from-truth] [--image-hz 8] [--tracker-sigma-t
 //             0.003]
@@ -15,6 +17,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -29,7 +32,7 @@ using namespace ips::filter;
 namespace {
 
 void usage() {
-  std::cerr << "usage: traj_eval --est est.tum --gt gt.tum [--segment m] [--plot out.png]\n"
+  std::cerr << "usage: traj_eval --est est.tum --gt gt.tum [--segment m] [--lengths 10,20,40] [--plot out.png]\n"
                "       traj_eval --simulate [--filter ekf|ukf|both] [--runs N] [--seed S] [--duration s]\n"
                "                 [--config filter.yaml] [--calib calib.yaml] [--no-tracker] [--no-tilt]\n"
                "                 [--image-hz f] [--tracker-sigma-t m] [--tracker-sigma-r rad] [--segment m]\n"
@@ -38,6 +41,7 @@ void usage() {
 
 struct Args {
   std::string est, gt, plot, config, calib, out_dir = ".";
+  std::vector<double> lengths;  // --lengths 10,20,40: relative errors of sub-sequences of these lengths
   bool simulate = false, tracker = true, tilt = true;
   std::string filter = "both";
   int runs = 10;
@@ -83,7 +87,11 @@ Args parse(int argc, char** argv) {
       a.seed = static_cast<unsigned>(std::stoul(value()));
     else if (k == "--duration")
       a.duration = std::stod(value());
-    else if (k == "--segment")
+    else if (k == "--lengths") {
+      std::stringstream ss(value());
+      std::string item;
+      while (std::getline(ss, item, ',')) a.lengths.push_back(std::stod(item));
+    } else if (k == "--segment")
       a.segment = std::stod(value());
     else if (k == "--image-hz")
       a.image_hz = std::stod(value());
@@ -116,6 +124,16 @@ int evaluateFiles(const Args& a) {
   if (e.size() < 3) throw std::runtime_error("fewer than 3 estimate poses overlap the ground truth in time");
   const TrajectoryErrors err = evaluate(e, r, a.segment);
   printErrors("estimate", err);
+  if (!a.lengths.empty()) {
+    // The recordings' figures (KITTI devkit relative errors, every frame a start; end-point error with only
+    // the first pose aligned).
+    const RelativeErrors rel = relativeErrors(e, r, a.lengths);
+    const double end_m = endErrorFirstPoseAligned(e, r);
+    std::printf("rpe_trans_pct=%.3f rpe_rot_deg_per_m=%.4f subsequences=%zu end_error_m=%.4f end_error_pct=%.3f "
+                "ate_rmse_m=%.4f distance_m=%.2f\n",
+                rel.trans_pct, rel.rot_deg_per_m, rel.subsequences, end_m,
+                err.distance_m > 0 ? 100.0 * end_m / err.distance_m : NAN, err.ate_rmse_m, err.distance_m);
+  }
   if (!a.plot.empty()) plotTopDown(a.plot, gt, {est}, {"estimate"});
   return 0;
 }

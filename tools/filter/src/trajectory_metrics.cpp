@@ -117,6 +117,62 @@ TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double s
   return e;
 }
 
+namespace {
+Eigen::Isometry3d toIso(const TrajPoint& p) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = p.q.normalized().toRotationMatrix();
+  T.translation() = p.p;
+  return T;
+}
+}  // namespace
+
+RelativeErrors relativeErrors(const Trajectory& est, const Trajectory& ref, const std::vector<double>& lengths_m) {
+  if (est.size() != ref.size()) throw std::invalid_argument("relativeErrors: trajectories not associated");
+  RelativeErrors r;
+  std::vector<double> dist(ref.size(), 0.0);
+  for (size_t i = 1; i < ref.size(); ++i) dist[i] = dist[i - 1] + (ref[i].p - ref[i - 1].p).norm();
+  double t_sum = 0, r_sum = 0;
+  for (double len : lengths_m) {
+    bool any = false;
+    size_t j = 0;
+    for (size_t i = 0; i < ref.size(); ++i) {
+      j = std::max(j, i);
+      while (j < ref.size() && dist[j] - dist[i] < len) ++j;
+      if (j >= ref.size()) break;
+      const Eigen::Isometry3d d_ref = toIso(ref[i]).inverse() * toIso(ref[j]);
+      const Eigen::Isometry3d d_est = toIso(est[i]).inverse() * toIso(est[j]);
+      const Eigen::Isometry3d E = d_est.inverse() * d_ref;
+      t_sum += E.translation().norm() / len;
+      r_sum += Eigen::AngleAxisd(E.linear()).angle() * 180.0 / M_PI / len;
+      ++r.subsequences;
+      any = true;
+    }
+    r.lengths += any ? 1 : 0;
+  }
+  if (r.subsequences > 0) {
+    r.trans_pct = 100.0 * t_sum / static_cast<double>(r.subsequences);
+    r.rot_deg_per_m = r_sum / static_cast<double>(r.subsequences);
+  }
+  return r;
+}
+
+Trajectory alignFirstPose(const Trajectory& est, const Trajectory& ref) {
+  if (est.empty() || ref.empty()) return est;
+  const Eigen::Isometry3d T = toIso(ref.front()) * toIso(est.front()).inverse();
+  Trajectory out = est;
+  const Eigen::Quaterniond qT(T.linear());
+  for (auto& p : out) {
+    p.p = T * p.p;
+    p.q = (qT * p.q).normalized();
+  }
+  return out;
+}
+
+double endErrorFirstPoseAligned(const Trajectory& est, const Trajectory& ref) {
+  if (est.size() != ref.size() || est.empty()) throw std::invalid_argument("endErrorFirstPoseAligned: not associated");
+  return (alignFirstPose(est, ref).back().p - ref.back().p).norm();
+}
+
 double poseNees(const FilterOutput& out, const NavState& truth) {
   Vector6d err;
   err.head<3>() = truth.position - out.state.position;

@@ -3,6 +3,7 @@
 // share of the distance travelled (the paper's figure), NEES, and a top-down plot.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <string>
 #include <vector>
 
@@ -39,6 +40,25 @@ struct TrajectoryErrors {
 };
 // Both trajectories must already be associated (same length, same times).
 TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double segment_m);
+
+// Relative pose error as the KITTI odometry devkit computes it, but with every frame a start: for each start i
+// and each length L, the first j whose path distance along the reference from i reaches L; the error of the
+// relative motion E = inv(est_i^-1 est_j) (ref_i^-1 ref_j); translation |t(E)| / L and rotation angle(E) / L,
+// averaged over all such sub-sequences. Lengths without any sub-sequence are skipped (and counted in `lengths`).
+struct RelativeErrors {
+  size_t subsequences = 0;
+  size_t lengths = 0;            // lengths that had at least one sub-sequence
+  double trans_pct = NAN;        // mean |t(E)| / L * 100
+  double rot_deg_per_m = NAN;    // mean angle(E) / L in deg/m
+};
+RelativeErrors relativeErrors(const Trajectory& est, const Trajectory& ref, const std::vector<double>& lengths_m);
+
+// The estimate expressed in the reference's frame by its first pose only (est_0 := ref_0, no other alignment):
+// the end-point error of dead reckoning from a known start (the paper's figure).
+Trajectory alignFirstPose(const Trajectory& est, const Trajectory& ref);
+
+// End-point error [m] after alignFirstPose; both associated (same length, same times).
+double endErrorFirstPoseAligned(const Trajectory& est, const Trajectory& ref);
 
 // NEES of the pose (position and attitude error, 6 dof) of one filter output against the truth.
 double poseNees(const FilterOutput& out, const NavState& truth);

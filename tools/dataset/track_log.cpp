@@ -1,0 +1,95 @@
+// track_log: the stereo tracker alone over the STEREO pairs of an LCM log (as dataset_to_lcm writes them), on one
+// thread, its increments chained into the trajectory of camera 0; writes it and the ground truth of camera 0
+// (GT_POSE of the body times T_imu_cam0) as TUM files for traj_eval, and prints the time per pair.
+// Last line: "pairs=N valid=V ms_per_pair=X".
+#include <chrono>
+#include <fstream>
+#include <iomanip>
+#include <ips/ground_truth_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <opencv2/core.hpp>
+
+#include "ips/args.hpp"
+#include "ips/calibration.hpp"
+#include "ips/dataset/delta_chain.hpp"
+#include "ips/framework/image.hpp"
+#include "ips/framework/process.hpp"
+#include "ips/framework/validate.hpp"
+#include "ips/tracker/stereo_tracker.hpp"
+
+namespace {
+
+void writeTumLine(std::ofstream& out, int64_t utime, const Eigen::Isometry3d& T) {
+  const Eigen::Quaterniond q(T.linear());
+  const Eigen::Vector3d p = T.translation();
+  out << std::fixed << std::setprecision(6) << utime * 1e-6 << std::setprecision(9) << ' ' << p.x() << ' ' << p.y()
+      << ' ' << p.z() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return ips::fw::guardedMain("track_log", [&]() {
+    ips::Args args(argc, argv, "the stereo tracker alone over a log's stereo pairs: trajectory, ground truth, time");
+    args.required("--log", "FILE.lcmlog", "log with STEREO (and GT_POSE) messages")
+        .option("--calib", "FILE", "calibration (default: FILE.lcmlog.calib.yaml)")
+        .required("--config", "FILE", "tracker parameters (config/euroc.yaml, config/kitti.yaml, ...)")
+        .required("--out", "FILE.tum", "trajectory of camera 0 (first pair = origin)")
+        .option("--gt-out", "FILE.tum", "ground truth of camera 0 in the ground truth's world frame");
+    if (!args.parse()) return 0;
+    cv::setNumThreads(1);  // one thread, as the time per pair is compared
+    const std::string log_path = args.get("--log");
+    const ips::StereoCalibration calib =
+        ips::loadCalibration(args.has("--calib") ? args.get("--calib") : log_path + ".calib.yaml");
+    ips::tracker::StereoTracker tracker(calib, ips::tracker::loadTrackerParams(args.get("--config")));
+
+    lcm::LogFile log(log_path, "r");
+    if (!log.good()) throw std::runtime_error(log_path + ": cannot read");
+    std::ofstream gt_out;
+    if (args.has("--gt-out")) gt_out.open(args.get("--gt-out"));
+    ips::dataset::DeltaChain chain;
+    int64_t pairs = 0, valid = 0;
+    double total_ms = 0;
+    ips::tracker::StageTimes stages;  // sums [ms]
+    int64_t guided = 0, wide = 0;
+    while (const lcm::LogEvent* e = log.readNextEvent()) {
+      if (e->channel == "GT_POSE" && gt_out.is_open()) {
+        ips::ground_truth_t g;
+        if (g.decode(e->data, 0, static_cast<int>(e->datalen)) < 0) continue;
+        Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
+        T_w_b.linear() =
+            Eigen::Quaterniond(g.orientation[0], g.orientation[1], g.orientation[2], g.orientation[3])
+                .normalized()
+                .toRotationMatrix();
+        T_w_b.translation() = Eigen::Vector3d(g.position[0], g.position[1], g.position[2]);
+        writeTumLine(gt_out, g.utime, T_w_b * calib.T_imu_cam0);
+      } else if (e->channel == "STEREO") {
+        ips::stereo_pair_t m;
+        if (m.decode(e->data, 0, static_cast<int>(e->datalen)) < 0) throw std::runtime_error("STEREO does not decode");
+        const auto check = ips::fw::validate(m);
+        if (!check.ok()) throw std::runtime_error("bad stereo pair " + std::to_string(m.seq) + ": " + check.detail);
+        // Timed as the process would see it: from the decoded message's images to the increment.
+        const auto t0 = std::chrono::steady_clock::now();
+        const ips::tracker::TrackResult r = tracker.process(m.utime, ips::fw::leftImage(m), ips::fw::rightImage(m));
+        total_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        stages.rectify += r.times.rectify, stages.detect += r.times.detect, stages.intra += r.times.intra;
+        stages.inter += r.times.inter, stages.motion += r.times.motion;
+        guided += r.guided_pass ? 1 : 0, wide += r.wide_retry ? 1 : 0;
+        chain.add(r.utime, r.utime_prev, r.valid, r.rotation, r.translation);
+        ++pairs;
+        valid += r.valid ? 1 : 0;
+      }
+    }
+    std::ofstream out(args.get("--out"));
+    for (const auto& p : chain.poses()) writeTumLine(out, p.utime, p.T_world_cam0);
+    const double n = std::max<int64_t>(1, pairs);
+    std::printf("stages [ms per pair]: rectify %.2f detect %.2f intra %.2f inter %.2f motion %.2f; guided passes %lld, "
+                "wide retries %lld\n",
+                stages.rectify / n, stages.detect / n, stages.intra / n, stages.inter / n, stages.motion / n,
+                static_cast<long long>(guided), static_cast<long long>(wide));
+    std::printf("pairs=%lld valid=%lld ms_per_pair=%.2f\n", static_cast<long long>(pairs),
+                static_cast<long long>(valid), pairs ? total_ms / pairs : 0.0);
+    return 0;
+  });
+}
