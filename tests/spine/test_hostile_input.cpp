@@ -7,6 +7,7 @@
 #include <climits>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
 #include <ips/ground_truth_t.hpp>
@@ -16,10 +17,12 @@
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
+#include <lcm/lcm-cpp.hpp>
 #include <limits>
 #include <vector>
 
 #include "ips/framework/image.hpp"
+#include "ips/framework/log_reader.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/validate.hpp"
 
@@ -247,6 +250,62 @@ TEST(HostileInput, FilterStateWithNonFiniteCovarianceOrBiasIsRejected) {
   ips::filter_state_t ragged = m;
   ragged.covariance[1].resize(1);
   EXPECT_EQ(ips::fw::validate(ragged).reason, "bad_size");
+}
+
+// A log of three IMU samples, written by LCM's own writer; returns its bytes.
+std::vector<char> writeLog(const std::string& path) {
+  {
+    lcm::LogFile log(path, "w");
+    for (int i = 0; i < 3; ++i) {
+      ips::imu_sample_t m{};
+      m.utime = 1000 + i;
+      m.seq = i;
+      std::vector<uint8_t> buf = encode(m);
+      lcm::LogEvent e{};
+      e.timestamp = m.utime;
+      e.channel = "IMU";
+      e.datalen = static_cast<int32_t>(buf.size());
+      e.data = buf.data();
+      log.writeEvent(&e);
+    }
+  }
+  std::ifstream in(path, std::ios::binary);
+  return std::vector<char>((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+int64_t readAll(const std::string& path) {
+  ips::fw::LogReader reader(path);
+  ips::fw::LogMessage m;
+  while (reader.next(&m)) EXPECT_EQ(m.channel, "IMU");
+  return reader.events();
+}
+
+TEST(HostileInput, DamagedLogsAreErrorsNotShortLogs) {
+  const std::string path = testing::TempDir() + "/log_reader_" + std::to_string(::getpid()) + ".lcmlog";
+  const std::vector<char> good = writeLog(path);
+  EXPECT_EQ(readAll(path), 3);
+
+  // Truncated in the middle of the last event (a full disk, a killed logger).
+  std::ofstream(path, std::ios::binary | std::ios::trunc)
+      .write(good.data(), static_cast<std::streamsize>(good.size() - 5));
+  try {
+    readAll(path);
+    FAIL() << "a truncated log read as a whole one";
+  } catch (const ips::fw::LogError& e) {
+    EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("after event 2"), std::string::npos) << e.what();
+  }
+
+  // Garbage between two events: LCM's reader resynchronises silently, LogReader does not.
+  std::vector<char> corrupt(good.begin(), good.begin() + static_cast<long>(good.size() / 3));
+  corrupt.insert(corrupt.end(), {'x', 'y', 'z'});
+  corrupt.insert(corrupt.end(), good.begin() + static_cast<long>(good.size() / 3), good.end());
+  std::ofstream(path, std::ios::binary | std::ios::trunc)
+      .write(corrupt.data(), static_cast<std::streamsize>(corrupt.size()));
+  EXPECT_THROW(readAll(path), ips::fw::LogError);
+
+  EXPECT_THROW(ips::fw::LogReader("/nonexistent/run.lcmlog"), ips::fw::LogError);
+  std::remove(path.c_str());
 }
 
 }  // namespace

@@ -1,27 +1,26 @@
 // log_diff: compares the messages of two LCM logs channel by channel (in order, byte for byte), to check
 // that replaying one input twice through the processes gives identical outputs.
-// Prints one line per channel and a last line "identical=1" or "identical=0".
+// Prints one line per channel and a last line "identical=1" or "identical=0"; a damaged log is an error
+// (exit 1) naming the file and the byte where it is damaged.
 #include <cstdio>
-#include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <regex>
 #include <string>
 #include <vector>
 
 #include "ips/args.hpp"
+#include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
 
 namespace {
 
+// Throws LogError (file, byte offset) when a log is truncated or corrupt: a damaged log is never "identical".
 std::map<std::string, std::vector<std::vector<uint8_t>>> readLog(const std::string& path, const std::regex& channels) {
-  lcm::LogFile log(path, "r");
-  if (!log.good()) throw std::runtime_error("cannot read LCM log " + path);
+  ips::fw::LogReader log(path);
   std::map<std::string, std::vector<std::vector<uint8_t>>> out;
-  while (const lcm::LogEvent* e = log.readNextEvent()) {
-    if (!std::regex_match(e->channel, channels)) continue;
-    const auto* p = static_cast<const uint8_t*>(e->data);
-    out[e->channel].emplace_back(p, p + e->datalen);
-  }
+  ips::fw::LogMessage m;
+  while (log.next(&m))
+    if (std::regex_match(m.channel, channels)) out[m.channel].push_back(std::move(m.data));
   return out;
 }
 
