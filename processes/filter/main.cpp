@@ -148,6 +148,7 @@ class FilterProcess {
       node_.health().set(std::string(c.name) + "_too_late", c.too_late);
     }
     node_.health().set("imu_gaps", est_.imuGaps());
+    node_.health().set("starts_in_motion", est_.startsInMotion());
   }
 
   ips::fw::Node& node_;

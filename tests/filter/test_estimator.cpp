@@ -105,11 +105,49 @@ TEST(FilterEstimator, DoesNotInitialiseWhileMoving) {
   const AnalyticWalk walk(wp);
   const ips::StereoCalibration calib = testbedCalibration();
   SensorSim sim(walk, SensorSimParams{}, calib, 12);
-  Estimator est(paramsFor(FilterType::Ekf), calib);
+  FilterParams p = paramsFor(FilterType::Ekf);
+  p.init.in_motion = false;
+  Estimator est(p, calib);
   feed(est, makeMessages(sim, 0, 3'000'000));
   est.flush();
   EXPECT_FALSE(est.initialized());
   EXPECT_FALSE(est.addImageTime(3'100'000).has_value());
+}
+
+TEST(FilterEstimator, StartsInMotionAndConvergesFromTheTrackerDeltas) {
+  // A filter (re)started while the head walks: no window at rest ever comes.
+  WalkParams wp;
+  wp.rest_s = 0.0;
+  wp.ramp_s = 0.01;
+  const AnalyticWalk walk(wp);
+  const ips::StereoCalibration calib = testbedCalibration();
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, SensorSimParams{}, calib, 13);
+    Estimator est(paramsFor(type), calib);
+    const std::vector<Msg> msgs = makeMessages(sim, 0, 30'000'000);
+    NavState first{};
+    for (const Msg& m : msgs) {
+      feed(est, {m});
+      if (est.initialized() && first.utime == 0) first = est.current().state;
+    }
+    est.flush();
+    ASSERT_TRUE(est.initialized()) << toString(type);
+    EXPECT_EQ(est.startsInMotion(), 1);
+    // Started within the first window (2 s) plus the reordering delay.
+    EXPECT_LT(first.utime, 3'000'000) << toString(type);
+    // Roll and pitch at the start from gravity over the window: within the configured 0.05 rad.
+    const NavState truth0 = sim.truth(first.utime);
+    const Eigen::Vector3d err0 = logQuat(truth0.orientation * first.orientation.conjugate());
+    EXPECT_LT(err0.head<2>().norm(), 0.05) << toString(type) << " " << err0.transpose();
+    // After 28 s of walking the deltas have given the velocity and the IMU and tilt the attitude. The heading
+    // is the configured convention, so the velocity is compared by its size and vertical part.
+    const NavState s = est.current().state;
+    const NavState truth = sim.truth(s.utime);
+    const Eigen::Vector3d err = logQuat(truth.orientation * s.orientation.conjugate());
+    EXPECT_LT(err.head<2>().norm(), 0.5 * M_PI / 180.0) << toString(type) << " " << err.transpose();
+    EXPECT_LT(std::abs(s.velocity.norm() - truth.velocity.norm()), 0.05) << toString(type);
+    EXPECT_LT(std::abs(s.velocity.z() - truth.velocity.z()), 0.05) << toString(type);
+  }
 }
 
 TEST(FilterEstimator, ReorderingWithinTheWindowGivesTheSameResult) {

@@ -294,8 +294,12 @@ void Estimator::processInit(const Event& e) {
   // Per-axis standard deviation (the sums run over three axes).
   if (std::sqrt(var_f / 3.0) > params_.init.max_accel_std || std::sqrt(var_w / 3.0) > params_.init.max_gyro_std ||
       mean_f.norm() < 0.5 * params_.gravity) {
-    IPS_INFO("filter: not at rest yet (accel std " << std::sqrt(var_f / 3.0) << " m/s^2, gyro std "
-                                                   << std::sqrt(var_w / 3.0) << " rad/s), waiting");
+    if (params_.init.in_motion) {
+      initializeInMotion();
+    } else {
+      IPS_INFO("filter: not at rest yet (accel std " << std::sqrt(var_f / 3.0) << " m/s^2, gyro std "
+                                                     << std::sqrt(var_w / 3.0) << " rad/s), waiting");
+    }
     init_imu_.clear();
     init_tilt_.clear();
     return;
@@ -329,6 +333,44 @@ void Estimator::processInit(const Event& e) {
                                                << pitch << " rad");
   init_imu_.clear();
   init_tilt_.clear();
+}
+
+void Estimator::initializeInMotion() {
+  // Rotate every sample's specific force into the body frame of the window's last sample, integrating the
+  // gyro backwards (C maps frame k into the last frame: C_{k-1} = C_k Exp(w_k dt)^T). Over the window the
+  // linear acceleration of a walk or a drive averages out far better than gravity does, so the mean points
+  // up in the last body frame.
+  Eigen::Matrix3d C = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d sum_f = Eigen::Vector3d::Zero();
+  for (size_t k = init_imu_.size(); k-- > 0;) {
+    sum_f += C * init_imu_[k].specific_force;
+    if (k == 0) break;
+    const double dt = (init_imu_[k].utime - init_imu_[k - 1].utime) * 1e-6;
+    const Eigen::Vector3d angle = init_imu_[k].angular_rate * dt;
+    const double a = angle.norm();
+    if (a > 0) C = C * Eigen::AngleAxisd(a, angle / a).toRotationMatrix().transpose();
+  }
+  const Eigen::Vector3d f = sum_f.normalized();
+  const double roll = std::atan2(f.y(), f.z());
+  const double pitch = std::atan2(-f.x(), std::sqrt(f.y() * f.y() + f.z() * f.z()));
+  NavState s;
+  s.utime = init_imu_.back().utime;
+  s.position = params_.init.position;
+  s.orientation = Eigen::AngleAxisd(params_.init.heading_rad, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  s.angular_rate = init_imu_.back().angular_rate;
+  InitParams ip = params_.init;
+  ip.sigma_velocity = ip.moving_sigma_velocity;
+  ip.sigma_acceleration = ip.moving_sigma_acceleration;
+  ip.sigma_angular_rate = ip.moving_sigma_angular_rate;
+  ip.sigma_roll_pitch = ip.moving_sigma_roll_pitch;
+  ip.sigma_gyro_bias = ip.moving_sigma_gyro_bias;
+  initialize(s, initialCovariance(ip));
+  ++starts_in_motion_;
+  IPS_WARN("filter: initialised in motion at t=" << s.utime << " us from " << init_imu_.size() << " IMU samples, roll "
+                                                 << roll << " pitch " << pitch
+                                                 << " rad; velocity from the tracker's deltas");
 }
 
 FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const {

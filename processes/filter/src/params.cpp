@@ -109,6 +109,16 @@ FilterParams loadFilterParams(const Config& c) {
   i.sigma_gyro_bias = c.getDouble("init/sigma_gyro_bias", i.sigma_gyro_bias);
   i.sigma_roll_pitch = c.getDouble("init/sigma_roll_pitch", i.sigma_roll_pitch);
   i.sigma_heading = c.getDouble("init/sigma_heading", i.sigma_heading);
+  i.in_motion = c.getBool("init/in_motion", i.in_motion);
+  i.moving_sigma_velocity = c.getDouble("init/moving_sigma_velocity", i.moving_sigma_velocity);
+  i.moving_sigma_acceleration = c.getDouble("init/moving_sigma_acceleration", i.moving_sigma_acceleration);
+  i.moving_sigma_angular_rate = c.getDouble("init/moving_sigma_angular_rate", i.moving_sigma_angular_rate);
+  i.moving_sigma_roll_pitch = c.getDouble("init/moving_sigma_roll_pitch", i.moving_sigma_roll_pitch);
+  i.moving_sigma_gyro_bias = c.getDouble("init/moving_sigma_gyro_bias", i.moving_sigma_gyro_bias);
+  for (const char* k :
+       {"init/moving_sigma_velocity", "init/moving_sigma_acceleration", "init/moving_sigma_angular_rate",
+        "init/moving_sigma_roll_pitch", "init/moving_sigma_gyro_bias"})
+    positive(c, k, c.getDouble(k, 1.0));
   for (const char* k : {"init/sigma_position", "init/sigma_velocity", "init/sigma_acceleration",
                         "init/sigma_accel_bias", "init/sigma_angular_rate", "init/sigma_gyro_bias",
                         "init/sigma_roll_pitch", "init/sigma_heading", "init/max_accel_std", "init/max_gyro_std"})

@@ -85,6 +85,8 @@ class Estimator {
   // Starts the filter from a known state instead of the static initialisation (e.g. from ground truth).
   void initialize(const NavState& state, const Matrix21d& covariance);
   bool initialized() const { return initialized_; }
+  // How often the filter started while the head was moving (InitParams::in_motion).
+  int64_t startsInMotion() const { return starts_in_motion_; }
 
   // Posterior states produced since the last call, oldest first.
   std::vector<FilterOutput> takeOutputs();
@@ -115,6 +117,7 @@ class Estimator {
   void release(int64_t up_to);
   void process(const Event& e);
   void processInit(const Event& e);
+  void initializeInMotion();
   // Applies an IMU or tilt event to a runner; returns true if the measurement was applied.
   bool applyMeasurement(Runner& run, const Event& e, std::array<SensorCounters, kNumSensors>* counters);
   // Time update to t; enters the gap mode if the IMU has been silent for imu_gap_s by then.
@@ -130,6 +133,7 @@ class Estimator {
 
   Runner run_;
   bool initialized_ = false;
+  int64_t starts_in_motion_ = 0;
   std::multimap<int64_t, Event> buffer_;
   int64_t newest_time_ = INT64_MIN;
   int64_t processed_time_ = INT64_MIN;

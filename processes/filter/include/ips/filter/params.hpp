@@ -41,6 +41,18 @@ struct InitParams {
   double sigma_gyro_bias = 2e-4;      // [rad/s] (static start: at least the mean's own uncertainty)
   double sigma_roll_pitch = 0.01;     // [rad]
   double sigma_heading = 1e-3;        // [rad] heading is a convention (from config), so small
+
+  // Start (or restart, after a crash) while the head moves: when a window is not at rest, roll and pitch come
+  // from the mean specific force over the window, the samples rotated into one frame by the gyro, and the
+  // tracker's deltas then resolve the velocity. Off: the filter waits for the head to stand still.
+  bool in_motion = true;
+  double moving_sigma_velocity = 1.5;      // [m/s] unknown: walking speed, or a slow vehicle
+  double moving_sigma_acceleration = 2.0;  // [m/s^2] a walking head's acceleration
+  double moving_sigma_angular_rate = 0.5;  // [rad/s]
+  // [rad] the window's mean linear acceleration tilts the gravity estimate: 0.5 m/s^2 (a turn at walking speed)
+  // is 3 degrees
+  double moving_sigma_roll_pitch = 0.05;
+  double moving_sigma_gyro_bias = 2e-3;  // [rad/s] not observable in motion: the gyro's turn-on bias
 };
 
 struct FilterParams {
