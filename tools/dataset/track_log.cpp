@@ -58,10 +58,9 @@ int main(int argc, char** argv) {
         ips::ground_truth_t g;
         if (g.decode(e->data, 0, static_cast<int>(e->datalen)) < 0) continue;
         Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
-        T_w_b.linear() =
-            Eigen::Quaterniond(g.orientation[0], g.orientation[1], g.orientation[2], g.orientation[3])
-                .normalized()
-                .toRotationMatrix();
+        T_w_b.linear() = Eigen::Quaterniond(g.orientation[0], g.orientation[1], g.orientation[2], g.orientation[3])
+                             .normalized()
+                             .toRotationMatrix();
         T_w_b.translation() = Eigen::Vector3d(g.position[0], g.position[1], g.position[2]);
         writeTumLine(gt_out, g.utime, T_w_b * calib.T_imu_cam0);
       } else if (e->channel == "STEREO") {
@@ -84,10 +83,11 @@ int main(int argc, char** argv) {
     std::ofstream out(args.get("--out"));
     for (const auto& p : chain.poses()) writeTumLine(out, p.utime, p.T_world_cam0);
     const double n = std::max<int64_t>(1, pairs);
-    std::printf("stages [ms per pair]: rectify %.2f detect %.2f intra %.2f inter %.2f motion %.2f; guided passes %lld, "
-                "wide retries %lld\n",
-                stages.rectify / n, stages.detect / n, stages.intra / n, stages.inter / n, stages.motion / n,
-                static_cast<long long>(guided), static_cast<long long>(wide));
+    std::printf(
+        "stages [ms per pair]: rectify %.2f detect %.2f intra %.2f inter %.2f motion %.2f; guided passes %lld, "
+        "wide retries %lld\n",
+        stages.rectify / n, stages.detect / n, stages.intra / n, stages.inter / n, stages.motion / n,
+        static_cast<long long>(guided), static_cast<long long>(wide));
     std::printf("pairs=%lld valid=%lld ms_per_pair=%.2f\n", static_cast<long long>(pairs),
                 static_cast<long long>(valid), pairs ? total_ms / pairs : 0.0);
     return 0;
