@@ -3,6 +3,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
+#include <stdexcept>
 
 #include "ips/config.hpp"
 
@@ -17,9 +18,13 @@ cv::Mat CameraIntrinsics::cvK() const {
 cv::Mat CameraIntrinsics::cvDistortion() const {
   cv::Mat d;
   cv::eigen2cv(distortion, d);
-  return d.reshape(1, 1);
+  d = d.reshape(1, 1);
+  return model == DistortionModel::kEquidistant ? d.colRange(0, 4).clone() : d;
 }
 
+static const char* distortionModelName(DistortionModel m) {
+  return m == DistortionModel::kEquidistant ? "equidistant" : "radtan";
+}
 namespace {
 
 CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
@@ -29,7 +34,16 @@ CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
   if (cam.width <= 0 || cam.height <= 0)
     throw ConfigError(cfg.path() + ": key '" + name + "/width|height' must be positive");
   cam.K = cfg.getMatrix(name + "/K", 3, 3);
-  cam.distortion = cfg.getMatrix(name + "/distortion", 1, 5).transpose();
+  const std::string model = cfg.getString(name + "/distortion_model", "radtan");
+  if (model == "equidistant") {
+    cam.model = DistortionModel::kEquidistant;
+    cam.distortion.head<4>() = cfg.getMatrix(name + "/distortion", 1, 4).transpose();
+  } else if (model == "radtan") {
+    cam.distortion = cfg.getMatrix(name + "/distortion", 1, 5).transpose();
+  } else {
+    throw ConfigError(cfg.path() + ": key '" + name + "/distortion_model' is '" + model +
+                      "', need radtan or equidistant");
+  }
   cam.serial = cfg.getString(name + "/serial", "");
   if (cam.K(0, 0) <= 0 || cam.K(1, 1) <= 0)
     throw ConfigError(cfg.path() + ": key '" + name + "/K' has no positive focal length");
@@ -40,6 +54,8 @@ void writeCamera(cv::FileStorage& fs, const std::string& name, const CameraIntri
   fs << name << "{";
   fs << "width" << cam.width << "height" << cam.height;
   fs << "K" << cam.cvK();
+  // Radial-tangential files stay as they were (no model key), so older readers still read them.
+  if (cam.model != DistortionModel::kRadialTangential) fs << "distortion_model" << distortionModelName(cam.model);
   fs << "distortion" << cam.cvDistortion();
   fs << "serial" << cam.serial;
   fs << "}";
@@ -85,7 +101,8 @@ void saveCalibration(const std::string& path, const StereoCalibration& c) {
   if (!fs.isOpened()) throw ConfigError(path + ": cannot write calibration");
   fs.writeComment(
       "Stereo head calibration (ips). Camera frames: x right, y down, z forward. T_a_b maps points from b to a.\n"
-      "distortion: OpenCV radial-tangential k1 k2 p1 p2 k3. Lengths in metres.");
+      "distortion: OpenCV radial-tangential k1 k2 p1 p2 k3, or with distortion_model: equidistant the fisheye\n"
+      "k1 k2 k3 k4. Lengths in metres.");
   writeCamera(fs, "cam0", c.cam0);
   writeCamera(fs, "cam1", c.cam1);
   fs << "R_cam1_cam0" << toCv(c.R_cam1_cam0);
@@ -98,17 +115,33 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
   StereoRectification out;
   out.size = cv::Size(c.cam0.width, c.cam0.height);
   cv::Mat R1, R2, P1, P2, Q;
-  cv::stereoRectify(c.cam0.cvK(), c.cam0.cvDistortion(), c.cam1.cvK(), c.cam1.cvDistortion(), out.size,
-                    toCv(c.R_cam1_cam0), toCv(c.t_cam1_cam0), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, alpha,
-                    out.size);
+  if (c.cam0.model != c.cam1.model)
+    throw std::invalid_argument("computeRectification: both cameras need the same distortion model");
+  const bool fisheye = c.cam0.model == DistortionModel::kEquidistant;
+  if (fisheye) {
+    // cv::fisheye's balance plays the part of alpha (0: only valid pixels, 1: all source pixels).
+    cv::fisheye::stereoRectify(c.cam0.cvK(), c.cam0.cvDistortion(), c.cam1.cvK(), c.cam1.cvDistortion(), out.size,
+                               toCv(c.R_cam1_cam0), toCv(c.t_cam1_cam0), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY,
+                               out.size, alpha);
+  } else {
+    cv::stereoRectify(c.cam0.cvK(), c.cam0.cvDistortion(), c.cam1.cvK(), c.cam1.cvDistortion(), out.size,
+                      toCv(c.R_cam1_cam0), toCv(c.t_cam1_cam0), R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, alpha,
+                      out.size);
+  }
   out.f = P1.at<double>(0, 0);
   out.cx = P1.at<double>(0, 2);
   out.cy = P1.at<double>(1, 2);
   out.baseline = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
   cv::cv2eigen(R1, out.R_rect0_cam0);
   cv::cv2eigen(R2, out.R_rect1_cam1);
-  cv::initUndistortRectifyMap(c.cam0.cvK(), c.cam0.cvDistortion(), R1, P1, out.size, CV_32FC1, out.map0x, out.map0y);
-  cv::initUndistortRectifyMap(c.cam1.cvK(), c.cam1.cvDistortion(), R2, P2, out.size, CV_32FC1, out.map1x, out.map1y);
+  auto maps = [&](const CameraIntrinsics& cam, const cv::Mat& R, const cv::Mat& P, cv::Mat& mx, cv::Mat& my) {
+    if (fisheye)
+      cv::fisheye::initUndistortRectifyMap(cam.cvK(), cam.cvDistortion(), R, P, out.size, CV_32FC1, mx, my);
+    else
+      cv::initUndistortRectifyMap(cam.cvK(), cam.cvDistortion(), R, P, out.size, CV_32FC1, mx, my);
+  };
+  maps(c.cam0, R1, P1, out.map0x, out.map0y);
+  maps(c.cam1, R2, P2, out.map1x, out.map1y);
   return out;
 }
 

@@ -12,15 +12,22 @@
 
 namespace ips {
 
+// Lens distortion models: OpenCV's radial-tangential (k1 k2 p1 p2 k3; Kalibr "radtan", ROS "plumb_bob") and
+// the equidistant fisheye model (k1 k2 k3 k4 of theta; OpenCV cv::fisheye, Kalibr "equidistant", ROS
+// "equidistant"). A file without `distortion_model` is radial-tangential.
+enum class DistortionModel { kRadialTangential, kEquidistant };
+
 struct CameraIntrinsics {
   int width = 0;
   int height = 0;
-  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();                               // fx 0 cx; 0 fy cy; 0 0 1 (pixels)
-  Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();  // OpenCV k1 k2 p1 p2 k3
-  std::string serial;                                                            // camera serial number, informational
+  Eigen::Matrix3d K = Eigen::Matrix3d::Identity();  // fx 0 cx; 0 fy cy; 0 0 1 (pixels)
+  DistortionModel model = DistortionModel::kRadialTangential;
+  // Radial-tangential: k1 k2 p1 p2 k3. Equidistant: k1 k2 k3 k4, the fifth element zero.
+  Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();
+  std::string serial;  // camera serial number, informational
 
   cv::Mat cvK() const;
-  cv::Mat cvDistortion() const;
+  cv::Mat cvDistortion() const;  // 1x5 (radial-tangential) or 1x4 (equidistant, as cv::fisheye takes it)
 };
 
 struct StereoCalibration {
