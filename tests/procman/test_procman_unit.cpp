@@ -54,9 +54,10 @@ using Words = std::vector<std::string>;
 
 }  // namespace
 
-// Expected words below are what the upstream deputy (ashuang/procman 3fc4a80, SeparateArgs + ExpandVariables
-// in src/procman/exec_string_utils.cpp) makes of the same strings; the shell-like cases were also checked by
-// running them under the real upstream deputy.
+// Expected words below follow the upstream deputy's code (ashuang/procman 3fc4a80, SeparateArgs and
+// ExpandVariables in src/procman/exec_string_utils.cpp). Its behaviour on $HOME inside single quotes,
+// ${NAME:-default}, an unset variable and a last one-character word was also observed with the real upstream
+// deputy (WireCompatibility.RecordedExchangeWithUpstreamDecodesBothWays).
 TEST(ExecString, SplitsWordsLikeTheUpstreamDeputy) {
   // The upstream procman test configuration's argument test (test/test.cfg).
   const auto spec = parse(R"(bash -c 'echo arg0: [$0] arg1: "$1" arg2: [$2]' abc "def ghi" 'jkl mno pqr')");
