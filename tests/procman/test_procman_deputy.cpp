@@ -459,4 +459,63 @@ TEST_F(ProcmanDeputy, StopsCommandsOnSigterm) {
   EXPECT_NE(kill(child, 0), 0) << "the command does not outlive its deputy";
 }
 
+// The orders recorded from a real exchange with upstream procman (tests/procman/upstream_exchange.lcmlog: our
+// sheriff ordering the upstream deputy "up", the upstream sheriff ordering our deputy "ours"), played again,
+// with fresh stamps and at their recorded pace (long pauses shortened), to our deputies with the same ids:
+// each must end as the recorded deputy did (every command's run id, stopped, and how the non-respawning ones
+// ended), and the auto-respawn command must have been respawned.
+TEST_F(ProcmanDeputy, AnswersRecordedUpstreamOrdersAsRecorded) {
+  lcm::LogFile log(std::string(PROCMAN_TEST_DIR) + "/upstream_exchange.lcmlog", "r");
+  ASSERT_TRUE(log.good());
+  struct Timed {
+    int64_t t_us;
+    procman_lcm::orders_t orders;
+  };
+  std::vector<Timed> orders;
+  std::map<std::string, procman_lcm::deputy_info_t> recorded_final;
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    const std::string ch = ev->channel;
+    if (ch == "PM_ORDERS") {
+      Timed t{ev->timestamp, {}};
+      ASSERT_EQ(t.orders.decode(ev->data, 0, ev->datalen), ev->datalen);
+      orders.push_back(t);
+    } else if (ch == "PM_INFO") {
+      procman_lcm::deputy_info_t info;
+      ASSERT_EQ(info.decode(ev->data, 0, ev->datalen), ev->datalen);
+      recorded_final[info.deputy_id] = info;
+    }
+  }
+  ASSERT_FALSE(orders.empty());
+  DeputyProcess up("up", url_), ours("ours", url_);
+  waitReady("up");
+  waitReady("ours");
+  const double kMaxPauseS = 1.5;  // the recording has seconds between sheriff invocations
+  for (size_t i = 0; i < orders.size(); ++i) {
+    if (i > 0) spinFor(std::min(kMaxPauseS, (orders[i].t_us - orders[i - 1].t_us) * 1e-6));
+    orders[i].orders.utime = nowUs();
+    lcm_->publish("PM_ORDERS", &orders[i].orders);
+  }
+  for (const char* deputy : {"up", "ours"}) {
+    const auto& want = recorded_final[deputy];
+    ASSERT_FALSE(want.cmds.empty()) << deputy;
+    for (const auto& w : want.cmds) {
+      const std::string id = w.cmd.command_id;
+      EXPECT_TRUE(spinUntil(
+          [&] {
+            auto s = status(deputy, id);
+            return s && s->actual_runid == w.actual_runid && s->pid == 0;
+          },
+          15))
+          << deputy << "/" << id;
+      if (!w.cmd.auto_respawn) {
+        auto s = status(deputy, id);
+        ASSERT_TRUE(s.has_value());
+        EXPECT_EQ(s->exit_code, w.exit_code) << deputy << "/" << id;
+      }
+    }
+    const std::string crasher = output(deputy, "crasher");
+    EXPECT_NE(crasher.find("crashing"), crasher.rfind("crashing")) << deputy << ": respawned at least once";
+  }
+}
+
 }  // namespace
