@@ -185,6 +185,20 @@ TEST(HostileInput, NodeDropsExactRepeats) {
   EXPECT_EQ(node.health().droppedCount(), 3);
 }
 
+TEST(HostileInput, AnotherProcessOfTheSameNameIsCounted) {
+  ips::fw::Node node("tracker", "memq://");
+  node.publishHealth(1.0);  // its own health message: not counted
+  ips::health_t other{};
+  other.process = "tracker";
+  other.host = node.health().host();
+  other.pid = static_cast<int32_t>(::getpid()) + 1;  // a second tracker started by mistake
+  node.publish("HEALTH_TRACKER", other);
+  other.utime = 1;  // its next report (not a repeat)
+  node.publish("HEALTH_TRACKER", other);
+  for (int i = 0; i < 3; ++i) node.handleOnce(10);
+  EXPECT_EQ(node.health().counter("other_process_same_name"), 2);
+}
+
 TEST(HostileInput, ForgedStampFarAheadIsNeverAdopted) {
   ips::fw::StreamOrder order;
   int64_t t = 1'000'000;
