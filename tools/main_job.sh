@@ -5,6 +5,11 @@
 # (out/latest points at it).
 # Environment: IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_REPLAY_SPEED (default 1),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), LCM_DEFAULT_URL.
+# IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder or KITTI odometry folder, told
+# apart by layout): dataset_to_lcm writes it as the head's log, the tracker runs with the head's config
+# (config/euroc.yaml, config/kitti.yaml), the filters when it has IMU, and the report adds the recording figures
+# (relative errors over 1/2 m on EuRoC, 10/20/40 m on KITTI). IPS_DATASET_ARGS passes more options
+# (e.g. "--first 0 --last 149").
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
@@ -17,8 +22,25 @@ started=$(date +%s)
 say() { printf '[main job %4ds] %s\n' $(( $(date +%s) - started )) "$*"; }
 say "output in $run"
 
-# 1. The sensor head: the simulator's default walk, as fast as it can render it.
-if [ -n "${IPS_SIM_LOG:-}" ]; then
+# 1. The sensor head: the simulator's default walk, as fast as it can render it, or a recording.
+export IPS_CONFIG=$ROOT/config
+report_args=()
+if [ -n "${IPS_DATASET:-}" ]; then
+  if [ -f "$IPS_DATASET/mav0/cam0/data.csv" ]; then format=euroc lengths=1,2
+  elif [ -d "$IPS_DATASET/sequences" ]; then format=kitti lengths=10,20,40
+  else say "IPS_DATASET=$IPS_DATASET is neither an EuRoC (mav0/cam0/data.csv) nor a KITTI (sequences/) folder"; exit 1
+  fi
+  say "1/4 converting the $format recording $IPS_DATASET (build/bin/dataset_to_lcm)"
+  # shellcheck disable=SC2086
+  dataset_to_lcm --format $format --in "$IPS_DATASET" --out "$run/walk.lcmlog" ${IPS_DATASET_ARGS:-} 2>&1 | tee "$run/dataset.txt" | sed -u 's/^/    /'
+  [ "${PIPESTATUS[0]}" = 0 ] || exit 1
+  # procman/main_job.pmd reads $IPS_CONFIG/tracker.yaml: the run's config folder holds the head's file under it.
+  mkdir -p "$run/config"
+  for f in "$ROOT"/config/*.yaml; do ln -sf "$f" "$run/config/"; done
+  ln -sf "$ROOT/config/$format.yaml" "$run/config/tracker.yaml"
+  IPS_CONFIG=$run/config
+  report_args=(--lengths "$lengths")
+elif [ -n "${IPS_SIM_LOG:-}" ]; then
   say "1/4 using the simulated log $IPS_SIM_LOG"
   ln -sf "$(realpath "$IPS_SIM_LOG")" "$run/walk.lcmlog"
   cp "$IPS_SIM_LOG.calib.yaml" "$run/walk.lcmlog.calib.yaml"
@@ -44,7 +66,7 @@ PY
 # 2. A deputy on this machine, on the run's LCM URL, with the id procman/main_job.pmd names ("mainjob"; a
 #    second main job on the same LCM URL is refused by the deputy's discovery, exit 2).
 export LCM_DEFAULT_URL=${LCM_DEFAULT_URL:-udpm://239.255.76.67:7667?ttl=0}
-export IPS_RUN_DIR=$run IPS_CONFIG=$ROOT/config IPS_REPLAY_SPEED=${IPS_REPLAY_SPEED:-1.0}
+export IPS_RUN_DIR=$run IPS_REPLAY_SPEED=${IPS_REPLAY_SPEED:-1.0}
 deputy_id=mainjob
 say "2/4 starting procman-deputy '$deputy_id' on $LCM_DEFAULT_URL"
 procman-deputy --id "$deputy_id" > "$run/deputy.log" 2>&1 &
@@ -71,12 +93,14 @@ trap - EXIT
 # 4. The report.
 say "4/4 writing the report"
 ips_report --log "$run/results.lcmlog" --images "$run/walk.lcmlog" --calib "$run/walk.lcmlog.calib.yaml" \
-  --out "$run" > "$run/report.txt"
+  --out "$run" "${report_args[@]}" > "$run/report.txt"
 python3 - "$run/report.json" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
+for e in r.get('estimators', []):
+    print(f"  {e['name']}: ATE {e['ate_rmse_m']} m, RPE {e['rpe_trans_pct']} % and {e['rpe_rot_deg_per_m']} deg/m over {r['rpe_lengths_m']} m, end error {e['end_error_pct']} % (first pose aligned)")
 print(f"  walk: {r['distance_m']:.1f} m in {r['duration_s']:.0f} s; tracker deltas {r['tracker_deltas_valid']}/{r['tracker_deltas']} valid")
-for f in r['filters']:
+for f in [f for f in r['filters'] if f['states']]:
     print(f"  {f['filter']}: end error {f['end_error_m']} m ({f['end_error_pct']} % of the distance), ATE RMSE {f['ate_rmse_m']} m")
 print(f"  disparity: bad 2.0 {r['disparity_bad2_pct']} %, density {r['disparity_density_pct']} % ({r['disparity_maps_with_ground_truth']} maps with ground truth)")
 for name, p in sorted(r['processes'].items()):

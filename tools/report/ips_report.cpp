@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "ips/calibration.hpp"
+#include "ips/dataset/delta_chain.hpp"
 #include "ips/filter/trajectory_metrics.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/process.hpp"
@@ -218,6 +219,9 @@ int main(int argc, char** argv) {
         .option("--calib", "FILE", "calibration (for rectifying the pictures' images)")
         .option("--filters", "CH[,CH]", "filter state channels and their names", "FILTER_STATE,FILTER_STATE_UKF")
         .option("--pictures", "N", "disparity maps to draw", "3")
+        .option("--lengths", "M[,M]",
+                "sub-sequence lengths of the relative errors (KITTI devkit style); default 10,20,40 m when the "
+                "ground truth is longer than 40 m, else 1,2 m")
         .required("--out", "DIR", "output folder (report.json and PNG pictures)");
     if (!args.parse()) return 0;
     const std::string out = args.get("--out");
@@ -232,6 +236,7 @@ int main(int argc, char** argv) {
     std::map<int64_t, ips::disparity_map_t> gt_disp, est_disp;  // by utime
     std::map<std::string, ProcessFigures> procs;
     int64_t deltas = 0, deltas_valid = 0;
+    std::vector<ips::tracker_delta_t> delta_msgs;
     lcm::LogFile log(args.get("--log"), "r");
     if (!log.good()) throw std::runtime_error("cannot read " + args.get("--log"));
     while (const lcm::LogEvent* e = log.readNextEvent()) {
@@ -246,6 +251,7 @@ int main(int argc, char** argv) {
       } else if (ch == "TRACKER_DELTA") {
         ips::tracker_delta_t d;
         if (decode(e, &d)) {
+          delta_msgs.push_back(d);
           ++deltas;
           deltas_valid += d.valid ? 1 : 0;
         }
@@ -322,6 +328,95 @@ int main(int argc, char** argv) {
         if (!aligned_all[k].empty()) nonempty.push_back(aligned_all[k]), nl.push_back(labels[k]);
       if (!nonempty.empty()) ips::filter::plotTopDown(out + "/trajectory_top.png", gt, nonempty, nl);
       plotErrors(out + "/error_over_time.png", runs, aligned_all, gt);
+    }
+
+    // Every estimator that ran against the ground truth, as recordings are judged: ATE (SE(3)-aligned), relative
+    // errors over sub-sequences of fixed length (KITTI devkit, every pose a start) and the end-point error with
+    // only the first pose aligned. The filters estimate the body (IMU frame) like the ground truth; the tracker's
+    // chained increments give camera 0, judged against the ground truth carried to camera 0 (T_imu_cam0).
+    {
+      std::vector<double> lengths;
+      if (args.has("--lengths")) {
+        std::stringstream ss(args.get("--lengths"));
+        std::string item;
+        while (std::getline(ss, item, ',')) lengths.push_back(std::stod(item));
+      } else {
+        lengths = distance > 40 ? std::vector<double>{10, 20, 40} : std::vector<double>{1, 2};
+      }
+      Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
+      if (args.has("--calib")) T_imu_cam0 = ips::loadCalibration(args.get("--calib")).T_imu_cam0;
+      struct Estimate {
+        std::string name;
+        Trajectory est, ref;
+        int64_t lost = 0;
+      };
+      std::vector<Estimate> estimates;
+      if (!delta_msgs.empty()) {
+        std::sort(delta_msgs.begin(), delta_msgs.end(),
+                  [](const ips::tracker_delta_t& a, const ips::tracker_delta_t& b) { return a.utime < b.utime; });
+        ips::dataset::DeltaChain chain;
+        // The origin is the first pair; when the recording starts with a valid increment, its reference pair.
+        if (delta_msgs.front().valid)
+          chain.add(delta_msgs.front().utime_prev, 0, false, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
+        for (const auto& d : delta_msgs)
+          chain.add(d.utime, d.utime_prev, d.valid,
+                    Eigen::Quaterniond(d.rotation[0], d.rotation[1], d.rotation[2], d.rotation[3]),
+                    Eigen::Vector3d(d.translation[0], d.translation[1], d.translation[2]));
+        Estimate t{"tracker", {}, {}, chain.invalid()};
+        for (const auto& p : chain.poses()) {
+          TrajPoint q;
+          q.t = p.utime * 1e-6;
+          q.p = p.T_world_cam0.translation();
+          q.q = Eigen::Quaterniond(p.T_world_cam0.linear());
+          t.est.push_back(q);
+        }
+        for (const auto& g : gt) {
+          Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+          T.linear() = g.q.toRotationMatrix();
+          T.translation() = g.p;
+          T = T * T_imu_cam0;
+          TrajPoint q;
+          q.t = g.t;
+          q.p = T.translation();
+          q.q = Eigen::Quaterniond(T.linear());
+          t.ref.push_back(q);
+        }
+        if (!t.ref.empty()) ips::filter::writeTum(out + "/trajectory_ground_truth_cam0.tum", t.ref);
+        ips::filter::writeTum(out + "/trajectory_tracker.tum", t.est);
+        estimates.push_back(std::move(t));
+      }
+      for (const auto& run : runs) {
+        if (run.states.empty()) continue;
+        Estimate f{run.type == ips::filter_state_t::FILTER_UKF ? "ukf" : "ekf", {}, gt, 0};
+        for (const auto& st : run.states) f.est.push_back(toPoint(st.utime, st.position, st.orientation));
+        estimates.push_back(std::move(f));
+      }
+      js << "  \"estimators\": [";
+      bool first_est = true;
+      for (const auto& est : estimates) {
+        Trajectory ea, ra;
+        if (est.ref.size() >= 3) ips::filter::associate(est.est, est.ref, 0.05, &ea, &ra);
+        double ate = NAN, end_m = NAN, end_pct = NAN, dist = 0;
+        ips::filter::RelativeErrors rel;
+        if (ea.size() >= 3) {
+          const ips::filter::TrajectoryErrors err = ips::filter::evaluate(ea, ra, lengths.front());
+          ate = err.ate_rmse_m;
+          dist = err.distance_m;
+          rel = ips::filter::relativeErrors(ea, ra, lengths);
+          end_m = ips::filter::endErrorFirstPoseAligned(ea, ra);
+          end_pct = dist > 0 ? 100.0 * end_m / dist : NAN;
+        }
+        js << (first_est ? "\n" : ",\n") << "    {\"name\": \"" << est.name << "\", \"poses\": " << est.est.size()
+           << ", \"matched\": " << ea.size() << ", \"lost\": " << est.lost << ", \"distance_m\": " << jsonNumber(dist)
+           << ", \"ate_rmse_m\": " << jsonNumber(ate) << ", \"rpe_trans_pct\": " << jsonNumber(rel.trans_pct)
+           << ", \"rpe_rot_deg_per_m\": " << jsonNumber(rel.rot_deg_per_m)
+           << ", \"rpe_subsequences\": " << rel.subsequences << ", \"end_error_m\": " << jsonNumber(end_m)
+           << ", \"end_error_pct\": " << jsonNumber(end_pct) << "}";
+        first_est = false;
+      }
+      js << "\n  ],\n  \"rpe_lengths_m\": [";
+      for (size_t i = 0; i < lengths.size(); ++i) js << (i ? ", " : "") << jsonNumber(lengths[i]);
+      js << "],\n";
     }
 
     // Disparity against the simulator's ground truth, for every map that has one.
