@@ -2,7 +2,7 @@
 # dataset_to_lcm on bad folders: one line naming the file (and line), exit code 1, and no output left behind,
 # also when the fault shows only while writing (an image of another size halfway through).
 set -uo pipefail
-BIN=$1 DATA=$2
+BIN=$1 DATA=$(realpath -m "$2")
 MH=$DATA/euroc/MH_01_easy_first150
 KITTI_IMAGE=$DATA/kitti_odometry/06_first51/sequences/06/image_0/000000.png
 [ -d "$MH" ] && [ -f "$KITTI_IMAGE" ] || { echo "SKIP: shared data missing (see ../shared/data)"; exit 77; }
