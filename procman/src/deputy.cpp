@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <pty.h>
+#include <sys/prctl.h>
 #include <sys/signalfd.h>
 #include <sys/wait.h>
 #include <termios.h>
@@ -334,6 +335,7 @@ void Deputy::startCommand(Command& cmd, int32_t runid) {
   argv.push_back(nullptr);
 
   int master = -1;
+  const pid_t deputy_pid = getpid();
   const pid_t pid = forkpty(&master, nullptr, nullptr, nullptr);
   if (pid < 0) {
     note(cmd.id, std::string("cannot start: forkpty: ") + std::strerror(errno));
@@ -349,6 +351,11 @@ void Deputy::startCommand(Command& cmd, int32_t runid) {
       tio.c_lflag &= ~static_cast<tcflag_t>(ECHO);
       tcsetattr(STDIN_FILENO, TCSANOW, &tio);
     }
+    // A deputy killed with SIGKILL cannot stop its commands; closing the pseudo-terminal only sends them SIGHUP,
+    // which lcm-logger (log rotation) and others catch. The kernel kills the command when the deputy dies; if it
+    // died before this line, the command must not start at all.
+    prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (getppid() != deputy_pid) _exit(127);
     sigset_t none;
     sigemptyset(&none);
     sigprocmask(SIG_SETMASK, &none, nullptr);

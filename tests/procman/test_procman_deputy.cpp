@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
@@ -457,6 +458,32 @@ TEST_F(ProcmanDeputy, StopsCommandsOnSigterm) {
   ASSERT_TRUE(code.has_value());
   EXPECT_EQ(*code, 0);
   EXPECT_NE(kill(child, 0), 0) << "the command does not outlive its deputy";
+}
+
+TEST_F(ProcmanDeputy, CommandsDieWithAKilledDeputy) {
+  // SIGKILL gives the deputy no chance to stop its commands. lcm-logger catches SIGHUP (to start a new file) and
+  // the second command ignores it, so neither may rely on the hang-up of its pseudo-terminal.
+  auto deputy = std::make_unique<DeputyProcess>("d1", url_);
+  waitReady("d1");
+  const std::string log = testing::TempDir() + "/deputy_killed_" + std::to_string(getpid()) + ".lcmlog";
+  order("d1", {desired("logger", "lcm-logger --lcm-url=" + url_ + " -f " + log, 1, false, true),
+               desired("deaf",
+                       "python3 -c 'import signal, time; signal.signal(signal.SIGHUP, signal.SIG_IGN); time.sleep(30)'",
+                       1, false, true)});
+  ASSERT_TRUE(spinUntil([&] { return isRunning("d1", "deaf", 1); }, 10));
+  const pid_t deaf = status("d1", "deaf")->pid;
+  ASSERT_TRUE(spinUntil([&] { return isRunning("d1", "logger", 1); }, 10));
+  const pid_t child = status("d1", "logger")->pid;
+  kill(deputy->pid(), SIGKILL);
+  ASSERT_TRUE(deputy->waitExit(10).has_value());
+  // Dead: gone, or a zombie waiting for whoever it was reparented to.
+  auto dead = [](pid_t p) {
+    std::ifstream stat("/proc/" + std::to_string(p) + "/stat");
+    std::string pid, comm, state;
+    return !(stat >> pid >> comm >> state) || state == "Z";
+  };
+  EXPECT_TRUE(spinUntil([&] { return dead(child) && dead(deaf); }, 10)) << "a command outlives its killed deputy";
+  std::remove(log.c_str());
 }
 
 // The orders recorded from a real exchange with upstream procman (tests/procman/upstream_exchange.lcmlog: our
