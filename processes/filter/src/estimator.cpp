@@ -305,15 +305,8 @@ void Estimator::processInit(const Event& e) {
     return;
   }
   // At rest the accelerometer measures R^T (0, 0, g): roll and pitch; heading is a convention from config.
-  const Eigen::Vector3d f = mean_f.normalized();
-  const double roll = std::atan2(f.y(), f.z());
-  const double pitch = std::atan2(-f.x(), std::sqrt(f.y() * f.y() + f.z() * f.z()));
-  NavState s;
-  s.utime = init_imu_.back().utime;
-  s.position = params_.init.position;
-  s.orientation = Eigen::AngleAxisd(params_.init.heading_rad, Eigen::Vector3d::UnitZ()) *
-                  Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                  Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  double roll = 0, pitch = 0;
+  NavState s = startState(mean_f, &roll, &pitch);
   s.gyro_bias = mean_w;
   InitParams ip = params_.init;
   ip.sigma_gyro_bias = std::max(ip.sigma_gyro_bias, std::sqrt(var_w / 3.0 / n));
@@ -335,6 +328,21 @@ void Estimator::processInit(const Event& e) {
   init_tilt_.clear();
 }
 
+NavState Estimator::startState(const Eigen::Vector3d& specific_force_up, double* roll, double* pitch) const {
+  // The specific force of gravity points up in the body frame: roll and pitch. Position and heading are the
+  // configured convention (neither is observable from the IMU).
+  const Eigen::Vector3d f = specific_force_up.normalized();
+  *roll = std::atan2(f.y(), f.z());
+  *pitch = std::atan2(-f.x(), std::sqrt(f.y() * f.y() + f.z() * f.z()));
+  NavState s;
+  s.utime = init_imu_.back().utime;
+  s.position = params_.init.position;
+  s.orientation = Eigen::AngleAxisd(params_.init.heading_rad, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(*pitch, Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(*roll, Eigen::Vector3d::UnitX());
+  return s;
+}
+
 void Estimator::initializeInMotion() {
   // Rotate every sample's specific force into the body frame of the window's last sample, integrating the
   // gyro backwards (C maps frame k into the last frame: C_{k-1} = C_k Exp(w_k dt)^T). Over the window the
@@ -350,15 +358,8 @@ void Estimator::initializeInMotion() {
     const double a = angle.norm();
     if (a > 0) C = C * Eigen::AngleAxisd(a, angle / a).toRotationMatrix().transpose();
   }
-  const Eigen::Vector3d f = sum_f.normalized();
-  const double roll = std::atan2(f.y(), f.z());
-  const double pitch = std::atan2(-f.x(), std::sqrt(f.y() * f.y() + f.z() * f.z()));
-  NavState s;
-  s.utime = init_imu_.back().utime;
-  s.position = params_.init.position;
-  s.orientation = Eigen::AngleAxisd(params_.init.heading_rad, Eigen::Vector3d::UnitZ()) *
-                  Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-                  Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  double roll = 0, pitch = 0;
+  NavState s = startState(sum_f, &roll, &pitch);
   s.angular_rate = init_imu_.back().angular_rate;
   InitParams ip = params_.init;
   ip.sigma_velocity = ip.moving_sigma_velocity;

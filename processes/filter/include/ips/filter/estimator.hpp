@@ -118,6 +118,8 @@ class Estimator {
   void process(const Event& e);
   void processInit(const Event& e);
   void initializeInMotion();
+  // The start state at the newest window sample: level from `specific_force_up`, configured position/heading.
+  NavState startState(const Eigen::Vector3d& specific_force_up, double* roll, double* pitch) const;
   // Applies an IMU or tilt event to a runner; returns true if the measurement was applied.
   bool applyMeasurement(Runner& run, const Event& e, std::array<SensorCounters, kNumSensors>* counters);
   // Time update to t; enters the gap mode if the IMU has been silent for imu_gap_s by then.
