@@ -1,7 +1,7 @@
-// libFuzzer target: one message type's decode and validate, as every receiving process runs them on whatever
-// arrives on the bus. Built once per type with IPS_FUZZ_TYPE set to the type (tests/fuzz/CMakeLists.txt).
-// Finds: exceptions out of the decoder, allocations from declared lengths, memory errors (ASan), undefined
-// behaviour (UBSan).
+// libFuzzer target: one message type's decode and validate, as every receiving process (and procman's deputy
+// and sheriff, for the PM_* types) runs them on whatever arrives on the bus. Built once per type with IPS_FUZZ_TYPE set
+// to the type (tests/fuzz/CMakeLists.txt). Finds: exceptions out of the decoder, allocations from declared lengths,
+// memory errors (ASan), undefined behaviour (UBSan).
 #include <cstddef>
 #include <cstdint>
 #include <ips/disparity_map_t.hpp>
@@ -14,6 +14,12 @@
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <type_traits>
+#if __has_include(<procman_lcm/orders_t.hpp>)
+#include <procman_lcm/deputy_info_t.hpp>
+#include <procman_lcm/discovery_t.hpp>
+#include <procman_lcm/orders_t.hpp>
+#include <procman_lcm/output_t.hpp>
+#endif
 
 #include "ips/framework/validate.hpp"
 
