@@ -92,8 +92,12 @@ trap - EXIT
 
 # 4. The report.
 say "4/4 writing the report"
+report_rc=0
 ips_report --log "$run/results.lcmlog" --images "$run/walk.lcmlog" --calib "$run/walk.lcmlog.calib.yaml" \
-  --out "$run" "${report_args[@]}" > "$run/report.txt"
+  --out "$run" "${report_args[@]}" > "$run/report.txt" || report_rc=$?
+if [ ! -s "$run/report.json" ]; then
+  say "FAILED: ips_report wrote no report (exit $report_rc)"; exit 1
+fi
 python3 - "$run/report.json" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1]))
@@ -106,4 +110,10 @@ print(f"  disparity: bad 2.0 {r['disparity_bad2_pct']} %, density {r['disparity_
 for name, p in sorted(r['processes'].items()):
     print(f"  {name:12s} rate {p['rate_hz']:.2f} Hz, latency {p['latency_ms']:.1f} ms, dropped {p['dropped']}, bad {p['bad']}")
 PY
+if [ "$report_rc" != 0 ]; then
+  # A process died, a state stream stopped or paused, or a recording is damaged: the figures above describe
+  # part of the run, so the run is failed (report.json says why under "failures").
+  python3 -c 'import json,sys; [print("FAILED:", f) for f in json.load(open(sys.argv[1]))["failures"]]' "$run/report.json"
+  say "FAILED: $run/report.json (status failed, exit $report_rc)"; exit 1
+fi
 say "done: $run/report.json and pictures (trajectory_top.png, error_over_time.png, disparity_*.png)"

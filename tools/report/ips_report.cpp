@@ -23,7 +23,9 @@
 #include "ips/dataset/delta_chain.hpp"
 #include "ips/filter/trajectory_metrics.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
+#include "ips/framework/validate.hpp"
 
 namespace {
 
@@ -31,9 +33,16 @@ using ips::filter::Trajectory;
 using ips::filter::TrajPoint;
 
 template <class Msg>
-bool decode(const lcm::LogEvent* e, Msg* m) {
-  return m->decode(e->data, 0, static_cast<int>(e->datalen)) >= 0;
+bool decode(const ips::fw::LogMessage& e, Msg* m) {
+  return m->decode(e.data.data(), 0, static_cast<int>(e.data.size())) >= 0;
 }
+
+// A state stream that pauses this long, or ends this long before the input does, means the estimator died,
+// restarted or stalled: its figures would describe part of the run as if it were all of it. Longer than the
+// filter's reordering window (0.5 s) and its paced flush at shutdown.
+constexpr double kMaxStateGapS = 2.0;
+// A process whose health messages (sent every second while it runs) stop this long before the input ends died.
+constexpr double kMaxHealthSilenceS = 10.0;
 
 struct FilterRun {
   std::string channel;
@@ -202,6 +211,16 @@ cv::Mat colourDisparity(const cv::Mat& d, float max_d) {
   return colour;
 }
 
+std::string jsonString(const std::string& v) {
+  std::string o = "\"";
+  for (char c : v) {
+    if (c == '"' || c == '\\') o += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+    o += c;
+  }
+  return o + "\"";
+}
+
 std::string jsonNumber(double v) {
   if (!std::isfinite(v)) return "null";
   std::ostringstream os;
@@ -237,27 +256,47 @@ int main(int argc, char** argv) {
     std::map<std::string, ProcessFigures> procs;
     int64_t deltas = 0, deltas_valid = 0;
     std::vector<ips::tracker_delta_t> delta_msgs;
-    lcm::LogFile log(args.get("--log"), "r");
-    if (!log.good()) throw std::runtime_error("cannot read " + args.get("--log"));
-    while (const lcm::LogEvent* e = log.readNextEvent()) {
+    // What makes the run's figures untrustworthy: named in report.json ("failures") and on stderr, exit 4.
+    std::vector<std::string> failures;
+    std::map<std::string, int64_t> last_health_log_us;  // per process: logger time of its last health message
+    int64_t last_input_log_us = 0;                      // logger time of the last ground-truth pose (the input)
+    int64_t bad_messages = 0;
+    ips::fw::LogReader log(args.get("--log"));
+    ips::fw::LogMessage msg;
+    const ips::fw::LogMessage* e = &msg;
+    for (;;) {
+      try {
+        if (!log.next(&msg)) break;
+      } catch (const ips::fw::LogError& err) {
+        failures.push_back(err.what());
+        break;
+      }
       const std::string& ch = e->channel;
+      if (ch == "GT_POSE") last_input_log_us = std::max(last_input_log_us, e->timestamp);
       if (ch == "GT_POSE") {
-        ips::ground_truth_t g;
-        if (decode(e, &g)) gt.push_back(toPoint(g.utime, g.position, g.orientation));
+        ips::ground_truth_t g{};
+        if (decode(*e, &g)) gt.push_back(toPoint(g.utime, g.position, g.orientation));
       } else if (ch == "GT_DISPARITY" || ch == "DISPARITY") {
         ips::disparity_map_t d;
-        if (!decode(e, &d)) continue;
+        if (!decode(*e, &d) || !ips::fw::validate(d).ok()) {
+          ++bad_messages;
+          continue;
+        }
         (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
       } else if (ch == "TRACKER_DELTA") {
         ips::tracker_delta_t d;
-        if (decode(e, &d)) {
+        if (decode(*e, &d)) {
           delta_msgs.push_back(d);
           ++deltas;
           deltas_valid += d.valid ? 1 : 0;
         }
       } else if (ch.rfind("HEALTH_", 0) == 0) {
         ips::health_t h;
-        if (!decode(e, &h)) continue;
+        if (!decode(*e, &h)) {
+          ++bad_messages;
+          continue;
+        }
+        last_health_log_us[h.process] = e->timestamp;
         ProcessFigures& f = procs[h.process];
         if (h.input_rate_hz > 0) f.rate_sum += h.input_rate_hz, ++f.rate_n;
         if (h.latency_ms > 0) f.latency_sum += h.latency_ms, ++f.latency_n;
@@ -266,12 +305,38 @@ int main(int argc, char** argv) {
         for (auto& run : runs)
           if (ch == run.channel) {
             ips::filter_state_t s;
-            if (decode(e, &s) && !s.a_priori) {
+            if (decode(*e, &s) && ips::fw::validate(s).ok() && !s.a_priori) {
               run.type = s.filter_type;
               run.states.push_back(std::move(s));
             }
           }
       }
+    }
+    if (log.events() == 0 || (gt.empty() && deltas == 0 && est_disp.empty() &&
+                              std::all_of(runs.begin(), runs.end(), [](const FilterRun& r) { return r.states.empty(); })))
+      failures.push_back(args.get("--log") + ": holds none of a run's results (no ground truth, deltas, maps or states)");
+    // Completeness: every state stream runs to the end of the input without a pause, every process kept reporting.
+    if (!gt.empty()) {
+      const double input_end =
+          std::max_element(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t < b.t; })->t;
+      for (const auto& run : runs) {
+        if (run.states.empty()) continue;  // this estimator did not run (no IMU in the recording)
+        double prev = run.states.front().utime * 1e-6;
+        for (const auto& st : run.states) {
+          const double t = st.utime * 1e-6;
+          if (t - prev > kMaxStateGapS)
+            failures.push_back(run.channel + ": no states for " + std::to_string(t - prev) +
+                               " s from t=" + std::to_string(prev) + " s (the filter died or restarted)");
+          prev = std::max(prev, t);
+        }
+        if (input_end - prev > kMaxStateGapS)
+          failures.push_back(run.channel + ": states stop " + std::to_string(input_end - prev) +
+                             " s before the end of the input");
+      }
+      for (const auto& [process, last_us] : last_health_log_us)
+        if ((last_input_log_us - last_us) * 1e-6 > kMaxHealthSilenceS)
+          failures.push_back("process " + process + " stopped reporting " +
+                             std::to_string((last_input_log_us - last_us) * 1e-6) + " s before the end of the input");
     }
     std::sort(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t < b.t; });
     gt.erase(std::unique(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t == b.t; }),
@@ -441,12 +506,23 @@ int main(int argc, char** argv) {
       std::set<int64_t> pick;
       for (int i = 0; i < want && i < static_cast<int>(scores.size()); ++i)
         pick.insert(scores[scores.size() * (2 * i + 1) / (2 * want)].seq);
-      lcm::LogFile images(args.get("--images"), "r");
+      ips::fw::LogReader images(args.get("--images"));
+      ips::fw::LogMessage im;
       int drawn = 0;
-      while (const lcm::LogEvent* e = images.good() ? images.readNextEvent() : nullptr) {
-        if (e->channel != "STEREO") continue;
+      for (;;) {
+        try {
+          if (!images.next(&im)) break;
+        } catch (const ips::fw::LogError& err) {
+          failures.push_back(err.what());
+          break;
+        }
+        if (im.channel != "STEREO") continue;
         ips::stereo_pair_t p;
-        if (!decode(e, &p) || !pick.count(p.seq) || !est_disp.count(p.utime)) continue;
+        if (!decode(im, &p) || !pick.count(p.seq) || !est_disp.count(p.utime)) continue;
+        if (!ips::fw::validate(p).ok() || p.width != calib.cam0.width || p.height != calib.cam0.height) {
+          ++bad_messages;
+          continue;
+        }
         cv::Mat r0, r1;
         ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
         const ips::disparity_map_t& dm = est_disp[p.utime];
@@ -483,9 +559,17 @@ int main(int argc, char** argv) {
          << ", \"dropped\": " << f.last.dropped << ", \"bad\": " << f.last.bad << "}";
       first_proc = false;
     }
-    js << "\n  }\n}\n";
-    std::ofstream(out + "/report.json") << js.str();
+    js << "\n  },\n";
+    js << "  \"bad_messages\": " << bad_messages << ",\n";
+    js << "  \"status\": \"" << (failures.empty() ? "ok" : "failed") << "\",\n  \"failures\": [";
+    for (size_t i = 0; i < failures.size(); ++i) js << (i ? ", " : "") << jsonString(failures[i]);
+    js << "]\n}\n";
+    std::ofstream report(out + "/report.json");
+    report << js.str();
+    report.close();
+    if (!report) throw std::runtime_error(out + "/report.json: cannot write (disk full?)");
     std::fputs(js.str().c_str(), stdout);
-    return 0;
+    for (const auto& f : failures) std::fprintf(stderr, "ips_report: FAILED: %s\n", f.c_str());
+    return failures.empty() ? 0 : 4;
   });
 }

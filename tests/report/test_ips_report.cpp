@@ -1,0 +1,157 @@
+// ips_report on recordings that went wrong: a filter whose states stop before the input ends, a log truncated
+// or full of garbage, an empty log, a 0x0 disparity map. The report must say so (status "failed", the reason
+// under "failures", exit 4) instead of exiting 0 with figures over part of the run; nothing may crash.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <ips/disparity_map_t.hpp>
+#include <ips/filter_state_t.hpp>
+#include <ips/ground_truth_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+class Recording {
+ public:
+  explicit Recording(const std::string& path) : log_(path, "w") {}
+  template <class Msg>
+  void add(const std::string& channel, int64_t utime, const Msg& m) {
+    std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
+    m.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    lcm::LogEvent e{};
+    e.timestamp = utime;
+    e.channel = channel;
+    e.datalen = static_cast<int32_t>(buf.size());
+    e.data = buf.data();
+    log_.writeEvent(&e);
+  }
+
+ private:
+  lcm::LogFile log_;
+};
+
+ips::ground_truth_t pose(int64_t utime, double x) {
+  ips::ground_truth_t g{};
+  g.utime = utime;
+  g.position[0] = x;
+  g.orientation[0] = 1;
+  return g;
+}
+
+ips::filter_state_t state(int64_t utime, double x) {
+  ips::filter_state_t s{};
+  s.utime = utime;
+  s.position[0] = x;
+  s.orientation[0] = 1;
+  s.cov_dim = 0;
+  return s;
+}
+
+// A walk along x at 1 m/s for 10 s: ground truth at 10 Hz, EKF states at 10 Hz until `states_until_us`.
+void writeRun(const std::string& path, int64_t states_until_us) {
+  Recording r(path);
+  for (int64_t t = 1'000'000; t <= 11'000'000; t += 100'000) {
+    const double x = (t - 1'000'000) * 1e-6;
+    r.add("GT_POSE", t, pose(t, x));
+    if (t <= states_until_us) r.add("FILTER_STATE", t, state(t, x));
+  }
+}
+
+struct Result {
+  int exit_code = -1;
+  std::string report;  // report.json, empty if none
+};
+
+Result runReport(const std::string& log, const std::string& name) {
+  const fs::path out = fs::path(testing::TempDir()) / ("ips_report_" + std::to_string(getpid()) + "_" + name);
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const std::string cmd =
+      std::string(IPS_REPORT) + " --log " + log + " --out " + out.string() + " > /dev/null 2>" + (out / "err").string();
+  const int status = std::system(cmd.c_str());
+  Result r;
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream in(out / "report.json");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  r.report = ss.str();
+  return r;
+}
+
+std::string tempLog(const std::string& name) {
+  return (fs::path(testing::TempDir()) / (std::to_string(getpid()) + "_" + name + ".lcmlog")).string();
+}
+
+TEST(IpsReport, CompleteRunIsOk) {
+  const std::string log = tempLog("complete");
+  writeRun(log, 11'000'000);
+  const Result r = runReport(log, "complete");
+  EXPECT_EQ(r.exit_code, 0) << r.report;
+  EXPECT_NE(r.report.find("\"status\": \"ok\""), std::string::npos) << r.report;
+}
+
+TEST(IpsReport, StatesStoppingBeforeTheEndFailTheRun) {
+  // The filter died at 6 s of a 10 s run: its last estimate must not pass for the run's end error.
+  const std::string log = tempLog("stopped");
+  writeRun(log, 6'000'000);
+  const Result r = runReport(log, "stopped");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("\"status\": \"failed\""), std::string::npos) << r.report;
+  EXPECT_NE(r.report.find("FILTER_STATE: states stop"), std::string::npos) << r.report;
+}
+
+TEST(IpsReport, DamagedOrEmptyLogsFailTheRun) {
+  const std::string log = tempLog("damaged");
+  writeRun(log, 11'000'000);
+  fs::resize_file(log, fs::file_size(log) - 7);  // the logger's disk filled mid-event
+  Result r = runReport(log, "truncated");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("damaged LCM log"), std::string::npos) << r.report;
+
+  std::ofstream(log, std::ios::trunc) << "this is not an LCM log, just text that happens to be in the file";
+  r = runReport(log, "garbage");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("\"status\": \"failed\""), std::string::npos) << r.report;
+
+  std::ofstream(log, std::ios::trunc).close();
+  r = runReport(log, "empty");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("holds none of a run"), std::string::npos) << r.report;
+
+  r = runReport(tempLog("does_not_exist"), "missing");
+  EXPECT_EQ(r.exit_code, 1);  // an error naming the file, no report
+}
+
+TEST(IpsReport, EmptyDisparityMapIsCountedNotFatal) {
+  const std::string log = tempLog("zero_map");
+  writeRun(log, 11'000'000);
+  {
+    // Appended by a second writer: a 0x0 map, as a faulty e3d or a forged packet would publish.
+    lcm::LogFile append(log, "a");
+    ips::disparity_map_t d{};
+    d.utime = 5'000'000;
+    d.subpixel_scale = 16;
+    std::vector<uint8_t> buf(static_cast<size_t>(d.getEncodedSize()));
+    d.encode(buf.data(), 0, static_cast<int>(buf.size()));
+    lcm::LogEvent e{};
+    e.timestamp = 11'000'001;
+    e.channel = "DISPARITY";
+    e.datalen = static_cast<int32_t>(buf.size());
+    e.data = buf.data();
+    append.writeEvent(&e);
+  }
+  const Result r = runReport(log, "zero_map");
+  EXPECT_EQ(r.exit_code, 0) << r.report;
+  EXPECT_NE(r.report.find("\"bad_messages\": 1"), std::string::npos) << r.report;
+}
+
+}  // namespace
