@@ -14,6 +14,7 @@
 #include "ips/filter/estimator.hpp"
 #include "ips/filter/params.hpp"
 #include "ips/framework/channels.hpp"
+#include "ips/framework/filter_state_layout.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
@@ -40,10 +41,15 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   m.orientation[1] = s.orientation.x();
   m.orientation[2] = s.orientation.y();
   m.orientation[3] = s.orientation.z();
-  m.cov_dim = 21;
-  m.covariance.assign(21, std::vector<double>(21));
-  for (int r = 0; r < 21; ++r)
-    for (int c = 0; c < 21; ++c) m.covariance[r][c] = out.covariance(r, c);
+  namespace layout = ips::fw::filter_state_layout;
+  static_assert(layout::kVelocity == ips::filter::kErrV && layout::kAngularRate == ips::filter::kErrW &&
+                    layout::kGyroBias == ips::filter::kErrBg && layout::kAttitude == ips::filter::kErrTh &&
+                    layout::kDim == ips::filter::kCoreErrorDim,
+                "filter_state_t's covariance order must be the filter's error-state order");
+  m.cov_dim = layout::kDim;
+  m.covariance.assign(layout::kDim, std::vector<double>(layout::kDim));
+  for (int r = 0; r < layout::kDim; ++r)
+    for (int c = 0; c < layout::kDim; ++c) m.covariance[r][c] = out.covariance(r, c);
   for (const auto& sensor : out.sensors) {
     if (!sensor.name || !*sensor.name) continue;
     m.sensor_names.push_back(sensor.name);

@@ -3,32 +3,27 @@
 // a-priori state at the new image time (FILTER_PRIOR) when a filter runs, else the gyro (IMU), else constant
 // velocity. When a filter has been seen, a pair waits for its prior (the filter publishes one for every image
 // time), so that a replayed log gives the same deltas as the live run.
-#include <deque>
 #include <ips/filter_state_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
 #include "ips/framework/channels.hpp"
+#include "ips/framework/filter_state_layout.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/tracker/params.hpp"
+#include "ips/tracker/prior_builder.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
 namespace {
-
-using ips::tracker::Matrix6d;
-using ips::tracker::MotionPrior;
-
-// Filter state indices (filter_state_t covariance order).
-constexpr int kVelocityIndex = 3;
-constexpr int kAngularRateIndex = 12;
 
 struct Pending {
   int64_t utime = 0;
@@ -36,20 +31,37 @@ struct Pending {
   cv::Mat left, right;  // 8-bit copies (the message buffer is gone after the handler)
 };
 
-Eigen::Isometry3d bodyPose(const ips::filter_state_t& s) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::Quaterniond(s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3])
-                   .normalized()
-                   .toRotationMatrix();
-  T.translation() = Eigen::Vector3d(s.position[0], s.position[1], s.position[2]);
-  return T;
+// The filter's a-priori state in the prior builder's plain type.
+ips::tracker::FilterPriorState fromMessage(const ips::filter_state_t& s) {
+  namespace layout = ips::fw::filter_state_layout;
+  ips::tracker::FilterPriorState p;
+  p.utime = s.utime;
+  p.T_world_body.linear() = Eigen::Quaterniond(s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3])
+                                .normalized()
+                                .toRotationMatrix();
+  p.T_world_body.translation() = Eigen::Vector3d(s.position[0], s.position[1], s.position[2]);
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      p.velocity_cov(r, c) = s.covariance[layout::kVelocity + r][layout::kVelocity + c];
+      p.angular_rate_cov(r, c) = s.covariance[layout::kAngularRate + r][layout::kAngularRate + c];
+    }
+  p.gyro_bias = Eigen::Vector3d(s.gyro_bias[0], s.gyro_bias[1], s.gyro_bias[2]);
+  return p;
 }
 
-Eigen::Matrix3d block3(const ips::filter_state_t& s, int i) {
-  Eigen::Matrix3d m;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) m(r, c) = s.covariance[i + r][i + c];
-  return m;
+ips::tracker::PriorBuilderParams priorBuilderParams(const ips::Config& cfg) {
+  ips::tracker::PriorBuilderParams p;
+  p.gyro_rate_sigma = cfg.getDouble("process/gyro_rate_sigma", p.gyro_rate_sigma);
+  p.filter_rotation_floor = cfg.getDouble("process/filter_prior_rotation_floor", p.filter_rotation_floor);
+  p.filter_translation_floor = cfg.getDouble("process/filter_prior_translation_floor", p.filter_translation_floor);
+  p.max_filter_states = cfg.getInt("process/max_filter_priors", p.max_filter_states);
+  p.gyro_window_s = cfg.getDouble("process/gyro_window_s", p.gyro_window_s);
+  if (!(p.gyro_rate_sigma > 0 && p.filter_rotation_floor >= 0 && p.filter_translation_floor >= 0 &&
+        p.max_filter_states >= 2 && p.gyro_window_s > 0))
+    throw ips::ConfigError(cfg.path() +
+                           ": process/ prior keys out of range (sigmas and floors >= 0, "
+                           "max_filter_priors >= 2, gyro_window_s > 0)");
+  return p;
 }
 
 class TrackerProcess {
@@ -57,12 +69,8 @@ class TrackerProcess {
   TrackerProcess(ips::fw::Node& node, const ips::StereoCalibration& calib, const ips::tracker::TrackerParams& params,
                  const ips::Config& cfg)
       : node_(node),
-        calib_(calib),
         tracker_(calib, params),
-        prior_params_(params.prior),
-        gyro_sigma_(cfg.getDouble("process/gyro_rate_sigma", 0.005)),
-        prior_floor_rad_(cfg.getDouble("process/filter_prior_rotation_floor", 0.002)),
-        prior_floor_m_(cfg.getDouble("process/filter_prior_translation_floor", 0.01)),
+        priors_(calib.T_imu_cam0, priorBuilderParams(cfg), params.prior),
         admission_(calib.cam0.width, calib.cam0.height) {
     node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
     node_.subscribe<ips::filter_state_t>(ips::channels::kFilterPrior,
@@ -89,17 +97,13 @@ class TrackerProcess {
     ips::fw::Verdict v = ips::fw::validate(m);
     if (!v.ok() || m.cov_dim < 21)
       return node_.health().bad(v.ok() ? "bad_size" : v.reason, "filter prior: " + v.detail);
-    filter_seen_ = true;
-    priors_[m.utime] = m;
-    while (priors_.size() > 64) priors_.erase(priors_.begin());
+    priors_.addFilterState(fromMessage(m));
     drain();
   }
 
   void onImu(const ips::imu_sample_t& m) {
     if (!ips::fw::validate(m).ok()) return;  // the filter counts bad IMU input; here it only places windows
-    if (!imu_.empty() && m.utime <= imu_.back().utime) return;
-    imu_.push_back(m);
-    while (imu_.size() > 2 && imu_.back().utime - imu_.front().utime > 5'000'000) imu_.pop_front();
+    priors_.addGyro(m.utime, Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2]));
   }
 
   void drain() {
@@ -107,7 +111,7 @@ class TrackerProcess {
       const int64_t t = pending_.begin()->first;
       // Without a filter on the bus, nothing to wait for; with one, wait for its prior of this image time,
       // but never hold more than one pair back.
-      if (!filter_seen_ || priors_.count(t) || pending_.size() > 1)
+      if (!priors_.filterSeen() || priors_.hasFilterState(t) || pending_.size() > 1)
         processOldest();
       else
         break;
@@ -115,65 +119,23 @@ class TrackerProcess {
     node_.health().queueLength(static_cast<int>(pending_.size()));
   }
 
-  bool filterPrior(int64_t t0, int64_t t1, MotionPrior* out) {
-    auto a = priors_.find(t0), b = priors_.find(t1);
-    if (a == priors_.end() || b == priors_.end()) return false;
-    const Eigen::Isometry3d T_w_c0 = bodyPose(a->second) * calib_.T_imu_cam0;
-    const Eigen::Isometry3d T_w_c1 = bodyPose(b->second) * calib_.T_imu_cam0;
-    const Eigen::Isometry3d T_c0_c1 = T_w_c0.inverse() * T_w_c1;
-    const double dt = (t1 - t0) * 1e-6;
-    // The relative motion's uncertainty grows with the velocity and rate uncertainty over the interval.
-    const Eigen::Matrix3d R_c_w = T_w_c0.linear().transpose();
-    const Eigen::Matrix3d R_c_b = calib_.T_imu_cam0.linear().transpose();
-    Matrix6d cov = Matrix6d::Zero();
-    cov.topLeftCorner<3, 3>() = R_c_w * block3(b->second, kVelocityIndex) * R_c_w.transpose() * dt * dt +
-                                Eigen::Matrix3d::Identity() * prior_floor_m_ * prior_floor_m_;
-    cov.bottomRightCorner<3, 3>() = R_c_b * block3(b->second, kAngularRateIndex) * R_c_b.transpose() * dt * dt +
-                                    Eigen::Matrix3d::Identity() * prior_floor_rad_ * prior_floor_rad_;
-    *out = MotionPrior::fromFilter(T_c0_c1.linear(), T_c0_c1.translation(), cov);
-    return true;
-  }
-
-  bool imuPrior(int64_t t0, int64_t t1, MotionPrior* out) {
-    if (imu_.empty() || imu_.front().utime > t0 || imu_.back().utime < t1) return false;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    int n = 0;
-    for (const auto& s : imu_) {
-      if (s.utime < t0 || s.utime > t1) continue;
-      sum += Eigen::Vector3d(s.angular_rate[0], s.angular_rate[1], s.angular_rate[2]);
-      ++n;
-    }
-    if (n == 0) return false;
-    Eigen::Vector3d bias = Eigen::Vector3d::Zero();
-    if (!priors_.empty()) {
-      const auto& s = priors_.rbegin()->second;
-      bias = Eigen::Vector3d(s.gyro_bias[0], s.gyro_bias[1], s.gyro_bias[2]);
-    }
-    *out = MotionPrior::fromImuRates(sum / n - bias, calib_.T_imu_cam0.linear(), (t1 - t0) * 1e-6, gyro_sigma_,
-                                     prior_params_);
-    return true;
-  }
-
   void processOldest() {
     Pending p = std::move(pending_.begin()->second);
     pending_.erase(pending_.begin());
-    MotionPrior prior;
-    const MotionPrior* use = nullptr;
+    std::optional<ips::tracker::MotionPrior> prior;
     if (last_utime_ > 0) {
-      if (filterPrior(last_utime_, p.utime, &prior)) {
-        use = &prior;
+      if ((prior = priors_.fromFilter(last_utime_, p.utime))) {
         node_.health().count("prior_filter");
-      } else if (imuPrior(last_utime_, p.utime, &prior)) {
-        use = &prior;
+      } else if ((prior = priors_.fromGyro(last_utime_, p.utime))) {
         node_.health().count("prior_imu");
-        if (filter_seen_) node_.health().count("filter_prior_missing");
+        if (priors_.filterSeen()) node_.health().count("filter_prior_missing");
       } else {
         node_.health().count("prior_constant_velocity");
       }
     }
     ips::tracker::TrackResult r;
     try {
-      r = tracker_.process(p.utime, p.left, p.right, use);
+      r = tracker_.process(p.utime, p.left, p.right, prior ? &*prior : nullptr);
     } catch (const std::exception& e) {
       node_.health().bad("tracker_error", e.what());
       return;
@@ -208,15 +170,10 @@ class TrackerProcess {
   }
 
   ips::fw::Node& node_;
-  ips::StereoCalibration calib_;
   ips::tracker::StereoTracker tracker_;
-  ips::tracker::PriorParams prior_params_;
-  double gyro_sigma_, prior_floor_rad_, prior_floor_m_;
+  ips::tracker::PriorBuilder priors_;
   ips::fw::StereoAdmission admission_;
   std::map<int64_t, Pending> pending_;
-  std::map<int64_t, ips::filter_state_t> priors_;
-  std::deque<ips::imu_sample_t> imu_;
-  bool filter_seen_ = false;
   int64_t last_utime_ = 0;
 };
 
