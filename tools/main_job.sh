@@ -93,7 +93,10 @@ trap - EXIT
 # 4. The report.
 say "4/4 writing the report"
 report_rc=0
-ips_report --log "$run/results.lcmlog" --images "$run/walk.lcmlog" --calib "$run/walk.lcmlog.calib.yaml" \
+# The logger writes results.lcmlog.00 (and .01, ... if it was restarted: ips_report then fails the run).
+results=$(ls "$run"/results.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
+[ -n "$results" ] || { say "FAILED: no recording (results.lcmlog.*) in $run"; exit 1; }
+ips_report --log "$results" --images "$run/walk.lcmlog" --calib "$run/walk.lcmlog.calib.yaml" \
   --out "$run" "${report_args[@]}" > "$run/report.txt" || report_rc=$?
 if [ ! -s "$run/report.json" ]; then
   say "FAILED: ips_report wrote no report (exit $report_rc)"; exit 1

@@ -131,6 +131,16 @@ TEST(IpsReport, DamagedOrEmptyLogsFailTheRun) {
   EXPECT_EQ(r.exit_code, 1);  // an error naming the file, no report
 }
 
+TEST(IpsReport, ARestartedRecorderFailsTheRun) {
+  // lcm-logger -i after a restart: the recording comes in two parts, with a hole between them.
+  const std::string a = tempLog("part.00"), b = tempLog("part.01");
+  writeRun(a, 11'000'000);
+  writeRun(b, 11'000'000);
+  const Result r = runReport(a + "," + b, "parts");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("the recorder restarted (2 parts)"), std::string::npos) << r.report;
+}
+
 TEST(IpsReport, EmptyDisparityMapIsCountedNotFatal) {
   const std::string log = tempLog("zero_map");
   writeRun(log, 11'000'000);

@@ -14,6 +14,7 @@
 #include <ips/tracker_delta_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
+#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -233,7 +234,9 @@ std::string jsonNumber(double v) {
 int main(int argc, char** argv) {
   return ips::fw::guardedMain("ips_report", [&]() {
     ips::Args args(argc, argv, "report of a run: trajectory errors, disparity quality, process figures");
-    args.required("--log", "FILE", "LCM log recorded during the run (filter states, deltas, disparity, health, GT)")
+    args.required(
+            "--log", "FILE[,FILE]",
+            "LCM log recorded during the run (filter states, deltas, disparity, health, GT), or its parts in order")
         .option("--images", "FILE", "the input log with STEREO pairs (for the disparity pictures)")
         .option("--calib", "FILE", "calibration (for rectifying the pictures' images)")
         .option("--filters", "CH[,CH]", "filter state channels and their names", "FILTER_STATE,FILTER_STATE_UKF")
@@ -261,15 +264,35 @@ int main(int argc, char** argv) {
     std::map<std::string, int64_t> last_health_log_us;  // per process: logger time of its last health message
     int64_t last_input_log_us = 0;                      // logger time of the last ground-truth pose (the input)
     int64_t bad_messages = 0;
-    ips::fw::LogReader log(args.get("--log"));
+    // The recording may come in parts (lcm-logger -i starts FILE.00, then FILE.01 when it is restarted): read in
+    // order; more than one part means the recorder restarted and what was published in between is missing.
+    std::vector<std::string> parts;
+    {
+      std::stringstream ss(args.get("--log"));
+      for (std::string part; std::getline(ss, part, ',');)
+        if (!part.empty()) parts.push_back(part);
+    }
+    if (parts.empty()) throw ips::ArgError("--log: no file given");
+    if (parts.size() > 1)
+      failures.push_back("the recorder restarted (" + std::to_string(parts.size()) +
+                         " parts): messages published between the parts are missing");
+    std::vector<std::unique_ptr<ips::fw::LogReader>> readers;
+    for (const auto& part : parts) readers.push_back(std::make_unique<ips::fw::LogReader>(part));
+    int64_t events = 0;
     ips::fw::LogMessage msg;
     const ips::fw::LogMessage* e = &msg;
-    for (;;) {
+    for (size_t part = 0; part < readers.size();) {
       try {
-        if (!log.next(&msg)) break;
+        if (!readers[part]->next(&msg)) {
+          events += readers[part]->events();
+          ++part;
+          continue;
+        }
       } catch (const ips::fw::LogError& err) {
         failures.push_back(err.what());
-        break;
+        events += readers[part]->events();
+        ++part;
+        continue;
       }
       const std::string& ch = e->channel;
       if (ch == "GT_POSE") last_input_log_us = std::max(last_input_log_us, e->timestamp);
@@ -312,9 +335,10 @@ int main(int argc, char** argv) {
           }
       }
     }
-    if (log.events() == 0 || (gt.empty() && deltas == 0 && est_disp.empty() &&
-                              std::all_of(runs.begin(), runs.end(), [](const FilterRun& r) { return r.states.empty(); })))
-      failures.push_back(args.get("--log") + ": holds none of a run's results (no ground truth, deltas, maps or states)");
+    if (events == 0 || (gt.empty() && deltas == 0 && est_disp.empty() &&
+                        std::all_of(runs.begin(), runs.end(), [](const FilterRun& r) { return r.states.empty(); })))
+      failures.push_back(args.get("--log") +
+                         ": holds none of a run's results (no ground truth, deltas, maps or states)");
     // Completeness: every state stream runs to the end of the input without a pause, every process kept reporting.
     if (!gt.empty()) {
       const double input_end =
