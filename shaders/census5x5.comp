@@ -6,9 +6,10 @@
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #include "e3d_common.glsl"
-layout(local_size_x = 64) in;
-const int STRIP = 8;
-layout(push_constant) uniform Params { int width; int height; } pc;
+layout(local_size_x = E3D_GROUP_SIZE) in;
+const int STRIP = E3D_STRIP;
+#define E3D_IMAGE_PARAMS
+#include "ips/e3d_shaders/image_stages.h"
 // The 8-bit images, four pixels to a word, read as texels.
 layout(binding = 0, r32ui) uniform readonly uimageBuffer image_left;
 layout(binding = 1, r32ui) uniform readonly uimageBuffer image_right;

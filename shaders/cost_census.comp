@@ -9,15 +9,13 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_shuffle_relative : require
 #include "e3d_common.glsl"
-layout(local_size_x_id = 0) in;
-layout(constant_id = 1) const int K = 16;
+layout(local_size_x_id = E3D_SPEC_SUBGROUP_SIZE) in;
+layout(constant_id = E3D_SPEC_LANE_DISPARITIES) const int K = 16;
 // The second match, right to left (SgmParams::right_map "match"): the census images are bound swapped and read
 // mirrored (popcount(a ^ b) does not change when both codes mirror their bits, so the codes are used as they are).
-layout(constant_id = 8) const bool MIRROR = false;
-layout(push_constant) uniform Params {
-  int width, height, num_disp, min_disp;
-  int cost_slice, rows_per_chunk, row_words;
-} pc;
+layout(constant_id = E3D_SPEC_MIRROR) const bool MIRROR = false;
+#define E3D_CENSUS_COST_PARAMS
+#include "ips/e3d_shaders/match_stages.h"
 layout(std430, binding = 2) readonly buffer CensusLeft { uint census_left[]; };
 layout(std430, binding = 3) readonly buffer CensusRight { uint census_right[]; };
 layout(std430, binding = 4) writeonly buffer Volume { uint v[]; } volume[E3D_MAX_CHUNKS];

@@ -9,9 +9,9 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_shuffle_relative : require
 #include "e3d_common.glsl"
-layout(local_size_x_id = 0) in;
-layout(constant_id = 1) const int K = 16;
-layout(constant_id = 8) const bool MIRROR = false;
+layout(local_size_x_id = E3D_SPEC_SUBGROUP_SIZE) in;
+layout(constant_id = E3D_SPEC_LANE_DISPARITIES) const int K = 16;
+layout(constant_id = E3D_SPEC_MIRROR) const bool MIRROR = false;
 #include "cost_volume.glsl"
 // The table, one byte per entry (a uniform buffer: lavapipe gathers from it without a loop over the lanes).
 layout(std140, binding = 5) uniform Table { uvec4 table[4096]; };

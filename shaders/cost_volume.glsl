@@ -6,10 +6,8 @@
 // path costs stay >= 255 and never win against real ones.
 #ifndef COST_VOLUME_GLSL
 #define COST_VOLUME_GLSL
-layout(push_constant) uniform Params {
-  int width, height, num_disp, min_disp;
-  int base_row, rows_per_chunk, row_words;
-} pc;
+#define E3D_COST_VOLUME_PARAMS
+#include "ips/e3d_shaders/match_stages.h"
 // The 8-bit images, four pixels to a word, read as texels; bound swapped for MIRROR (the second match, which reads
 // them mirrored: the mirrored right image is the left one).
 layout(binding = 0, r32ui) uniform readonly uimageBuffer image_left;

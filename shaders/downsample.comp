@@ -4,8 +4,9 @@
 // invocation writes one word = 4 pixels of the half-size image (ips::e3d::halfSize).
 #extension GL_GOOGLE_include_directive : require
 #include "e3d_common.glsl"
-layout(local_size_x = 64) in;
-layout(push_constant) uniform Params { int width, height, half_width, half_height; } pc;  // source and result
+layout(local_size_x = E3D_GROUP_SIZE) in;
+#define E3D_DOWNSAMPLE_PARAMS
+#include "ips/e3d_shaders/image_stages.h"
 layout(binding = 0, r32ui) uniform readonly uimageBuffer source_left;
 layout(binding = 1, r32ui) uniform readonly uimageBuffer source_right;
 layout(std430, binding = 2) writeonly buffer HalfLeft { uint half_left[]; };

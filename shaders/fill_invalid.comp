@@ -4,8 +4,9 @@
 // right on the same row; rows without any valid pixel stay invalid. One invocation per row.
 #extension GL_GOOGLE_include_directive : require
 #include "e3d_common.glsl"
-layout(local_size_x = 64) in;
-layout(push_constant) uniform Params { int width; int height; } pc;
+layout(local_size_x = E3D_GROUP_SIZE) in;
+#define E3D_IMAGE_PARAMS
+#include "ips/e3d_shaders/image_stages.h"
 layout(std430, binding = 0) readonly buffer In { int in_disp[]; };
 layout(std430, binding = 1) buffer Out { int out_disp[]; };
 

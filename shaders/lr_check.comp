@@ -3,8 +3,9 @@
 // within max_diff (1/16 px units). Output: the final left disparity map.
 #extension GL_GOOGLE_include_directive : require
 #include "e3d_common.glsl"
-layout(local_size_x = 16, local_size_y = 8) in;
-layout(push_constant) uniform Params { int width; int height; int max_diff16; } pc;
+layout(local_size_x = E3D_LR_GROUP_X, local_size_y = E3D_LR_GROUP_Y) in;
+#define E3D_LR_CHECK_PARAMS
+#include "ips/e3d_shaders/image_stages.h"
 layout(std430, binding = 0) readonly buffer Left { int left_disp[]; };
 layout(std430, binding = 1) readonly buffer Right { int right_disp[]; };
 layout(std430, binding = 2) writeonly buffer Out { int out_disp[]; };

@@ -3,9 +3,12 @@
 // Each invocation computes a column of STRIP pixels, sliding the 3x3 window down (3 new values per output).
 // z = 0 left map, z = 1 right map.
 #extension GL_EXT_control_flow_attributes : require
-layout(local_size_x = 64) in;
-const int STRIP = 8;
-layout(push_constant) uniform Params { int width; int height; } pc;
+#extension GL_GOOGLE_include_directive : require
+#include "ips/e3d_shaders/interface.h"
+layout(local_size_x = E3D_GROUP_SIZE) in;
+const int STRIP = E3D_STRIP;
+#define E3D_IMAGE_PARAMS
+#include "ips/e3d_shaders/image_stages.h"
 layout(binding = 0, r32i) uniform readonly iimageBuffer in_left;
 layout(binding = 1, r32i) uniform readonly iimageBuffer in_right;
 layout(std430, binding = 2) writeonly buffer OutLeft { int out_left[]; };

@@ -5,11 +5,9 @@
 // from (x / 2, y / 2)). Bin 65536 counts the pixels. One invocation per pixel.
 #extension GL_GOOGLE_include_directive : require
 #include "e3d_common.glsl"
-layout(local_size_x = 64) in;
-layout(push_constant) uniform Params {
-  int width, height, guide_width, guide_height;
-  int mode, min_disp, num_disp;
-} pc;
+layout(local_size_x = E3D_GROUP_SIZE) in;
+#define E3D_MI_HISTOGRAM_PARAMS
+#include "ips/e3d_shaders/match_stages.h"
 layout(binding = 0, r32ui) uniform readonly uimageBuffer image_left;
 layout(binding = 1, r32ui) uniform readonly uimageBuffer image_right;
 layout(std430, binding = 2) readonly buffer Guide { int guide[]; };

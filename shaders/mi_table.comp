@@ -5,7 +5,9 @@
 // smoothings run columns first where that lets each invocation write whole rows (they commute).
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
-layout(local_size_x = 256) in;
+#extension GL_GOOGLE_include_directive : require
+#include "ips/e3d_shaders/interface.h"
+layout(local_size_x = E3D_MI_TABLE_GROUP) in;
 layout(std430, binding = 0) readonly buffer Histogram { uint histogram[]; };  // 65536 bins + the count
 layout(std430, binding = 1) readonly buffer Log2Fraction { int log2_fraction[]; };  // 256 entries
 layout(std430, binding = 2) buffer Work64 { uint64_t work64[]; };  // 65536

@@ -4,8 +4,9 @@
 // constant 0 border). Each invocation writes one word = 4 pixels; z = 0 camera 0, z = 1 camera 1.
 #extension GL_GOOGLE_include_directive : require
 #include "e3d_common.glsl"
-layout(local_size_x = 64) in;
-layout(push_constant) uniform Params { int width; int height; int raw_width; int raw_height; } pc;
+layout(local_size_x = E3D_GROUP_SIZE) in;
+#define E3D_RECTIFY_PARAMS
+#include "ips/e3d_shaders/image_stages.h"
 layout(std430, binding = 0) readonly buffer Raw0 { uint raw0[]; };
 layout(std430, binding = 1) readonly buffer Raw1 { uint raw1[]; };
 layout(std430, binding = 2) readonly buffer Maps { float maps[]; };  // map0x, map0y, map1x, map1y

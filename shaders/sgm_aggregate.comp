@@ -10,15 +10,11 @@
 #extension GL_KHR_shader_subgroup_ballot : require
 #extension GL_KHR_shader_subgroup_shuffle_relative : require
 #include "e3d_common.glsl"
-layout(local_size_x_id = 0) in;               // = subgroup size
-layout(constant_id = 1) const int K = 16;     // disparities per lane, a multiple of 4
-layout(constant_id = 8) const bool MIRROR = false;  // the second match: the right image, bound as image_left, mirrored
-layout(push_constant) uniform Params {
-  int width, height, num_disp, min_disp;
-  int p1, p2, p2_slope, path;
-  int dx, dy, rows_per_chunk, row_words;      // volume addressing: row g = slice * height + y
-  int cost_slice;
-} pc;
+layout(local_size_x_id = E3D_SPEC_SUBGROUP_SIZE) in;               // = subgroup size
+layout(constant_id = E3D_SPEC_LANE_DISPARITIES) const int K = 16;     // disparities per lane, a multiple of 4
+layout(constant_id = E3D_SPEC_MIRROR) const bool MIRROR = false;  // the second match: the right image, bound as image_left, mirrored
+#define E3D_AGGREGATE_PARAMS
+#include "ips/e3d_shaders/match_stages.h"
 layout(std430, binding = 0) readonly buffer ImageLeft { uint image_left[]; };
 layout(std430, binding = 4) buffer Volume { uint v[]; } volume[E3D_MAX_CHUNKS];
 // The same buffers seen as 16-byte words: when K is a multiple of 16 each lane moves whole uvec4s, which

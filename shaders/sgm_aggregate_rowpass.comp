@@ -30,29 +30,26 @@
 #extension GL_KHR_shader_subgroup_shuffle : require
 #extension GL_KHR_shader_subgroup_shuffle_relative : require
 #include "e3d_common.glsl"
-layout(local_size_x_id = 0) in;            // = subgroup size
+layout(local_size_x_id = E3D_SPEC_SUBGROUP_SIZE) in;            // = subgroup size
 const uint SG = gl_WorkGroupSize.x;
-layout(constant_id = 4) const int LOG2_SG = 3;  // log2(SG): loops with a plain counter are unrolled
-layout(constant_id = 1) const int K = 16;  // disparities per lane, a multiple of 8
-layout(constant_id = 2) const int D = 128; // num_disparities
-layout(constant_id = 3) const int NUM_PATHS = 8;
-layout(constant_id = 6) const int MIN_DISP = 0;  // min_disparity
-layout(constant_id = 7) const int PHASE = 0;     // 0: store the sums, 1: add the stored sums and select
+layout(constant_id = E3D_SPEC_LOG2_SUBGROUP_SIZE) const int LOG2_SG = 3;  // log2(SG): loops with a plain counter are unrolled
+layout(constant_id = E3D_SPEC_LANE_DISPARITIES) const int K = 16;  // disparities per lane, a multiple of 8
+layout(constant_id = E3D_SPEC_NUM_DISPARITIES) const int D = 128; // num_disparities
+layout(constant_id = E3D_SPEC_NUM_PATHS) const int NUM_PATHS = 8;
+layout(constant_id = E3D_SPEC_MIN_DISPARITY) const int MIN_DISP = 0;  // min_disparity
+layout(constant_id = E3D_SPEC_PHASE) const int PHASE = 0;     // 0: store the sums, 1: add the stored sums and select
 // MIRROR: the second match, right to left, for SgmParams::right_map "match": the images (bound swapped) are read
 // mirrored, so that the mirrored right image is the left one, and the left map is stored mirrored back, as the
 // right image's map (binding 8 is then the right map). RIGHT_MAP: the diagonal search for the right map.
-layout(constant_id = 8) const bool MIRROR = false;
-layout(constant_id = 9) const bool RIGHT_MAP = true;
+layout(constant_id = E3D_SPEC_MIRROR) const bool MIRROR = false;
+layout(constant_id = E3D_SPEC_RIGHT_MAP) const bool RIGHT_MAP = true;
 // COST_VOLUME: the matching costs (ad, sad, mi) come from the cost volume the cost stage wrote ([y][x][lane][K
 // bytes], in walk coordinates), not from the census codes.
-layout(constant_id = 10) const bool COST_VOLUME = false;
+layout(constant_id = E3D_SPEC_COST_VOLUME) const bool COST_VOLUME = false;
 // Walk rows begin .. end - 1 of each pass (x: forward, y: backward; walk row i is image row i forward,
 // height - 1 - i backward).
-layout(push_constant) uniform Params {
-  int width, height, p1, p2;
-  int p2_slope, rows_per_chunk, uniqueness, subpixel;
-  ivec2 begin, end;
-} pc;
+#define E3D_ROW_PASS_PARAMS
+#include "ips/e3d_shaders/match_stages.h"
 layout(binding = 0, r8ui) uniform readonly uimageBuffer image_left;
 layout(binding = 1, r32ui) uniform readonly uimageBuffer census_left;
 layout(binding = 2, r32ui) uniform readonly uimageBuffer census_right;

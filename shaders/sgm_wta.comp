@@ -7,18 +7,14 @@
 #extension GL_KHR_shader_subgroup_basic : require
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #include "e3d_common.glsl"
-layout(local_size_x_id = 0) in;
-layout(constant_id = 1) const int K = 16;
+layout(local_size_x_id = E3D_SPEC_SUBGROUP_SIZE) in;
+layout(constant_id = E3D_SPEC_LANE_DISPARITIES) const int K = 16;
 // The second match (SgmParams::right_map "match"): its left map is stored mirrored back (binding 5 is then the
 // right map) and no diagonal search runs; RIGHT_MAP: the diagonal search for the right map.
-layout(constant_id = 8) const bool MIRROR = false;
-layout(constant_id = 9) const bool RIGHT_MAP = true;
-#define E3D_MAX_WIDTH 4096
-layout(push_constant) uniform Params {
-  int width, height, num_disp, min_disp;
-  int num_paths, uniqueness, subpixel, rows_per_chunk;
-  int row_words;
-} pc;
+layout(constant_id = E3D_SPEC_MIRROR) const bool MIRROR = false;
+layout(constant_id = E3D_SPEC_RIGHT_MAP) const bool RIGHT_MAP = true;
+#define E3D_WTA_PARAMS
+#include "ips/e3d_shaders/match_stages.h"
 layout(std430, binding = 4) readonly buffer Volume { uint v[]; } volume[E3D_MAX_CHUNKS];
 layout(std430, binding = 4) readonly buffer Volume4 { uvec4 v4[]; } volume4[E3D_MAX_CHUNKS];  // see sgm_aggregate
 const bool VEC4 = (K % 16) == 0;

@@ -8,7 +8,6 @@
 #include <ips/disparity_map_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <mutex>
-#include <opencv2/imgproc.hpp>
 #include <thread>
 
 #include "ips/calibration.hpp"
@@ -28,36 +27,6 @@ struct Job {
   int64_t seq = 0;
   cv::Mat left, right;  // raw 8-bit copies
 };
-
-// The rectified geometry E3D matches in, optionally at a reduced resolution (the maps are scaled, so the
-// device still samples the raw images once).
-ips::StereoRectification scaledRectification(const ips::StereoCalibration& calib, double scale) {
-  ips::StereoRectification rect = ips::computeRectification(calib);
-  if (scale == 1.0) return rect;
-  const cv::Size size(static_cast<int>(std::lround(rect.size.width * scale)),
-                      static_cast<int>(std::lround(rect.size.height * scale)));
-  // Rectified pixel (u', v') at the reduced scale is (u' + 0.5) / s - 0.5 at full scale.
-  cv::Mat mx(size, CV_32FC1), my(size, CV_32FC1);
-  cv::Mat fx(size, CV_32FC1), fy(size, CV_32FC1);
-  for (int v = 0; v < size.height; ++v)
-    for (int u = 0; u < size.width; ++u) {
-      fx.at<float>(v, u) = static_cast<float>((u + 0.5) / scale - 0.5);
-      fy.at<float>(v, u) = static_cast<float>((v + 0.5) / scale - 0.5);
-    }
-  cv::remap(rect.map0x, mx, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  cv::remap(rect.map0y, my, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  rect.map0x = mx.clone();
-  rect.map0y = my.clone();
-  cv::remap(rect.map1x, mx, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  cv::remap(rect.map1y, my, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
-  rect.map1x = mx;
-  rect.map1y = my;
-  rect.f *= scale;
-  rect.cx = (rect.cx + 0.5) * scale - 0.5;
-  rect.cy = (rect.cy + 0.5) * scale - 0.5;
-  rect.size = size;
-  return rect;
-}
 
 class E3dProcess {
  public:
@@ -190,7 +159,7 @@ int main(int argc, char** argv) {
     const size_t max_queue = static_cast<size_t>(cfg.getInt("process/max_queue", 16));
 
     ips::e3d::VulkanContext ctx(args.get("--device"));
-    const ips::StereoRectification rect = scaledRectification(calib, scale);
+    const ips::StereoRectification rect = ips::scaledRectification(calib, scale);
     ips::e3d::StereoMatcher matcher(ctx, rect.size, params);
     matcher.setRectification(rect, cv::Size(calib.cam0.width, calib.cam0.height));
     ips::fw::Node node("e3d", args.get("--lcm-url"));

@@ -38,13 +38,13 @@ int differences(const cv::Mat& a, const cv::Mat& b) {
 }
 
 // Both aggregation layouts (row passes and lines) must give the reference's maps exactly.
-const char* const kLayouts[] = {"rows", "lines"};
+const Aggregation kLayouts[] = {Aggregation::rows, Aggregation::lines};
 
 void expectDeviceEqualsReference(const cv::Mat& left, const cv::Mat& right, SgmParams params) {
   SgmResult ref = sgmReference(left, right, params);
   // The comparison must not be vacuous: most pixels carry a disparity.
   EXPECT_GT(cv::countNonZero(ref.left != kInvalidDisparity), left.total() / 2);
-  for (const char* layout : kLayouts) {
+  for (Aggregation layout : kLayouts) {
     params.aggregation = layout;
     StereoMatcher matcher(context(), left.size(), params);
     MatchOutput gpu = matcher.match(left, right, true);
@@ -150,11 +150,11 @@ TEST(StereoMatcher, SecondMatchRightToLeftEqualsReference) {
   SgmParams p;
   p.num_disparities = 60;
   p.min_disparity = 3;
-  p.right_map = "match";
+  p.right_map = RightMap::match;
   expectDeviceEqualsReference(left, right, p);
   // The right map of a second match has subpixel values and mostly agrees with the diagonal search.
   const cv::Mat matched = sgmReference(left, right, p).right;
-  p.right_map = "diagonal";
+  p.right_map = RightMap::diagonal;
   const cv::Mat diagonal = sgmReference(left, right, p).right;
   const cv::Mat both = (matched != kInvalidDisparity) & (diagonal != kInvalidDisparity);
   cv::Mat diff;
@@ -171,18 +171,19 @@ TEST(StereoMatcher, EqualsReferenceWithoutChecks) {
   p.uniqueness = 0;
   p.median = false;
   const cv::Mat ref = sgmReference(left, right, p).left;
-  for (const char* layout : kLayouts) {
+  for (Aggregation layout : kLayouts) {
     p.aggregation = layout;
     StereoMatcher matcher(context(), left.size(), p);
     MatchOutput gpu = matcher.match(left, right);
-    EXPECT_EQ(differences(gpu.disparity, ref), 0) << layout;
+    EXPECT_EQ(differences(gpu.disparity, ref), 0) << toString(layout);
     EXPECT_EQ(cv::countNonZero(gpu.disparity == kInvalidDisparity), 0);  // nothing invalidated without checks
   }
 }
 
 // A KITTI crop matched in one layout whose volume exceeds lavapipe's 128 MiB storage-buffer limit
 // (deviceMemoryBytes above `volume_bytes`): the split must not change the maps.
-void expectSplitVolumeEqualsReference(cv::Rect crop, int num_disparities, const char* layout, size_t volume_bytes) {
+void expectSplitVolumeEqualsReference(cv::Rect crop, int num_disparities, Aggregation layout,
+                                      size_t volume_bytes) {
   cv::Mat left = loadGrey("kitti2015_000046", "left.png")(crop).clone();
   cv::Mat right = loadGrey("kitti2015_000046", "right.png")(crop).clone();
   SgmParams p;
@@ -198,12 +199,12 @@ void expectSplitVolumeEqualsReference(cv::Rect crop, int num_disparities, const 
 
 TEST(StereoMatcher, VolumeSplitOverSeveralBuffersEqualsReference) {
   // Lines: 8 paths x 700 x 200 x 128 bytes = 143 MB, over several buffers.
-  expectSplitVolumeEqualsReference(cv::Rect(300, 150, 700, 200), 128, "lines", size_t(8) * 700 * 200 * 128);
+  expectSplitVolumeEqualsReference(cv::Rect(300, 150, 700, 200), 128, Aggregation::lines, size_t(8) * 700 * 200 * 128);
 }
 
 TEST(StereoMatcher, RowPassSumsOverSeveralBufferRangesEqualReference) {
   // Rows: sums of 1000 x 300 x 256 disparities x 2 bytes = 154 MB, over two storage-buffer ranges.
-  expectSplitVolumeEqualsReference(cv::Rect(200, 60, 1000, 300), 256, "rows", size_t(2) * 1000 * 300 * 256);
+  expectSplitVolumeEqualsReference(cv::Rect(200, 60, 1000, 300), 256, Aggregation::rows, size_t(2) * 1000 * 300 * 256);
 }
 
 TEST(StereoMatcher, RepeatedMatchesGiveTheSameResultAndStageTimings) {
@@ -274,12 +275,9 @@ TEST(StereoMatcher, BadInputThrows) {
   bad = p;
   bad.paths = 6;
   EXPECT_THROW(sgmReference(a, a, bad), std::invalid_argument);
-  bad = p;
-  bad.aggregation = "diagonal";
-  EXPECT_THROW(StereoMatcher(context(), cv::Size(64, 32), bad), std::invalid_argument);
-  bad = p;
-  bad.right_map = "rows";
-  EXPECT_THROW(StereoMatcher(context(), cv::Size(64, 32), bad), std::invalid_argument);
+  EXPECT_THROW(parseAggregation("diagonal"), std::invalid_argument);
+  EXPECT_THROW(parseRightMap("rows"), std::invalid_argument);
+  EXPECT_THROW(parseCost("ssd"), std::invalid_argument);
   EXPECT_THROW(StereoMatcher(context(), cv::Size(5000, 10), p), std::invalid_argument);
 }
 
@@ -292,9 +290,9 @@ TEST(StereoMatcher, FillInvalidEqualsReferenceAndLeavesNoHoles) {
   MatchOutput gpu = matcher.match(left, right);
   SgmResult ref = sgmReference(left, right, p);
   EXPECT_EQ(differences(gpu.disparity, ref.left), 0);
-  p.aggregation = "lines";
+  p.aggregation = Aggregation::lines;
   EXPECT_EQ(differences(StereoMatcher(context(), left.size(), p).match(left, right).disparity, ref.left), 0);
-  p.aggregation = "auto";
+  p.aggregation = Aggregation::automatic;
   EXPECT_EQ(cv::countNonZero(gpu.disparity == kInvalidDisparity), 0);
   // Filling only changes invalid pixels: the valid ones are those of the unfilled map.
   p.fill_invalid = false;
@@ -311,11 +309,11 @@ TEST(MatchingCost, AdAndSadByTheirDefinitions) {
   cv::RNG rng(3);
   rng.fill(left, cv::RNG::UNIFORM, 0, 256);
   rng.fill(right, cv::RNG::UNIFORM, 0, 256);
-  SgmParams p = SgmParams::forCost("ad");
+  SgmParams p = SgmParams::forCost(Cost::ad);
   p.num_disparities = 6;
   p.min_disparity = 2;
   std::vector<uint8_t> ad = costVolume(left, right, p);
-  p.cost = "sad";
+  p.cost = Cost::sad;
   std::vector<uint8_t> sad = costVolume(left, right, p);
   auto clampc = [](int v, int hi) { return std::min(std::max(v, 0), hi); };
   for (int y : {0, 7, 19})
@@ -371,11 +369,11 @@ TEST(StereoMatcher, AdAndSadEqualReference) {
   cv::Mat left = loadGrey("cones", "left.png")(cv::Rect(60, 40, 240, 150)).clone();
   cv::Mat right = loadGrey("cones", "right.png")(cv::Rect(60, 40, 240, 150)).clone();
   for (const char* cost : {"ad", "sad"}) {
-    SgmParams p = SgmParams::forCost(cost);
+    SgmParams p = SgmParams::forCost(parseCost(cost));
     p.num_disparities = 56;
     p.min_disparity = 2;
     expectDeviceEqualsReference(left, right, p);
-    p.right_map = "match";
+    p.right_map = RightMap::match;
     p.paths = 4;
     expectDeviceEqualsReference(left, right, p);
   }
@@ -384,13 +382,13 @@ TEST(StereoMatcher, AdAndSadEqualReference) {
 TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
   cv::Mat left = loadGrey("teddy", "left.png")(cv::Rect(30, 50, 300, 180)).clone();
   cv::Mat right = loadGrey("teddy", "right.png")(cv::Rect(30, 50, 300, 180)).clone();
-  SgmParams p = SgmParams::forCost("mi");
+  SgmParams p = SgmParams::forCost(Cost::mi);
   p.num_disparities = 60;
   p.mi_levels = 3;
   expectDeviceEqualsReference(left, right, p);
   p.mi_levels = 1;  // the full resolution only, learning from the start disparity and then from itself
   p.mi_coarse_iterations = 3;
-  p.right_map = "match";
+  p.right_map = RightMap::match;
   p.fill_invalid = true;
   expectDeviceEqualsReference(left, right, p);
 }
@@ -417,7 +415,7 @@ TEST(StereoMatcher, MutualInformationAndCensusHoldWhereTheRightImageIsDarkerAndA
   };
   std::map<std::string, double> growth;
   for (const char* cost : {"census", "mi", "ad"}) {
-    SgmParams p = SgmParams::forCost(cost);
+    SgmParams p = SgmParams::forCost(parseCost(cost));
     p.num_disparities = 64;
     p.fill_invalid = true;
     StereoMatcher matcher(context(), left.size(), p);

@@ -171,6 +171,7 @@ int radiometricTable(const std::vector<std::string>& names, const std::string& d
     std::stringstream ss(args.get("costs", ""));
     for (std::string c; std::getline(ss, c, ',');) costs.push_back(c);
   }
+  for (const auto& cost : costs) parseCost(cost);  // a bad name fails before any matching
   std::cout << "bad 2.0 % (nonocc, invalid counted as bad) with the right image changed\n"
             << std::left << std::setw(18) << "scene" << std::setw(8) << "cost" << std::right;
   for (const char* c : kChanges) std::cout << std::setw(11) << c;
@@ -179,7 +180,7 @@ int radiometricTable(const std::vector<std::string>& names, const std::string& d
   for (const auto& name : names) {
     Scene s = loadScene(data + "/" + name);
     for (const auto& cost : costs) {
-      SgmParams p = base.withCost(cost);
+      SgmParams p = base.withCost(parseCost(cost));
       if (!args.has("num-disparities")) p.num_disparities = s.num_disparities;
       StereoMatcher matcher(ctx, s.left.size(), p);
       std::cout << std::left << std::setw(18) << name << std::setw(8) << cost << std::right << std::fixed

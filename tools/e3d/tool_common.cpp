@@ -89,7 +89,10 @@ const char* kParamUsage =
 SgmParams paramsFromArgs(const Args& a) {
   SgmParams p;
   if (a.has("config")) p = SgmParams::fromConfig(Config(a.get("config", "")).section("sgm"));
-  if (a.has("cost") && a.get("cost", "") != p.cost) p = p.withCost(a.get("cost", ""));
+  if (a.has("cost")) {
+    const Cost cost = parseCost(a.get("cost", ""));
+    if (cost != p.cost) p = p.withCost(cost);
+  }
   p.mi_levels = a.getInt("mi-levels", p.mi_levels);
   p.mi_coarse_iterations = a.getInt("mi-coarse-iterations", p.mi_coarse_iterations);
   p.num_disparities = a.getInt("num-disparities", p.num_disparities);
@@ -103,8 +106,8 @@ SgmParams paramsFromArgs(const Args& a) {
   if (a.has("no-subpixel")) p.subpixel = false;
   if (a.has("no-median")) p.median = false;
   if (a.has("fill")) p.fill_invalid = true;
-  p.right_map = a.get("right-map", p.right_map);
-  p.aggregation = a.get("aggregation", p.aggregation);
+  p.right_map = parseRightMap(a.get("right-map", toString(p.right_map)));
+  p.aggregation = parseAggregation(a.get("aggregation", toString(p.aggregation)));
   p.validate();
   return p;
 }

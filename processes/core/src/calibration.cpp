@@ -1,5 +1,6 @@
 #include "ips/calibration.hpp"
 
+#include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
@@ -25,6 +26,7 @@ cv::Mat CameraIntrinsics::cvDistortion() const {
 static const char* distortionModelName(DistortionModel m) {
   return m == DistortionModel::kEquidistant ? "equidistant" : "radtan";
 }
+
 namespace {
 
 CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
@@ -143,6 +145,31 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
   maps(c.cam0, R1, P1, out.map0x, out.map0y);
   maps(c.cam1, R2, P2, out.map1x, out.map1y);
   return out;
+}
+
+StereoRectification scaledRectification(const StereoCalibration& calib, double scale) {
+  if (!(scale > 0 && scale <= 1)) throw std::invalid_argument("scaledRectification: scale must be in (0, 1]");
+  StereoRectification rect = computeRectification(calib);
+  if (scale == 1.0) return rect;
+  const cv::Size size(static_cast<int>(std::lround(rect.size.width * scale)),
+                      static_cast<int>(std::lround(rect.size.height * scale)));
+  // Rectified pixel (u', v') at the reduced scale is (u' + 0.5) / s - 0.5 at full scale.
+  cv::Mat fx(size, CV_32FC1), fy(size, CV_32FC1);
+  for (int v = 0; v < size.height; ++v)
+    for (int u = 0; u < size.width; ++u) {
+      fx.at<float>(v, u) = static_cast<float>((u + 0.5) / scale - 0.5);
+      fy.at<float>(v, u) = static_cast<float>((v + 0.5) / scale - 0.5);
+    }
+  for (cv::Mat* map : {&rect.map0x, &rect.map0y, &rect.map1x, &rect.map1y}) {
+    cv::Mat scaled;
+    cv::remap(*map, scaled, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+    *map = scaled;
+  }
+  rect.f *= scale;
+  rect.cx = (rect.cx + 0.5) * scale - 0.5;
+  rect.cy = (rect.cy + 0.5) * scale - 0.5;
+  rect.size = size;
+  return rect;
 }
 
 void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat& out0,

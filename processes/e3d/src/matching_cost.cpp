@@ -23,11 +23,7 @@ constexpr int kParzen[7] = {1, 6, 15, 20, 15, 6, 1};
 
 }  // namespace
 
-int maxCost(const std::string& cost) {
-  if (cost == "census") return kCensusMaxCost;
-  if (cost == "ad" || cost == "sad" || cost == "mi") return kCostMax;
-  throw std::invalid_argument("unknown matching cost '" + cost + "' (census, ad, sad, mi)");
-}
+int maxCost(Cost cost) { return cost == Cost::census ? kCensusMaxCost : kCostMax; }
 
 cv::Mat census5x5(const cv::Mat& image) {
   if (image.empty() || image.type() != CV_8UC1) throw std::invalid_argument("census5x5: need a CV_8UC1 image");
@@ -54,7 +50,7 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
   std::vector<uint8_t> cost(static_cast<size_t>(W) * H * D);
   auto at = [&](int y, int x, int k) -> uint8_t& { return cost[(static_cast<size_t>(y) * W + x) * D + k]; };
   auto column = [&](int x, int k) { return clampi(x - (p.min_disparity + k), 0, W - 1); };
-  if (p.cost == "census") {
+  if (p.cost == Cost::census) {
     const cv::Mat cl = census5x5(left), cr = census5x5(right);
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x)
@@ -63,13 +59,13 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
           const uint32_t b = static_cast<uint32_t>(cr.at<int32_t>(y, column(x, k)));
           at(y, x, k) = static_cast<uint8_t>(__builtin_popcount(a ^ b));
         }
-  } else if (p.cost == "ad") {
+  } else if (p.cost == Cost::ad) {
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x)
         for (int k = 0; k < D; ++k)
           at(y, x, k) = static_cast<uint8_t>(
               std::min(std::abs(int(left.at<uint8_t>(y, x)) - int(right.at<uint8_t>(y, column(x, k)))), kCostMax));
-  } else if (p.cost == "sad") {
+  } else if (p.cost == Cost::sad) {
     // The 3x3 windows around x and x - d, every column and row clamped into the image.
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x)
@@ -83,15 +79,13 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
             }
           at(y, x, k) = static_cast<uint8_t>(std::min((sum + 4) / 9, kCostMax));
         }
-  } else if (p.cost == "mi") {
+  } else {  // mi
     if (mi_table.type() != CV_8UC1 || mi_table.rows != kBins || mi_table.cols != kBins)
       throw std::invalid_argument("costVolume: cost mi needs a 256x256 CV_8UC1 table");
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x)
         for (int k = 0; k < D; ++k)
           at(y, x, k) = mi_table.at<uint8_t>(left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k)));
-  } else {
-    maxCost(p.cost);  // throws
   }
   return cost;
 }

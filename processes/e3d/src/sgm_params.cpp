@@ -8,6 +8,34 @@
 namespace ips {
 namespace e3d {
 
+namespace {
+
+// The config text of each value of an option enum, in the enum's order.
+constexpr const char* kCostNames[] = {"census", "ad", "sad", "mi"};
+constexpr const char* kRightMapNames[] = {"diagonal", "match"};
+constexpr const char* kAggregationNames[] = {"auto", "rows", "lines"};
+
+template <typename Enum, size_t N>
+Enum parseName(const char* const (&names)[N], const std::string& text, const char* option) {
+  std::string accepted;
+  for (size_t i = 0; i < N; ++i) {
+    if (text == names[i]) return static_cast<Enum>(i);
+    accepted += (i ? ", " : "") + std::string(names[i]);
+  }
+  throw std::invalid_argument(std::string(option) + " must be one of " + accepted + ", got '" + text + "'");
+}
+
+}  // namespace
+
+Cost parseCost(const std::string& text) { return parseName<Cost>(kCostNames, text, "cost"); }
+RightMap parseRightMap(const std::string& text) { return parseName<RightMap>(kRightMapNames, text, "right_map"); }
+Aggregation parseAggregation(const std::string& text) {
+  return parseName<Aggregation>(kAggregationNames, text, "aggregation");
+}
+const char* toString(Cost cost) { return kCostNames[static_cast<int>(cost)]; }
+const char* toString(RightMap right_map) { return kRightMapNames[static_cast<int>(right_map)]; }
+const char* toString(Aggregation aggregation) { return kAggregationNames[static_cast<int>(aggregation)]; }
+
 void SgmParams::validate() const {
   auto fail = [](const std::string& what) { throw std::invalid_argument("SgmParams: " + what); };
   if (num_disparities < 1 || num_disparities > kMaxDisparities)
@@ -15,14 +43,9 @@ void SgmParams::validate() const {
   if (min_disparity < -4096 || min_disparity > 4096) fail("min_disparity out of range -4096..4096");
   if (p1 < 0 || p1 > 255) fail("p1 must be 0..255, got " + std::to_string(p1));
   if (p2 < p1) fail("p2 must be >= p1 (p1=" + std::to_string(p1) + ", p2=" + std::to_string(p2) + ")");
-  int max_cost = 0;
-  try {
-    max_cost = maxCost(cost);
-  } catch (const std::invalid_argument& e) {
-    fail(e.what());
-  }
+  const int max_cost = maxCost(cost);
   if (p2 + max_cost > 255)
-    fail("p2 + " + std::to_string(max_cost) + " must be <= 255 for cost " + cost +
+    fail("p2 + " + std::to_string(max_cost) + " must be <= 255 for cost " + toString(cost) +
          " (path costs are kept in one byte), got p2=" + std::to_string(p2));
   if (mi_levels < 1 || mi_levels > 8) fail("mi_levels must be 1..8");
   if (mi_coarse_iterations < 1 || mi_coarse_iterations > 8) fail("mi_coarse_iterations must be 1..8");
@@ -30,24 +53,19 @@ void SgmParams::validate() const {
   if (paths != 8 && paths != 4) fail("paths must be 4 or 8, got " + std::to_string(paths));
   if (uniqueness < 0 || uniqueness > 99) fail("uniqueness must be 0..99 percent");
   if (lr_max_diff > 256) fail("lr_max_diff must be <= 256 (negative disables the check)");
-  if (right_map != "diagonal" && right_map != "match")
-    fail("right_map must be diagonal or match, got '" + right_map + "'");
-  if (aggregation != "auto" && aggregation != "rows" && aggregation != "lines")
-    fail("aggregation must be auto, rows or lines, got '" + aggregation + "'");
 }
 
-SgmParams SgmParams::forCost(const std::string& cost) {
+SgmParams SgmParams::forCost(Cost cost) {
   SgmParams p;
   p.cost = cost;
-  if (cost == "census") return p;
-  maxCost(cost);  // throws for an unknown name
+  if (cost == Cost::census) return p;
   // Costs 0..63 (grey levels, or quarter bits for mi); chosen like the census ones, by a small grid over (P1, P2,
   // p2_slope) on the six scenes (processes/e3d/README.md).
-  if (cost == "ad") {
+  if (cost == Cost::ad) {
     p.p1 = 14;
     p.p2 = 160;
     p.p2_slope = 40;
-  } else if (cost == "sad") {
+  } else if (cost == Cost::sad) {
     p.p1 = 11;
     p.p2 = 192;
     p.p2_slope = 60;
@@ -59,7 +77,7 @@ SgmParams SgmParams::forCost(const std::string& cost) {
   return p;
 }
 
-SgmParams SgmParams::withCost(const std::string& new_cost) const {
+SgmParams SgmParams::withCost(Cost new_cost) const {
   const SgmParams penalties = forCost(new_cost);
   SgmParams p = *this;
   p.cost = penalties.cost;
@@ -72,7 +90,9 @@ SgmParams SgmParams::withCost(const std::string& new_cost) const {
 SgmParams SgmParams::fromConfig(const Config& c) {
   SgmParams p;
   try {
-    p = forCost(c.getString("cost", "census"));
+    p = forCost(parseCost(c.getString("cost", toString(p.cost))));
+    p.right_map = parseRightMap(c.getString("right_map", toString(p.right_map)));
+    p.aggregation = parseAggregation(c.getString("aggregation", toString(p.aggregation)));
   } catch (const std::invalid_argument& e) {
     throw ConfigError(c.path() + ": " + e.what());
   }
@@ -87,10 +107,8 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   p.median = c.getBool("median", p.median);
   p.lr_max_diff = c.getInt("lr_max_diff", p.lr_max_diff);
   p.fill_invalid = c.getBool("fill_invalid", p.fill_invalid);
-  p.right_map = c.getString("right_map", p.right_map);
   p.mi_levels = c.getInt("mi_levels", p.mi_levels);
   p.mi_coarse_iterations = c.getInt("mi_coarse_iterations", p.mi_coarse_iterations);
-  p.aggregation = c.getString("aggregation", p.aggregation);
   try {
     p.validate();
   } catch (const std::invalid_argument& e) {
@@ -101,11 +119,12 @@ SgmParams SgmParams::fromConfig(const Config& c) {
 
 std::string SgmParams::describe() const {
   std::ostringstream s;
-  s << cost;
-  if (cost == "mi") s << " levels=" << mi_levels << "x" << mi_coarse_iterations;
+  s << toString(cost);
+  if (cost == Cost::mi) s << " levels=" << mi_levels << "x" << mi_coarse_iterations;
   s << " D=" << num_disparities << " dmin=" << min_disparity << " P1=" << p1 << " P2=" << p2 << " p2_slope=" << p2_slope
     << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel << " median=" << median
-    << " lr=" << lr_max_diff << " right=" << right_map << " fill=" << fill_invalid << " aggregation=" << aggregation;
+    << " lr=" << lr_max_diff << " right=" << toString(right_map) << " fill=" << fill_invalid
+    << " aggregation=" << toString(aggregation);
   return s.str();
 }
 

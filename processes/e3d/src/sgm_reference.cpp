@@ -156,7 +156,7 @@ SgmResult matchWithTable(const cv::Mat& left, const cv::Mat& right, const SgmPar
   const int W = left.cols, H = left.rows;
   cv::Mat dl, dr;
   rawMaps(left, costVolume(left, right, p, mi_table), p, dl, dr);
-  if (p.right_map == "match") {
+  if (p.right_map == RightMap::match) {
     // The right image's map from a second match, right to left: the mirrored pair (mirrored right image as the
     // left one) has the same disparities; its left map, mirrored back, is the right map. The Mutual Information
     // table of the swapped pair is the transposed one.
@@ -195,7 +195,7 @@ SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParam
   p.validate();
   if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
     throw std::invalid_argument("sgmReference: need two CV_8UC1 images of the same size");
-  if (p.cost != "mi") {
+  if (p.cost != Cost::mi) {
     SgmResult result = matchWithTable(left, right, p, cv::Mat());
     if (p.fill_invalid) fillInvalid(result.left);
     return result;

@@ -61,6 +61,12 @@ struct StereoRectification {
 // alpha as in cv::stereoRectify: 0 keeps only valid pixels, 1 keeps all source pixels.
 StereoRectification computeRectification(const StereoCalibration& calib, double alpha = 0.0);
 
+// The rectification of computeRectification(calib) at a reduced resolution: `scale` in (0, 1] times its size
+// (rounded), rectified pixel (u, v) at the reduced scale sampling where full-scale pixel ((u + 0.5) / scale - 0.5,
+// (v + 0.5) / scale - 0.5) samples (so raw images are still sampled once); f, cx, cy scaled alike.
+// Throws std::invalid_argument for a scale outside (0, 1].
+StereoRectification scaledRectification(const StereoCalibration& calib, double scale);
+
 // Remaps a raw pair into the rectified geometry on the CPU (the reference for the device stage).
 void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat& out0,
                  cv::Mat& out1);

@@ -26,10 +26,10 @@ namespace ips {
 namespace e3d {
 
 struct SgmParams;
+enum class Cost;
 
-// Largest cost of a cost function (24 for census, 63 for the others); throws std::invalid_argument for an unknown
-// name.
-int maxCost(const std::string& cost);
+// Largest cost of a cost function (24 for census, 63 for the others).
+int maxCost(Cost cost);
 
 // Census 5x5 transform (CV_32S holding the 24-bit codes).
 cv::Mat census5x5(const cv::Mat& image);

@@ -40,10 +40,22 @@ constexpr int16_t kInvalidDisparity = -32768;
 constexpr int kMaxDisparities = 256;
 constexpr int kCensusMaxCost = 24;
 
+// Options, parsed once from their config text (the names in parentheses; parse* throw std::invalid_argument
+// naming the accepted values).
+enum class Cost { census, ad, sad, mi };            // (census, ad, sad, mi) ips/e3d/matching_cost.hpp
+enum class RightMap { diagonal, match };            // (diagonal, match) see 5. above
+enum class Aggregation { automatic, rows, lines };  // (auto, rows, lines) see SgmParams::aggregation
+Cost parseCost(const std::string& text);
+RightMap parseRightMap(const std::string& text);
+Aggregation parseAggregation(const std::string& text);
+const char* toString(Cost cost);
+const char* toString(RightMap right_map);
+const char* toString(Aggregation aggregation);
+
 struct SgmParams {
   int num_disparities = 128;     // search range size, 1..256
   int min_disparity = 0;         // smallest disparity searched [px]
-  std::string cost = "census";   // census, ad, sad or mi (ips/e3d/matching_cost.hpp)
+  Cost cost = Cost::census;      // ips/e3d/matching_cost.hpp
   int mi_levels = 5;             // mi: pyramid levels (1 = full resolution only, from the start disparity)
   int mi_coarse_iterations = 2;  // mi: matches at the coarsest level, each learning from the one before
   // Defaults: chosen on the six scenes of ../shared/data/stereo (processes/e3d/README.md); one set for all.
@@ -55,19 +67,19 @@ struct SgmParams {
   bool subpixel = true;  // equiangular interpolation (else integer disparities * 16)
   bool median = true;    // 3x3 median on both maps before the left-right check
   int lr_max_diff = 1;   // left-right check tolerance [px]; < 0 = no check
-  // How the right image's map for the check is found (see 5. above): "diagonal" (a search in the aggregated costs
-  // of the left match, cheap) or "match" (a second match right to left, about twice the time).
-  std::string right_map = "diagonal";
+  // How the right image's map for the check is found (see 5. above): diagonal (a search in the aggregated costs
+  // of the left match, cheap) or match (a second match right to left, about twice the time).
+  RightMap right_map = RightMap::diagonal;
   bool fill_invalid = false;  // fill invalid pixels from their row neighbours (see 7. above)
-  // How the device walks the paths (the results are the same): "rows" = two row passes, one per thread (for CPU
-  // devices: lavapipe), "lines" = one dispatch per path, one subgroup per image line (for GPUs), "auto" = rows on
-  // a CPU device, lines otherwise. Not an algorithm parameter: sgmReference ignores it.
-  std::string aggregation = "auto";
+  // How the device walks the paths (the results are the same): rows = two row passes, one per thread (for CPU
+  // devices: lavapipe), lines = one dispatch per path, one subgroup per image line (for GPUs), automatic ("auto")
+  // = rows on a CPU device, lines otherwise. Not an algorithm parameter: sgmReference ignores it.
+  Aggregation aggregation = Aggregation::automatic;
 
   // The defaults with the penalties chosen for a cost function (census: the defaults above).
-  static SgmParams forCost(const std::string& cost);
+  static SgmParams forCost(Cost cost);
   // These parameters with another cost function and its penalties (P1, P2, p2_slope of forCost).
-  SgmParams withCost(const std::string& cost) const;
+  SgmParams withCost(Cost cost) const;
   // Throws std::invalid_argument naming the bad parameter.
   void validate() const;
   // Reads the keys above (same names) from a Config section; absent keys keep their defaults.

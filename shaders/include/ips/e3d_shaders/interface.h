@@ -1,0 +1,65 @@
+// The interface between E3D's compute shaders and the host, included by both: by the shaders (GLSL, through
+// GL_GOOGLE_include_directive) and by C++ (ips/e3d_shaders/<stage>.h). Each stage header declares its push
+// constants once; C++ checks their size with static_assert, so the two sides cannot disagree.
+#ifndef IPS_E3D_SHADERS_INTERFACE_H
+#define IPS_E3D_SHADERS_INTERFACE_H
+
+// Specialisation-constant ids (layout(constant_id = ...) in the shaders, VkSpecializationMapEntry on the host).
+#define E3D_SPEC_SUBGROUP_SIZE 0       // = workgroup size of the line, row and cost shaders
+#define E3D_SPEC_LANE_DISPARITIES 1    // K: disparities per subgroup lane
+#define E3D_SPEC_NUM_DISPARITIES 2     // D: num_disparities
+#define E3D_SPEC_NUM_PATHS 3           // 8 or 4
+#define E3D_SPEC_LOG2_SUBGROUP_SIZE 4  // log2(subgroup size)
+#define E3D_SPEC_MIN_DISPARITY 5       // min_disparity
+#define E3D_SPEC_PHASE 6               // row passes: 0 store the sums, 1 add the stored sums and select
+#define E3D_SPEC_MIRROR 7              // the second match (right to left): images read swapped and mirrored
+#define E3D_SPEC_RIGHT_MAP 8           // the right map by the diagonal search
+#define E3D_SPEC_COST_VOLUME 9         // row passes read the costs from the cost volume (not census on the fly)
+
+// Largest number of buffers (or storage-buffer ranges) a path-cost volume, the row passes' sums or a cost volume
+// is split into (each at most maxStorageBufferRange).
+#define E3D_MAX_CHUNKS 24
+// Widest image: the diagonal search of sgm_wta keeps one row of the right map in shared memory.
+#define E3D_MAX_WIDTH 4096
+// Disparity maps hold disparity * 16; this value marks pixels without a disparity (ips::e3d::kInvalidDisparity).
+#define E3D_INVALID (-32768)
+// Workgroup size of the one-dimensional image stages (census, median, downsample, rectify, fill, MI histogram).
+#define E3D_GROUP_SIZE 64
+// Rows per invocation of census5x5 and median3x3 (each slides its window down a column strip).
+#define E3D_STRIP 8
+// Workgroup of lr_check.
+#define E3D_LR_GROUP_X 16
+#define E3D_LR_GROUP_Y 8
+// Workgroup of mi_table (one workgroup builds the whole table).
+#define E3D_MI_TABLE_GROUP 256
+
+#ifdef __cplusplus
+#include <cstddef>
+#include <cstdint>
+#define E3D_INTERFACE_BEGIN \
+  namespace ips {           \
+  namespace e3d {           \
+  namespace shader {
+#define E3D_INTERFACE_END \
+  }                       \
+  }                       \
+  }
+#define E3D_PUSH_CONSTANTS(Name) struct Name
+#define E3D_PUSH_INSTANCE(instance)
+#define E3D_CHECK_SIZE(Name, bytes) \
+  static_assert(sizeof(Name) == (bytes), #Name ": push constants differ from the shader's block")
+E3D_INTERFACE_BEGIN
+// GLSL's ivec2 (8-byte aligned in a push-constant block: every use starts at a multiple of 8, checked by offsetof).
+struct ivec2 {
+  int32_t x, y;
+};
+E3D_INTERFACE_END
+#else
+#define E3D_INTERFACE_BEGIN
+#define E3D_INTERFACE_END
+#define E3D_PUSH_CONSTANTS(Name) layout(push_constant) uniform Name
+#define E3D_PUSH_INSTANCE(instance) instance
+#define E3D_CHECK_SIZE(Name, bytes) const int E3D_SIZE_##Name = (bytes)  // (checked on the host)
+#endif
+
+#endif
