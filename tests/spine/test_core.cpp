@@ -66,6 +66,13 @@ TEST(Config, MalformedYamlIsAnErrorNotAHang) {
   }
 }
 
+TEST(Config, InputsThatBrokeOpenCvsReaderAreConfigErrors) {
+  // Found by tests/fuzz/fuzz_config: cv::FileStorage throws std::length_error on this well-formed YAML.
+  EXPECT_THROW(ips::Config(IPS_SOURCE_DIR "/tests/fuzz/corpus/fuzz_config/opencv_length_error.yaml"), ips::ConfigError);
+  EXPECT_THROW(ips::Config(IPS_SOURCE_DIR "/tests/fuzz/corpus/fuzz_config/opencv_hang_21_bytes.yaml"),
+               ips::ConfigError);
+}
+
 TEST(Config, NonFiniteNumbersAreErrorsNamingTheKey) {
   const std::string p = writeFile("nan.yaml",
                                   "%YAML:1.0\n---\ninit:\n  heading_rad: .nan\ngravity: .inf\n"
