@@ -14,7 +14,6 @@
 #include <ips/tracker_delta_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
-#include <memory>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -36,6 +35,20 @@ using ips::filter::TrajPoint;
 template <class Msg>
 bool decode(const ips::fw::LogMessage& e, Msg* m) {
   return m->decode(e.data.data(), 0, static_cast<int>(e.data.size())) >= 0;
+}
+
+// Calls fn for every message of the LCM log at `path`, in order. A damaged log ends the reading there and is
+// recorded in `failures` (what was read before still counts). Returns the messages read.
+template <class Fn>
+int64_t forEachMessage(const std::string& path, std::vector<std::string>& failures, Fn fn) {
+  ips::fw::LogReader reader(path);
+  ips::fw::LogMessage m;
+  try {
+    while (reader.next(&m)) fn(m);
+  } catch (const ips::fw::LogError& err) {
+    failures.push_back(err.what());
+  }
+  return reader.events();
 }
 
 // A state stream that pauses this long, or ends this long before the input does, means the estimator died,
@@ -276,65 +289,50 @@ int main(int argc, char** argv) {
     if (parts.size() > 1)
       failures.push_back("the recorder restarted (" + std::to_string(parts.size()) +
                          " parts): messages published between the parts are missing");
-    std::vector<std::unique_ptr<ips::fw::LogReader>> readers;
-    for (const auto& part : parts) readers.push_back(std::make_unique<ips::fw::LogReader>(part));
     int64_t events = 0;
-    ips::fw::LogMessage msg;
-    const ips::fw::LogMessage* e = &msg;
-    for (size_t part = 0; part < readers.size();) {
-      try {
-        if (!readers[part]->next(&msg)) {
-          events += readers[part]->events();
-          ++part;
-          continue;
-        }
-      } catch (const ips::fw::LogError& err) {
-        failures.push_back(err.what());
-        events += readers[part]->events();
-        ++part;
-        continue;
-      }
-      const std::string& ch = e->channel;
-      if (ch == "GT_POSE") last_input_log_us = std::max(last_input_log_us, e->timestamp);
-      if (ch == "GT_POSE") {
-        ips::ground_truth_t g{};
-        if (decode(*e, &g)) gt.push_back(toPoint(g.utime, g.position, g.orientation));
-      } else if (ch == "GT_DISPARITY" || ch == "DISPARITY") {
-        ips::disparity_map_t d;
-        if (!decode(*e, &d) || !ips::fw::validate(d).ok()) {
-          ++bad_messages;
-          continue;
-        }
-        (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
-      } else if (ch == "TRACKER_DELTA") {
-        ips::tracker_delta_t d;
-        if (decode(*e, &d)) {
-          delta_msgs.push_back(d);
-          ++deltas;
-          deltas_valid += d.valid ? 1 : 0;
-        }
-      } else if (ch.rfind("HEALTH_", 0) == 0) {
-        ips::health_t h;
-        if (!decode(*e, &h)) {
-          ++bad_messages;
-          continue;
-        }
-        last_health_log_us[h.process] = e->timestamp;
-        ProcessFigures& f = procs[h.process];
-        if (h.input_rate_hz > 0) f.rate_sum += h.input_rate_hz, ++f.rate_n;
-        if (h.latency_ms > 0) f.latency_sum += h.latency_ms, ++f.latency_n;
-        f.last = h;
-      } else {
-        for (auto& run : runs)
-          if (ch == run.channel) {
-            ips::filter_state_t s;
-            if (decode(*e, &s) && ips::fw::validate(s).ok() && !s.a_priori) {
-              run.type = s.filter_type;
-              run.states.push_back(std::move(s));
-            }
+    for (const auto& part : parts)
+      events += forEachMessage(part, failures, [&](const ips::fw::LogMessage& m) {
+        const std::string& ch = m.channel;
+        if (ch == "GT_POSE") {
+          last_input_log_us = std::max(last_input_log_us, m.timestamp);
+          ips::ground_truth_t g{};
+          if (decode(m, &g)) gt.push_back(toPoint(g.utime, g.position, g.orientation));
+        } else if (ch == "GT_DISPARITY" || ch == "DISPARITY") {
+          ips::disparity_map_t d;
+          if (!decode(m, &d) || !ips::fw::validate(d).ok()) {
+            ++bad_messages;
+            return;
           }
-      }
-    }
+          (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
+        } else if (ch == "TRACKER_DELTA") {
+          ips::tracker_delta_t d;
+          if (decode(m, &d)) {
+            delta_msgs.push_back(d);
+            ++deltas;
+            deltas_valid += d.valid ? 1 : 0;
+          }
+        } else if (ch.rfind("HEALTH_", 0) == 0) {
+          ips::health_t h;
+          if (!decode(m, &h)) {
+            ++bad_messages;
+            return;
+          }
+          last_health_log_us[h.process] = m.timestamp;
+          ProcessFigures& f = procs[h.process];
+          if (h.input_rate_hz > 0) f.rate_sum += h.input_rate_hz, ++f.rate_n;
+          if (h.latency_ms > 0) f.latency_sum += h.latency_ms, ++f.latency_n;
+          f.last = h;
+        } else {
+          for (auto& run : runs)
+            if (ch == run.channel) {
+              ips::filter_state_t s;
+              if (decode(m, &s) && ips::fw::validate(s).ok() && !s.a_priori) {
+                run.type = s.filter_type;
+                run.states.push_back(std::move(s));
+              }
+            }
+        }
+      });
     if (events == 0 || (gt.empty() && deltas == 0 && est_disp.empty() &&
                         std::all_of(runs.begin(), runs.end(), [](const FilterRun& r) { return r.states.empty(); })))
       failures.push_back(args.get("--log") +
@@ -530,22 +528,14 @@ int main(int argc, char** argv) {
       std::set<int64_t> pick;
       for (int i = 0; i < want && i < static_cast<int>(scores.size()); ++i)
         pick.insert(scores[scores.size() * (2 * i + 1) / (2 * want)].seq);
-      ips::fw::LogReader images(args.get("--images"));
-      ips::fw::LogMessage im;
       int drawn = 0;
-      for (;;) {
-        try {
-          if (!images.next(&im)) break;
-        } catch (const ips::fw::LogError& err) {
-          failures.push_back(err.what());
-          break;
-        }
-        if (im.channel != "STEREO") continue;
+      forEachMessage(args.get("--images"), failures, [&](const ips::fw::LogMessage& im) {
+        if (im.channel != "STEREO") return;
         ips::stereo_pair_t p;
-        if (!decode(im, &p) || !pick.count(p.seq) || !est_disp.count(p.utime)) continue;
+        if (!decode(im, &p) || !pick.count(p.seq) || !est_disp.count(p.utime)) return;
         if (!ips::fw::validate(p).ok() || p.width != calib.cam0.width || p.height != calib.cam0.height) {
           ++bad_messages;
-          continue;
+          return;
         }
         cv::Mat r0, r1;
         ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
@@ -568,7 +558,7 @@ int main(int argc, char** argv) {
         cv::hconcat(parts, row);
         cv::imwrite(out + "/disparity_" + std::to_string(p.seq) + ".png", row);
         ++drawn;
-      }
+      });
       js << "  \"disparity_pictures\": " << drawn << ",\n";
     }
 
