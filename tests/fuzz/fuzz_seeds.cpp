@@ -26,6 +26,7 @@
 #include "ips/drivers/mmq50.hpp"
 #include "ips/drivers/pei_z260.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/test_support/sample_messages.hpp"
 
 namespace fs = std::filesystem;
 
@@ -39,9 +40,7 @@ void writeBytes(const fs::path& file, const std::vector<uint8_t>& bytes) {
 
 template <class Msg>
 void writeMessage(const fs::path& dir, const Msg& m, const std::string& prefix = "fuzz_decode_") {
-  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
-  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  writeBytes(dir / (prefix + std::string(Msg::getTypeName())) / "valid", buf);
+  writeBytes(dir / (prefix + std::string(Msg::getTypeName())) / "valid", ips::test_support::encodeMessage(m));
 }
 
 }  // namespace
@@ -69,55 +68,24 @@ int main(int argc, char** argv) {
   delta.rotation[0] = 1;
   for (int i = 0; i < 6; ++i) delta.covariance[i * 7] = 1e-4;
   writeMessage(dir, delta);
-  ips::filter_state_t state{};
-  state.utime = 1000;
-  state.orientation[0] = 1;
-  state.cov_dim = 3;
-  state.covariance.assign(3, std::vector<double>(3, 0.0));
-  state.num_sensors = 1;
-  state.sensor_names = {"tracker"};
-  state.accepted = {1};
-  state.rejected = {0};
-  state.too_late = {0};
-  writeMessage(dir, state);
-  ips::disparity_map_t disp{};
-  disp.utime = 1000;
-  disp.width = 3;
-  disp.height = 2;
-  disp.subpixel_scale = 16;
-  disp.data.assign(2, std::vector<int16_t>(3, 32));
-  disp.confidence_size = 6;
-  disp.confidence.assign(6, 200);
-  writeMessage(dir, disp);
-  ips::point_cloud_t cloud{};
-  cloud.utime = 1000;
-  cloud.frame = "world";
-  cloud.num_points = 2;
-  cloud.points = {{1, 2, 3}, {4, 5, 6}};
-  cloud.intensity = {10, 20};
-  writeMessage(dir, cloud);
-  ips::health_t health{};
-  health.utime = 1000;
-  health.process = "tracker";
-  health.host = "head";
-  health.num_counters = 1;
-  health.counter_names = {"bad"};
-  health.counter_values = {3};
-  writeMessage(dir, health);
+  writeMessage(dir, ips::test_support::sampleFilterState());
+  writeMessage(dir, ips::test_support::sampleDisparityMap());
+  writeMessage(dir, ips::test_support::samplePointCloud());
+  writeMessage(dir, ips::test_support::sampleHealth());
   ips::ground_truth_t gt{};
   gt.utime = 1000;
   gt.orientation[0] = 1;
   writeMessage(dir, gt);
 
 #ifdef IPS_FUZZ_PROCMAN
-  procman_lcm::cmd_t cmd;
+  procman_lcm::cmd_t cmd{};
   cmd.command_id = "tracker";
   cmd.exec_str = "build/bin/tracker --calib $IPS_CALIB";
   cmd.group = "ips";
   cmd.auto_respawn = true;
   cmd.stop_signal = 15;
   cmd.stop_time_allowed = 7;
-  procman_lcm::orders_t orders;
+  procman_lcm::orders_t orders{};
   orders.utime = 1000;
   orders.deputy_id = "local";
   orders.sheriff_id = "sheriff";
@@ -127,7 +95,7 @@ int main(int argc, char** argv) {
   orders.cmds[0].desired_runid = 1;
   orders.cmds[0].force_quit = false;
   writeMessage(dir, orders, "fuzz_decode_procman_");
-  procman_lcm::deputy_info_t info;
+  procman_lcm::deputy_info_t info{};
   info.utime = 1000;
   info.deputy_id = "local";
   info.ncmds = 1;
@@ -136,14 +104,14 @@ int main(int argc, char** argv) {
   info.cmds[0].pid = 42;
   info.cmds[0].actual_runid = 1;
   writeMessage(dir, info, "fuzz_decode_procman_");
-  procman_lcm::output_t output;
+  procman_lcm::output_t output{};
   output.utime = 1000;
   output.deputy_id = "local";
   output.num_commands = 1;
   output.command_ids = {"tracker"};
   output.text = {"tracker: running\n"};
   writeMessage(dir, output, "fuzz_decode_procman_");
-  procman_lcm::discovery_t discovery;
+  procman_lcm::discovery_t discovery{};
   discovery.utime = 1000;
   discovery.transmitter_id = "sheriff";
   discovery.nonce = 7;

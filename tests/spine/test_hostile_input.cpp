@@ -25,15 +25,11 @@
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/validate.hpp"
+#include "ips/test_support/sample_messages.hpp"
 
 namespace {
 
-template <class Msg>
-std::vector<uint8_t> encode(const Msg& m) {
-  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
-  EXPECT_EQ(m.encode(buf.data(), 0, static_cast<int>(buf.size())), static_cast<int>(buf.size()));
-  return buf;
-}
+using ips::test_support::encodeMessage;
 
 void putBigEndian32(std::vector<uint8_t>& buf, size_t at, int32_t v) {
   const auto u = static_cast<uint32_t>(v);
@@ -44,7 +40,7 @@ void putBigEndian32(std::vector<uint8_t>& buf, size_t at, int32_t v) {
 // the message the decoder filled (or partly filled before it gave up).
 template <class Msg, class Check>
 void decodeEveryHostileLength(const Msg& valid, Check check) {
-  const std::vector<uint8_t> good = encode(valid);
+  const std::vector<uint8_t> good = encodeMessage(valid);
   const int32_t size = static_cast<int32_t>(good.size());
   const int32_t hostile[] = {INT32_MIN, -1, 0, size + 1, size * 4, INT32_MAX};
   for (size_t at = 8; at + 4 <= good.size(); ++at) {  // the first 8 bytes are the type's fingerprint
@@ -78,7 +74,7 @@ TEST(HostileInput, StereoPairLengthsAreBoundedByTheDatagram) {
 TEST(HostileInput, DataSizeOfTwoGigabytesInASmallMessageIsRejectedAtOnce) {
   ips::stereo_pair_t m =
       ips::fw::makeStereoPair(1000, 1, cv::Mat(2, 2, CV_8UC1, cv::Scalar(1)), cv::Mat(2, 2, CV_8UC1, cv::Scalar(2)));
-  std::vector<uint8_t> buf = encode(m);
+  std::vector<uint8_t> buf = encodeMessage(m);
   // data_size sits right before the 4 + 4 image bytes at the end of the message.
   putBigEndian32(buf, buf.size() - 8 - 4, INT32_MAX);
   ips::stereo_pair_t d;
@@ -87,14 +83,7 @@ TEST(HostileInput, DataSizeOfTwoGigabytesInASmallMessageIsRejectedAtOnce) {
 }
 
 TEST(HostileInput, DisparityMapLengthsAreBoundedByTheDatagram) {
-  ips::disparity_map_t m{};
-  m.utime = 5;
-  m.width = 3;
-  m.height = 2;
-  m.subpixel_scale = 16;
-  m.data.assign(2, std::vector<int16_t>(3, 32));
-  m.confidence_size = 6;
-  m.confidence.assign(6, 200);
+  const auto m = ips::test_support::sampleDisparityMap();
   decodeEveryHostileLength(m, [](const ips::disparity_map_t& d, int, int32_t size) {
     expectBounded(d.data, size);
     for (const auto& row : d.data) expectBounded(row, size);
@@ -103,16 +92,7 @@ TEST(HostileInput, DisparityMapLengthsAreBoundedByTheDatagram) {
 }
 
 TEST(HostileInput, FilterStateLengthsAreBoundedByTheDatagram) {
-  ips::filter_state_t m{};
-  m.utime = 5;
-  m.orientation[0] = 1;
-  m.cov_dim = 3;
-  m.covariance.assign(3, std::vector<double>(3, 0.0));
-  m.num_sensors = 1;
-  m.sensor_names = {"tracker"};
-  m.accepted = {1};
-  m.rejected = {0};
-  m.too_late = {0};
+  const auto m = ips::test_support::sampleFilterState();
   decodeEveryHostileLength(m, [](const ips::filter_state_t& d, int, int32_t size) {
     expectBounded(d.covariance, size);
     for (const auto& row : d.covariance) expectBounded(row, size);
@@ -122,23 +102,12 @@ TEST(HostileInput, FilterStateLengthsAreBoundedByTheDatagram) {
 }
 
 TEST(HostileInput, HealthPointCloudAndFixedSizeTypesNeverThrow) {
-  ips::health_t h{};
-  h.utime = 1;
-  h.process = "tracker";
-  h.host = "head";
-  h.num_counters = 2;
-  h.counter_names = {"a", "bb"};
-  h.counter_values = {1, 2};
+  const auto h = ips::test_support::sampleHealth();
   decodeEveryHostileLength(h, [](const ips::health_t& d, int, int32_t size) {
     expectBounded(d.counter_names, size);
     expectBounded(d.counter_values, size);
   });
-  ips::point_cloud_t pc{};
-  pc.utime = 1;
-  pc.frame = "world";
-  pc.num_points = 2;
-  pc.points = {{1, 2, 3}, {4, 5, 6}};
-  pc.intensity = {10, 20};
+  const auto pc = ips::test_support::samplePointCloud();
   decodeEveryHostileLength(pc, [](const ips::point_cloud_t& d, int, int32_t size) {
     expectBounded(d.points, size);
     expectBounded(d.intensity, size);
@@ -158,7 +127,7 @@ TEST(HostileInput, NodeCountsAMessageWhoseStringLengthIsZero) {
   ips::health_t h{};
   h.process = "x";
   h.host = "y";
-  std::vector<uint8_t> buf = encode(h);
+  std::vector<uint8_t> buf = encodeMessage(h);
   putBigEndian32(buf, 8 + 8, 0);  // the length of `process` (which counts its NUL) set to 0
   node.lcm().publish("HEALTH_X", buf.data(), static_cast<unsigned>(buf.size()));
   node.publish("HEALTH_X", h);
@@ -274,7 +243,7 @@ std::vector<char> writeLog(const std::string& path) {
       ips::imu_sample_t m{};
       m.utime = 1000 + i;
       m.seq = i;
-      std::vector<uint8_t> buf = encode(m);
+      std::vector<uint8_t> buf = encodeMessage(m);
       lcm::LogEvent e{};
       e.timestamp = m.utime;
       e.channel = "IMU";
