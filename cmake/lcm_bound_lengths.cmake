@@ -4,6 +4,17 @@
 #  - an array count read from the message must be 0 or more and at most the remaining bytes (every element
 #    takes at least one byte), checked before the vector is resized.
 # Fails the build if a header does not have the shape this expects, so a new lcm-gen cannot silently bypass it.
+# Fails unless `text` holds as many matches of `guarded` as of `all`.
+function(expect_all_bounded text all guarded what)
+  string(REGEX MATCHALL "${all}" all_matches "${text}")
+  string(REGEX MATCHALL "${guarded}" guarded_matches "${text}")
+  list(LENGTH all_matches n_all)
+  list(LENGTH guarded_matches n_guarded)
+  if(NOT n_all EQUAL n_guarded)
+    message(FATAL_ERROR "lcm_bound_lengths: ${header}: ${n_guarded} of ${n_all} ${what} bounded")
+  endif()
+endfunction()
+
 foreach(header ${HEADERS})
   file(READ ${header} text)
   if(NOT text MATCHES "_decodeNoHash")
@@ -18,19 +29,8 @@ foreach(header ${HEADERS})
   # Every string assign and every resize from a message field must now be guarded (counted on a copy without
   # semicolons, which would split CMake's lists).
   string(REPLACE ";" ":" flat "${text}")
-  string(REGEX MATCHALL "\\.resize\\(this->" resizes "${flat}")
-  string(REGEX MATCHALL "> maxlen - pos\\) return -1:\n[ ]*this->[A-Za-z_0-9]+(\\[a[0-9]+\\])*\\.resize\\(this->" guarded "${flat}")
-  list(LENGTH resizes n_resizes)
-  list(LENGTH guarded n_guarded)
-  if(NOT n_resizes EQUAL n_guarded)
-    message(FATAL_ERROR "lcm_bound_lengths: ${header}: ${n_guarded} of ${n_resizes} array counts bounded")
-  endif()
-  string(REGEX MATCHALL "_len_* > maxlen - pos" strings "${flat}")
-  string(REGEX MATCHALL "< 1 \\|\\| __[A-Za-z_0-9]+ > maxlen - pos" bounded_strings "${flat}")
-  list(LENGTH strings n_strings)
-  list(LENGTH bounded_strings n_bounded)
-  if(NOT n_strings EQUAL n_bounded)
-    message(FATAL_ERROR "lcm_bound_lengths: ${header}: ${n_bounded} of ${n_strings} string lengths bounded")
-  endif()
+  expect_all_bounded("${flat}" "\\.resize\\(this->"
+                     "> maxlen - pos\\) return -1:\n[ ]*this->[A-Za-z_0-9]+(\\[a[0-9]+\\])*\\.resize\\(this->" "array counts")
+  expect_all_bounded("${flat}" "_len_* > maxlen - pos" "< 1 \\|\\| __[A-Za-z_0-9]+ > maxlen - pos" "string lengths")
   file(WRITE ${header} "${text}")
 endforeach()
