@@ -16,27 +16,23 @@
 #include <string>
 #include <vector>
 
+#include "ips/framework/log_writer.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
+// The run's recording, as the logger writes it.
 class Recording {
  public:
-  explicit Recording(const std::string& path) : log_(path, "w") {}
+  explicit Recording(const std::string& path) : log_(path) {}
   template <class Msg>
   void add(const std::string& channel, int64_t utime, const Msg& m) {
-    std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
-    m.encode(buf.data(), 0, static_cast<int>(buf.size()));
-    lcm::LogEvent e{};
-    e.timestamp = utime;
-    e.channel = channel;
-    e.datalen = static_cast<int32_t>(buf.size());
-    e.data = buf.data();
-    log_.writeEvent(&e);
+    log_.write(channel, utime, m);
   }
 
  private:
-  lcm::LogFile log_;
+  ips::fw::LogWriter log_;
 };
 
 ips::ground_truth_t pose(int64_t utime, double x) {

@@ -23,6 +23,7 @@
 
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
+#include "ips/framework/log_writer.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/test_support/sample_messages.hpp"
@@ -235,21 +236,15 @@ TEST(HostileInput, FilterStateWithNonFiniteCovarianceOrBiasIsRejected) {
   EXPECT_EQ(ips::fw::validate(ragged).reason, "bad_size");
 }
 
-// A log of three IMU samples, written by LCM's own writer; returns its bytes.
+// A log of three IMU samples (LogWriter is LCM's own writer); returns its bytes.
 std::vector<char> writeLog(const std::string& path) {
   {
-    lcm::LogFile log(path, "w");
+    ips::fw::LogWriter log(path);
     for (int i = 0; i < 3; ++i) {
       ips::imu_sample_t m{};
       m.utime = 1000 + i;
       m.seq = i;
-      std::vector<uint8_t> buf = encodeMessage(m);
-      lcm::LogEvent e{};
-      e.timestamp = m.utime;
-      e.channel = "IMU";
-      e.datalen = static_cast<int32_t>(buf.size());
-      e.data = buf.data();
-      log.writeEvent(&e);
+      log.write("IMU", m.utime, m);
     }
   }
   std::ifstream in(path, std::ios::binary);

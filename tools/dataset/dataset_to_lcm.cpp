@@ -5,12 +5,12 @@
 #include <ips/ground_truth_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
-#include <lcm/lcm-cpp.hpp>
 
 #include "ips/args.hpp"
 #include "ips/dataset/dataset.hpp"
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/log_writer.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/log.hpp"
 
@@ -18,25 +18,12 @@ namespace {
 
 namespace ch = ips::channels;
 
-template <class Msg>
-void write(lcm::LogFile& log, const char* channel, int64_t utime, const Msg& m, const std::string& path) {
-  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
-  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  lcm::LogEvent e;
-  e.eventnum = 0;  // numbered by the writer
-  e.timestamp = utime;
-  e.channel = channel;
-  e.datalen = static_cast<int32_t>(buf.size());
-  e.data = buf.data();
-  if (log.writeEvent(&e) != 0) throw std::runtime_error(path + ": write failed");
-}
-
 void copy3(const Eigen::Vector3d& v, double* out) {
   for (int i = 0; i < 3; ++i) out[i] = v[i];
 }
 
 // Velocity and biases are zero when the source has none (GroundTruthPose::has_state).
-void writeGroundTruth(lcm::LogFile& log, const ips::dataset::GroundTruthPose& g, const std::string& path) {
+void writeGroundTruth(ips::fw::LogWriter& log, const ips::dataset::GroundTruthPose& g) {
   ips::ground_truth_t m{};
   m.utime = g.utime;
   copy3(g.position, m.position);
@@ -47,7 +34,7 @@ void writeGroundTruth(lcm::LogFile& log, const ips::dataset::GroundTruthPose& g,
   copy3(g.velocity, m.velocity);
   copy3(g.gyro_bias, m.gyro_bias);
   copy3(g.accel_bias, m.accel_bias);
-  write(log, ch::kGtPose, m.utime, m, path);
+  log.write(ch::kGtPose, m.utime, m);
 }
 
 }  // namespace
@@ -85,8 +72,7 @@ int main(int argc, char** argv) {
     ips::saveCalibration(tmp_calib, rec.calib);
     int64_t pairs = 0, imu = 0, gt = 0;
     {
-      lcm::LogFile log(tmp_log, "w");
-      if (!log.good()) throw std::runtime_error(out + ": cannot open for writing");
+      ips::fw::LogWriter log(tmp_log);
       // Events in time order; at equal stamps IMU and ground truth go before the image (as the head sends them).
       size_t i_imu = 0, i_gt = 0;
       const int w = rec.calib.cam0.width, h = rec.calib.cam0.height;
@@ -98,21 +84,21 @@ int main(int argc, char** argv) {
           m.seq = static_cast<int64_t>(i_imu);
           copy3(s.angular_rate, m.angular_rate);
           copy3(s.specific_force, m.specific_force);
-          write(log, ch::kImu, m.utime, m, out);
+          log.write(ch::kImu, m.utime, m);
         }
         for (; i_gt < rec.ground_truth.size() && rec.ground_truth[i_gt].utime <= f.utime; ++i_gt, ++gt) {
-          writeGroundTruth(log, rec.ground_truth[i_gt], out);
+          writeGroundTruth(log, rec.ground_truth[i_gt]);
         }
         const cv::Mat left = ips::dataset::loadImage(f.left_path, w, h);
         const cv::Mat right = ips::dataset::loadImage(f.right_path, w, h);
         ips::stereo_pair_t m =
             ips::fw::makeStereoPair(f.utime, f.index, left, right, rec.calib.cam0.serial, rec.calib.cam1.serial);
-        write(log, ch::kStereo, m.utime, m, out);
+        log.write(ch::kStereo, m.utime, m);
         ++pairs;
       }
       // The samples after the last frame that the readers kept (one past the end, for interpolation).
       for (; i_gt < rec.ground_truth.size(); ++i_gt, ++gt) {
-        writeGroundTruth(log, rec.ground_truth[i_gt], out);
+        writeGroundTruth(log, rec.ground_truth[i_gt]);
       }
     }
     std::filesystem::rename(tmp_calib, calib_path);

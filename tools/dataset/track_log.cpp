@@ -7,13 +7,13 @@
 #include <iomanip>
 #include <ips/ground_truth_t.hpp>
 #include <ips/stereo_pair_t.hpp>
-#include <lcm/lcm-cpp.hpp>
 #include <opencv2/core.hpp>
 
 #include "ips/args.hpp"
 #include "ips/calibration.hpp"
 #include "ips/dataset/delta_chain.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
@@ -44,8 +44,8 @@ int main(int argc, char** argv) {
         ips::loadCalibration(args.has("--calib") ? args.get("--calib") : log_path + ".calib.yaml");
     ips::tracker::StereoTracker tracker(calib, ips::tracker::loadTrackerParams(args.get("--config")));
 
-    lcm::LogFile log(log_path, "r");
-    if (!log.good()) throw std::runtime_error(log_path + ": cannot read");
+    ips::fw::LogReader log(log_path);  // a damaged log is an error naming the byte, not a short run
+    ips::fw::LogMessage event;
     std::ofstream gt_out;
     if (args.has("--gt-out")) gt_out.open(args.get("--gt-out"));
     ips::dataset::DeltaChain chain;
@@ -53,19 +53,20 @@ int main(int argc, char** argv) {
     double total_ms = 0;
     ips::tracker::StageTimes stages;  // sums [ms]
     int64_t guided = 0, wide = 0;
-    while (const lcm::LogEvent* e = log.readNextEvent()) {
-      if (e->channel == "GT_POSE" && gt_out.is_open()) {
-        ips::ground_truth_t g;
-        if (g.decode(e->data, 0, static_cast<int>(e->datalen)) < 0) continue;
+    while (log.next(&event)) {
+      if (event.channel == "GT_POSE" && gt_out.is_open()) {
+        ips::ground_truth_t g{};
+        if (g.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) continue;
         Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
         T_w_b.linear() = Eigen::Quaterniond(g.orientation[0], g.orientation[1], g.orientation[2], g.orientation[3])
                              .normalized()
                              .toRotationMatrix();
         T_w_b.translation() = Eigen::Vector3d(g.position[0], g.position[1], g.position[2]);
         writeTumLine(gt_out, g.utime, T_w_b * calib.T_imu_cam0);
-      } else if (e->channel == "STEREO") {
+      } else if (event.channel == "STEREO") {
         ips::stereo_pair_t m;
-        if (m.decode(e->data, 0, static_cast<int>(e->datalen)) < 0) throw std::runtime_error("STEREO does not decode");
+        if (m.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0)
+          throw std::runtime_error("STEREO does not decode");
         const auto check = ips::fw::validate(m);
         if (!check.ok()) throw std::runtime_error("bad stereo pair " + std::to_string(m.seq) + ": " + check.detail);
         // Timed as the process would see it: from the decoded message's images to the increment.

@@ -19,6 +19,7 @@
 #include "ips/args.hpp"
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/log_writer.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/log.hpp"
@@ -28,12 +29,7 @@ namespace {
 
 using ips::sim::SimEvent;
 
-template <class Msg>
-std::vector<uint8_t> encode(const Msg& m) {
-  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
-  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  return buf;
-}
+using ips::fw::encodeMessage;
 
 void copy3(const Eigen::Vector3d& v, double* out) {
   for (int i = 0; i < 3; ++i) out[i] = v[i];
@@ -58,7 +54,7 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
       m.exposure_us[0] = m.exposure_us[1] = static_cast<float>(sc.camera.exposure_us);
       m.gain_db[0] = static_cast<float>(sc.camera.gain_left_db);
       m.gain_db[1] = static_cast<float>(sc.camera.gain_right_db);
-      return {e.log_utime, ch::kStereo, encode(m)};
+      return {e.log_utime, ch::kStereo, encodeMessage(m)};
     }
     case SimEvent::kGtDisparity: {
       const ips::sim::StereoFrame& f = *e.frame;
@@ -85,7 +81,7 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
           m.data[y][x] = d > 0 && d * 16 < 32767 ? static_cast<int16_t>(std::lround(d * 16)) : m.invalid_value;
         }
       m.confidence_size = 0;
-      return {e.log_utime, ch::kGtDisparity, encode(m)};
+      return {e.log_utime, ch::kGtDisparity, encodeMessage(m)};
     }
     case SimEvent::kImu: {
       ips::imu_sample_t m;
@@ -93,7 +89,7 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
       m.seq = e.imu.seq;
       copy3(e.imu.angular_rate, m.angular_rate);
       copy3(e.imu.specific_force, m.specific_force);
-      return {e.log_utime, ch::kImu, encode(m)};
+      return {e.log_utime, ch::kImu, encodeMessage(m)};
     }
     case SimEvent::kTilt: {
       ips::tilt_sample_t m;
@@ -101,7 +97,7 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
       m.seq = e.tilt.seq;
       m.angle_x = e.tilt.angle_x;
       m.angle_y = e.tilt.angle_y;
-      return {e.log_utime, ch::kTilt, encode(m)};
+      return {e.log_utime, ch::kTilt, encodeMessage(m)};
     }
     case SimEvent::kGtPose:
     default: {
@@ -118,16 +114,15 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
       copy3(g.angular_rate, m.angular_rate);
       copy3(g.gyro_bias, m.gyro_bias);
       copy3(g.accel_bias, m.accel_bias);
-      return {e.log_utime, ch::kGtPose, encode(m)};
+      return {e.log_utime, ch::kGtPose, encodeMessage(m)};
     }
   }
 }
 
 int runBatch(ips::sim::Simulation& sim, const std::string& out) {
-  lcm::LogFile log(out, "w");
-  if (!log.good()) throw std::runtime_error("cannot open log file '" + out + "' for writing");
+  ips::fw::LogWriter log(out);
   const auto t0 = std::chrono::steady_clock::now();
-  int64_t count = 0, pairs = 0;
+  int64_t pairs = 0;
   ips::LogThrottle progress(10'000'000);
   // This thread renders (OpenCV's parallel_for_ on both cores works from the main thread); a writer thread
   // encodes and writes the previous batch of events meanwhile.
@@ -135,14 +130,8 @@ int runBatch(ips::sim::Simulation& sim, const std::string& out) {
   std::future<void> writing;
   auto write = [&](std::vector<SimEvent> batch) {
     for (const SimEvent& e : batch) {
-      Encoded enc = encodeEvent(e, sim);
-      lcm::LogEvent le;
-      le.eventnum = count++;
-      le.timestamp = enc.log_utime;
-      le.channel = enc.channel;
-      le.datalen = static_cast<int32_t>(enc.data.size());
-      le.data = enc.data.data();
-      if (log.writeEvent(&le) != 0) throw std::runtime_error("writing to '" + out + "' failed");
+      const Encoded enc = encodeEvent(e, sim);
+      log.write(enc.channel, enc.log_utime, enc.data);
       if (e.kind == SimEvent::kStereo) {
         ++pairs;
         if (progress.allow(e.log_utime))
@@ -158,7 +147,7 @@ int runBatch(ips::sim::Simulation& sim, const std::string& out) {
   }
   if (writing.valid()) writing.get();
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  IPS_INFO("wrote " << count << " events (" << pairs << " stereo pairs) to " << out << " in " << wall << " s");
+  IPS_INFO("wrote " << log.events() << " events (" << pairs << " stereo pairs) to " << out << " in " << wall << " s");
   return 0;
 }
 

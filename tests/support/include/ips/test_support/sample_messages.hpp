@@ -8,15 +8,11 @@
 #include <ips/point_cloud_t.hpp>
 #include <vector>
 
+#include "ips/framework/log_writer.hpp"
+
 namespace ips::test_support {
 
-// The bytes LCM sends for `m` (fingerprint first).
-template <class Msg>
-std::vector<uint8_t> encodeMessage(const Msg& m) {
-  std::vector<uint8_t> buf(static_cast<size_t>(m.getEncodedSize()));
-  m.encode(buf.data(), 0, static_cast<int>(buf.size()));
-  return buf;
-}
+using ips::fw::encodeMessage;
 
 inline ips::disparity_map_t sampleDisparityMap(int64_t utime = 1000) {
   ips::disparity_map_t m{};
