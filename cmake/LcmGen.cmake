@@ -40,6 +40,10 @@ function(ips_lcm_gen_cpp target)
   add_dependencies(${target} ${target}_gen)
   target_include_directories(${target} SYSTEM INTERFACE ${ARG_OUT_DIR})
   target_link_libraries(${target} INTERFACE PkgConfig::LCM)
+  # LCM's coretypes decode a double by writing it through an int64_t pointer. Under strict aliasing the compiler
+  # may keep a value it knows from before the decode (seen: a value-initialised ground_truth_t read back as
+  # zeros after a successful decode at -O3), so every user of the generated types compiles without that rule.
+  target_compile_options(${target} INTERFACE -fno-strict-aliasing)
 endfunction()
 
 # ips_lcm_gen_java(<target> JAR <file.jar> SOURCES <file.lcm>...): the Java classes of the types in a jar, so that
