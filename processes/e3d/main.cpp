@@ -7,6 +7,7 @@
 #include <deque>
 #include <ips/disparity_map_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <limits>
 #include <mutex>
 #include <thread>
 
@@ -21,6 +22,9 @@
 #include "ips/framework/validate.hpp"
 
 namespace {
+
+// A full-size pair is about 2.8 MB: 256 queued pairs is already 700 MB, more than a deployment wants held.
+constexpr long long kMaxQueueLimit = 256;
 
 struct Job {
   int64_t utime = 0;
@@ -153,10 +157,20 @@ int main(int argc, char** argv) {
     const double scale = cfg.getDouble("process/output_scale", 1.0);
     if (!(scale > 0 && scale <= 1))
       throw ips::ConfigError(cfg.path() + ": key 'process/output_scale' must be in (0, 1]");
-    const int every_nth =
-        static_cast<int>(args.has("--every-nth") ? args.getInt("--every-nth") : cfg.getInt("process/every_nth", 1));
+    const long long every_nth_value =
+        args.has("--every-nth") ? args.getInt("--every-nth") : cfg.getInt("process/every_nth", 1);
+    // A pair is selected when seq % N == 0: N below 1 selects nothing (or divides by zero).
+    if (every_nth_value < 1 || every_nth_value > std::numeric_limits<int>::max())
+      throw ips::ConfigError(cfg.path() + ": 'process/every_nth' (or --every-nth) must be at least 1, got " +
+                             std::to_string(every_nth_value));
+    const int every_nth = static_cast<int>(every_nth_value);
     const bool queue_all = args.getFlag("--queue") || cfg.getBool("process/queue_all", false);
-    const size_t max_queue = static_cast<size_t>(cfg.getInt("process/max_queue", 16));
+    // The queue holds decoded pairs (two full images each): at least one, and bounded so memory stays flat.
+    const long long max_queue_value = cfg.getInt("process/max_queue", 16);
+    if (max_queue_value < 1 || max_queue_value > kMaxQueueLimit)
+      throw ips::ConfigError(cfg.path() + ": key 'process/max_queue' must be in [1, " + std::to_string(kMaxQueueLimit) +
+                             "], got " + std::to_string(max_queue_value));
+    const auto max_queue = static_cast<size_t>(max_queue_value);
 
     ips::e3d::VulkanContext ctx(args.get("--device"));
     const ips::StereoRectification rect = ips::scaledRectification(calib, scale);

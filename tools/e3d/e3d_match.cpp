@@ -39,9 +39,13 @@ int main(int argc, char** argv) {
     MatchOutput out = matcher.match(left, right, args.has("out-right"));
     ips::writePfm(out_path, disparityToFloat(out.disparity));
     if (args.has("out-right")) ips::writePfm(args.get("out-right", ""), disparityToFloat(out.right));
-    if (args.has("out-png"))
-      cv::imwrite(args.get("out-png", ""),
-                  colourDisparity(disparityToFloat(out.disparity), params.min_disparity + params.num_disparities));
+    if (args.has("out-png")) {
+      const std::string png = args.get("out-png", "");
+      // imwrite reports an unwritable path by returning false (or throwing for an unknown extension).
+      if (!cv::imwrite(png,
+                       colourDisparity(disparityToFloat(out.disparity), params.min_disparity + params.num_disparities)))
+        throw std::runtime_error("cannot write " + png);
+    }
     const int valid = cv::countNonZero(out.disparity != kInvalidDisparity);
     std::cout << left.cols << "x" << left.rows << " " << params.describe() << "\n"
               << "density " << 100.0 * valid / out.disparity.total() << " %, " << out.total_ms << " ms (device "
