@@ -181,6 +181,48 @@ TEST(HostileInput, ForgedStampFarAheadIsNeverAdopted) {
   EXPECT_EQ(order.lastUtime(), t);
 }
 
+TEST(HostileInput, StampAFewSecondsAheadOfAKnownRhythmIsRefused) {
+  ips::fw::StreamOrder::Limits limits;
+  ips::fw::StreamOrder order(limits);
+  int64_t t = 1'000'000;
+  for (int i = 1; i <= 20; ++i) ASSERT_TRUE(order.check(t += 5'000, i).accept);
+  // 200 Hz: more than gap_intervals (20) periods ahead is off the time line, even though it is far below the
+  // 10 s a stream of unknown rhythm may step.
+  EXPECT_FALSE(order.check(t + 3'000'000, 21).accept);
+  EXPECT_FALSE(order.check(t + 200'000, 21).accept);
+  // A genuine gap within the limit (ten samples lost) stays on the time line, counted as lost.
+  auto gap = order.check(t += 55'000, 31);
+  EXPECT_TRUE(gap.accept);
+  EXPECT_EQ(gap.gap, 10);
+  EXPECT_FALSE(gap.clock_step);
+  // A longer outage of a real source (0.5 s) is followed after `confirm` samples, as a clock step.
+  t += 500'000;
+  for (int i = 1; i < limits.confirm; ++i) EXPECT_FALSE(order.check(t += 5'000, 130 + i).accept) << i;
+  EXPECT_TRUE(order.check(t += 5'000, 130 + limits.confirm).clock_step);
+}
+
+TEST(HostileInput, HealthMessagesNamingNoPossibleProcessAreRefused) {
+  ips::health_t h = ips::test_support::sampleHealth();
+  EXPECT_TRUE(ips::fw::validate(h, "HEALTH_TRACKER").ok());
+  EXPECT_EQ(ips::fw::healthChannel("filter_ukf"), "HEALTH_FILTER_UKF");
+  EXPECT_EQ(ips::fw::validate(h, "HEALTH_FILTER").reason, "bad_value");  // misdirected
+  ips::health_t bad = h;
+  bad.process = std::string("trac\xff\x01r");
+  EXPECT_FALSE(ips::fw::validate(bad, "HEALTH_TRAC\xff\x01R").ok());
+  bad = h;
+  bad.process = "";
+  EXPECT_FALSE(ips::fw::validate(bad, "HEALTH_").ok());
+  bad = h;
+  bad.dropped = -4;
+  EXPECT_FALSE(ips::fw::validate(bad, "HEALTH_TRACKER").ok());
+  bad = h;
+  bad.latency_ms = std::nan("");
+  EXPECT_EQ(ips::fw::validate(bad, "HEALTH_TRACKER").reason, "nan");
+  bad = h;
+  bad.counter_names[1] = "x y";
+  EXPECT_FALSE(ips::fw::validate(bad, "HEALTH_TRACKER").ok());
+}
+
 TEST(HostileInput, GenuineClockStepIsFollowedAfterConfirmation) {
   ips::fw::StreamOrder::Limits limits;
   ips::fw::StreamOrder order(limits);

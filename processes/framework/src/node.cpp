@@ -7,17 +7,13 @@
 #include <stdexcept>
 
 #include "ips/framework/channels.hpp"
+#include "ips/framework/validate.hpp"
 
 namespace ips::fw {
 
 namespace {
 std::atomic<bool> g_stop{false};
 extern "C" void onSignal(int) { g_stop = true; }
-
-std::string upper(std::string s) {
-  for (auto& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-  return s;
-}
 }  // namespace
 
 std::string resolveLcmUrl(const std::string& cli_url) {
@@ -40,7 +36,7 @@ void requestStop() { g_stop = true; }
 
 Node::Node(const std::string& process_name, const std::string& lcm_url)
     : name_(process_name),
-      health_channel_(std::string(channels::kHealthPrefix) + upper(process_name)),
+      health_channel_(healthChannel(process_name)),
       lcm_(std::make_unique<lcm::LCM>(resolveLcmUrl(lcm_url))),
       health_(process_name) {
   if (!lcm_->good()) throw std::runtime_error("cannot initialise LCM with URL '" + resolveLcmUrl(lcm_url) + "'");
@@ -49,6 +45,8 @@ Node::Node(const std::string& process_name, const std::string& lcm_url)
   // A second process started under this name by mistake (two trackers) would publish on the same channels and
   // the same health channel; its health messages carry another host or pid, which is counted and warned of.
   subscribe<ips::health_t>(health_channel_, [this](const ips::health_t& h) {
+    const Verdict v = validate(h, health_channel_);
+    if (!v.ok()) return health_.bad(v.reason, v.detail);
     if (h.pid == static_cast<int32_t>(getpid()) && h.host == health_.host()) return;
     if (health_.counter("other_process_same_name") == 0)
       IPS_WARN("another process named '" << name_ << "' runs on " << h.host << " (pid " << h.pid

@@ -1,6 +1,10 @@
 #include "ips/framework/validate.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+
+#include "ips/framework/channels.hpp"
 
 namespace ips::fw {
 
@@ -81,6 +85,44 @@ Verdict validate(const ips::filter_state_t& m) {
   return {};
 }
 
+namespace {
+bool isName(const std::string& s) {
+  if (s.empty() || s.size() > 64) return false;
+  for (unsigned char c : s)
+    if (!(std::isalnum(c) || c == '_' || c == '-' || c == '.')) return false;
+  return true;
+}
+bool isPrintable(const std::string& s) {
+  if (s.size() > 255) return false;
+  for (unsigned char c : s)
+    if (c < 0x20 || c > 0x7e) return false;
+  return true;
+}
+}  // namespace
+
+std::string healthChannel(const std::string& process_name) {
+  std::string ch = process_name;
+  for (auto& c : ch) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return channels::kHealthPrefix + ch;
+}
+
+Verdict validate(const ips::health_t& m, const std::string& channel) {
+  if (!isName(m.process)) return bad("bad_value", "health message with an impossible process name");
+  if (!isPrintable(m.host)) return bad("bad_value", "health message with an unprintable host name");
+  if (channel != healthChannel(m.process))
+    return bad("bad_value", "health of '" + m.process + "' received on " + channel);
+  if (m.received < 0 || m.published < 0 || m.dropped < 0 || m.bad < 0 || m.queue_length < 0)
+    return bad("bad_value", "health message with a negative count");
+  if (!std::isfinite(m.input_rate_hz) || !std::isfinite(m.output_rate_hz) || !std::isfinite(m.latency_ms))
+    return bad("nan", "health message with NaN or inf");
+  if (m.num_counters < 0 || static_cast<size_t>(m.num_counters) != m.counter_names.size() ||
+      m.counter_values.size() != m.counter_names.size())
+    return bad("bad_size", "health message with counters of wrong size");
+  for (const auto& n : m.counter_names)
+    if (!isName(n)) return bad("bad_value", "health message with an impossible counter name");
+  return {};
+}
+
 Verdict validate(const ips::disparity_map_t& m) {
   if (m.width <= 0 || m.height <= 0 || m.width > kMaxImageSide || m.height > kMaxImageSide ||
       static_cast<int>(m.data.size()) != m.height)
@@ -95,6 +137,24 @@ Verdict validate(const ips::disparity_map_t& m) {
 
 const char* StreamOrder::reason(Outcome o) {
   return o == Outcome::jump ? "time_jump" : o == Outcome::backwards ? "time_backwards" : "";
+}
+
+int64_t StreamOrder::maxStep() const {
+  if (num_steps_ < kSteps) return limits_.max_forward_step_us;
+  int64_t sorted[kSteps];
+  std::copy(steps_, steps_ + kSteps, sorted);
+  std::nth_element(sorted, sorted + kSteps / 2, sorted + kSteps);
+  const int64_t median = sorted[kSteps / 2];
+  const int64_t by_rhythm = median > limits_.max_forward_step_us / limits_.gap_intervals
+                                ? limits_.max_forward_step_us
+                                : median * limits_.gap_intervals;
+  return std::clamp(by_rhythm, limits_.min_forward_step_us, limits_.max_forward_step_us);
+}
+
+void StreamOrder::recordStep(int64_t step) {
+  steps_[next_step_] = step;
+  next_step_ = (next_step_ + 1) % kSteps;
+  num_steps_ = std::min(num_steps_ + 1, kSteps);
 }
 
 StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
@@ -112,7 +172,8 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
       return r;
     }
     r.clock_step = true;
-    first_ = true;  // the new line starts here: no sequence gap is counted across the step
+    first_ = true;   // the new line starts here: no sequence gap is counted across the step
+    num_steps_ = 0;  // and its rhythm is learnt again
   }
   candidate_count_ = 0;
   if (!first_) {
@@ -129,6 +190,7 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
         r.seq_reset = true;
     }
   }
+  if (!first_) recordStep(utime - last_utime_);
   first_ = false;
   last_utime_ = utime;
   last_seq_ = seq;

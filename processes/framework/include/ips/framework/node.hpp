@@ -42,6 +42,9 @@ class Node {
   // counted ("handler_error") and logged, and the process goes on.
   template <class Msg>
   void subscribe(const std::string& channel, std::function<void(const Msg&)> handler);
+  // The same for a channel pattern, with the channel each message came on.
+  template <class Msg>
+  void subscribeWithChannel(const std::string& pattern, std::function<void(const Msg&, const std::string&)> handler);
 
   // Encodes and publishes; counts it in the health message.
   template <class Msg>
@@ -85,8 +88,14 @@ class Node {
 
 template <class Msg>
 void Node::subscribe(const std::string& channel, std::function<void(const Msg&)> handler) {
+  subscribeWithChannel<Msg>(channel, [handler](const Msg& m, const std::string&) { handler(m); });
+}
+
+template <class Msg>
+void Node::subscribeWithChannel(const std::string& pattern,
+                                std::function<void(const Msg&, const std::string&)> handler) {
   auto recent = std::make_shared<RecentMessages>();
-  subscribeRaw(channel, [this, channel, handler, recent](const lcm::ReceiveBuffer* rbuf, const std::string&) {
+  subscribeRaw(pattern, [this, handler, recent](const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     Msg msg;
     int decoded = -1;
     std::string why = "does not decode";
@@ -106,7 +115,7 @@ void Node::subscribe(const std::string& channel, std::function<void(const Msg&)>
       return;
     }
     try {
-      handler(msg);
+      handler(msg, channel);
     } catch (const std::exception& e) {
       health_.bad("handler_error", "on " + channel + ": " + e.what());
     }

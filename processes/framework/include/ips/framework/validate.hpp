@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
+#include <ips/health_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
@@ -30,6 +31,12 @@ Verdict validate(const ips::tilt_sample_t& m);
 Verdict validate(const ips::tracker_delta_t& m);
 Verdict validate(const ips::filter_state_t& m);
 Verdict validate(const ips::disparity_map_t& m);
+// A health message: names a process could have (letters, digits, '_', '-', '.'), non-negative counts, finite
+// rates, and received on the channel of the process it names (HEALTH_ + its name in upper case), so that a
+// damaged or misdirected one cannot invent a process in an overview.
+Verdict validate(const ips::health_t& m, const std::string& channel);
+// The channel a process publishes its health on.
+std::string healthChannel(const std::string& process_name);
 
 // Order and plausibility of one stream of stamped messages. Time must increase; a stamp far ahead of the
 // stream's recent ones (a forged or corrupt message, one bad clock read) is rejected, never adopted, so one bad
@@ -41,9 +48,17 @@ Verdict validate(const ips::disparity_map_t& m);
 class StreamOrder {
  public:
   struct Limits {
-    // Largest plausible step between two consecutive stamps of one stream. Every sensor of the head sends
-    // continuously at 8 Hz or more; 10 s of silence followed by data is a different time line.
+    // Largest plausible step between two consecutive stamps of one stream, before its rhythm is known. Every
+    // sensor of the head sends continuously at 8 Hz or more; 10 s of silence followed by data is a different
+    // time line.
     int64_t max_forward_step_us = 10'000'000;
+    // Once the stream's rhythm is known (the median of its recent steps), a step of more than this many
+    // intervals is off the time line: up to that many messages lost in a row is a gap (counted from the
+    // sequence numbers), more is a stamp to be confirmed. For the IMU at 200 Hz that is 100 ms, for 8 Hz pairs
+    // 2.5 s: a corrupt stamp a few seconds ahead is refused instead of pulling the stream's time forward.
+    int gap_intervals = 20;
+    // Never tighter than this, whatever the rhythm: jitter of a driver's stamps, a sensor sending in bursts.
+    int64_t min_forward_step_us = 50'000;
     // Messages in a row on a new time line before it is adopted: one forged stamp never is, and a real clock
     // step costs this many messages.
     int confirm = 5;
@@ -67,10 +82,14 @@ class StreamOrder {
   static const char* reason(Outcome o);
 
  private:
-  bool fitsAfter(int64_t utime, int64_t previous) const {
-    return utime > previous && utime - previous <= limits_.max_forward_step_us;
-  }
+  bool fitsAfter(int64_t utime, int64_t previous) const { return utime > previous && utime - previous <= maxStep(); }
+  int64_t maxStep() const;
+  void recordStep(int64_t step);
   Limits limits_;
+  // The stream's recent accepted steps, for its rhythm.
+  static constexpr int kSteps = 9;
+  int64_t steps_[kSteps] = {};
+  int num_steps_ = 0, next_step_ = 0;
   bool first_ = true;
   int64_t last_utime_ = 0;
   int64_t last_seq_ = 0;
