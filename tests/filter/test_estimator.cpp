@@ -320,6 +320,60 @@ TEST(FilterEstimator, RecoversFromAnImuGap) {
   }
 }
 
+TEST(FilterEstimator, AStampAheadOfTheImuDoesNotMakeRealMeasurementsLate) {
+  // A corrupt tracker delta and image time 2 s ahead of the IMU (within what the stream checks let through for
+  // 8 Hz pairs): the IMU's stamps drive the release, so nothing real becomes too late, and the forged delta,
+  // whose older time is no image the filter has seen, changes nothing.
+  const AnalyticWalk walk;
+  const ips::StereoCalibration calib = testbedCalibration();
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, SensorSimParams{}, calib, 16);
+    FilterParams p = paramsFor(type);
+    Estimator est(p, calib), reference(p, calib);
+    est.initialize(sim.truth(0), initialCovariance(p.init));
+    reference.initialize(sim.truth(0), initialCovariance(p.init));
+    std::vector<Msg> msgs = makeMessages(sim, 0, 8'000'000);
+    // The tilt sensor's samples arrive 30 ms after their stamps, within the reordering window.
+    for (Msg& m : msgs)
+      if (m.kind == 1) m.arrival += 30'000;
+    std::stable_sort(msgs.begin(), msgs.end(), [](const Msg& a, const Msg& b) { return a.arrival < b.arrival; });
+    feed(reference, msgs);
+    reference.flush();
+    std::vector<Msg> attacked;
+    for (const Msg& m : msgs) {
+      attacked.push_back(m);
+      if (m.kind == 2 && m.image == 4'000'000) {
+        Msg forged = m;
+        forged.kind = 3;
+        forged.delta = sim.delta(3'875'000, 4'000'000);
+        forged.delta.utime = 6'000'000;
+        forged.delta.utime_prev = 5'937'000;
+        attacked.push_back(forged);
+        Msg image = m;
+        image.image = 6'010'000;
+        attacked.push_back(image);
+      }
+    }
+    feed(est, attacked);
+    est.flush();
+    // Released by any sensor's newest stamp instead, the same input leaves no reordering window for 2 s: the
+    // late tilt samples of that time are lost.
+    FilterParams any_stamp = p;
+    any_stamp.imu_silence_release_us = 0;
+    Estimator naive(any_stamp, calib);
+    naive.initialize(sim.truth(0), initialCovariance(p.init));
+    feed(naive, attacked);
+    naive.flush();
+    EXPECT_GT(naive.counters()[kSensorTilt].too_late, 10);
+    for (int s = 0; s < kNumSensors; ++s)
+      if (s != kSensorTracker && s != kSensorImage)
+        EXPECT_EQ(est.counters()[s].too_late, 0) << est.counters()[s].name << " " << toString(type);
+    const FilterOutput a = est.current(), b = reference.current();
+    EXPECT_EQ(a.state.utime, b.state.utime);
+    EXPECT_LT((a.state.position - b.state.position).norm(), 1e-3) << toString(type);
+  }
+}
+
 TEST(FilterEstimator, FusedWalkIsAccurateAndConsistentForBothFilters) {
   WalkParams wp;
   const AnalyticWalk walk(wp);

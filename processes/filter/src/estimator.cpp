@@ -137,7 +137,11 @@ void Estimator::insert(Event&& e) {
   const int64_t t = e.time;
   buffer_.emplace(t, std::move(e));  // equal times keep arrival order
   newest_time_ = std::max(newest_time_, t);
-  release(newest_time_ - params_.reorder_window_us);
+  if (e.sensor == kSensorImu) newest_imu_time_ = std::max(newest_imu_time_, t);
+  const int64_t horizon = newest_imu_time_ == INT64_MIN
+                              ? newest_time_
+                              : std::max(newest_imu_time_, newest_time_ - params_.imu_silence_release_us);
+  release(horizon - params_.reorder_window_us);
 }
 
 void Estimator::release(int64_t up_to) {

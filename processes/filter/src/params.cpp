@@ -64,6 +64,8 @@ FilterParams loadFilterParams(const Config& c) {
 
   p.reorder_window_us = c.getInt("reorder_window_us", static_cast<int>(p.reorder_window_us));
   nonNegative(c, "reorder_window_us", static_cast<double>(p.reorder_window_us));
+  p.imu_silence_release_us = c.getInt("imu_silence_release_us", static_cast<int>(p.imu_silence_release_us));
+  nonNegative(c, "imu_silence_release_us", static_cast<double>(p.imu_silence_release_us));
   p.max_clones = c.getInt("max_clones", p.max_clones);
   if (p.max_clones < 2) throw ConfigError(c.path() + ": key 'max_clones' must be at least 2");
 

@@ -137,7 +137,8 @@ class Estimator {
   bool initialized_ = false;
   int64_t starts_in_motion_ = 0;
   std::multimap<int64_t, Event> buffer_;
-  int64_t newest_time_ = INT64_MIN;
+  int64_t newest_time_ = INT64_MIN;      // of any sensor
+  int64_t newest_imu_time_ = INT64_MIN;  // of the IMU
   int64_t processed_time_ = INT64_MIN;
   std::array<SensorCounters, kNumSensors> counters_;
   int64_t imu_gaps_ = 0;

@@ -80,7 +80,12 @@ struct FilterParams {
   int64_t camera_latency_us = 0;
 
   int64_t reorder_window_us = 50'000;  // measurements are held this long so that they can be sorted
-  int max_clones = 3;                  // pose clones kept at image times
+  // The IMU's stamps drive that release: it is the densest, most regular stream. Another sensor's stamp may
+  // lead the IMU's newest by at most this much before it drives the release itself (the IMU has fallen
+  // silent); a corrupt stamp a little ahead, which the stream checks cannot refuse (up to 20 intervals of the
+  // 8 Hz pairs, 2.5 s), then cannot make every real measurement too late.
+  int64_t imu_silence_release_us = 3'000'000;
+  int max_clones = 3;  // pose clones kept at image times
 
   double gate_probability = 0.9995;  // chi-square gate on the Mahalanobis distance of every measurement
   bool gate_imu = true;
