@@ -290,30 +290,42 @@ int main(int argc, char** argv) {
       failures.push_back("the recorder restarted (" + std::to_string(parts.size()) +
                          " parts): messages published between the parts are missing");
     int64_t events = 0;
+    // The recording holds whatever was on the bus, damaged, repeated or forged messages included: each channel's
+    // stamps pass the same checks as in the processes, so a repeat or a stamp off the time line is not counted.
+    std::map<std::string, ips::fw::StreamOrder> order;
+    auto inOrder = [&](const std::string& ch, int64_t utime) {
+      if (order[ch].check(utime, 0).accept) return true;
+      ++bad_messages;
+      return false;
+    };
     for (const auto& part : parts)
       events += forEachMessage(part, failures, [&](const ips::fw::LogMessage& m) {
         const std::string& ch = m.channel;
         if (ch == "GT_POSE") {
           last_input_log_us = std::max(last_input_log_us, m.timestamp);
           ips::ground_truth_t g{};
-          if (decode(m, &g)) gt.push_back(toPoint(g.utime, g.position, g.orientation));
+          if (decode(m, &g) && inOrder(ch, g.utime)) gt.push_back(toPoint(g.utime, g.position, g.orientation));
         } else if (ch == "GT_DISPARITY" || ch == "DISPARITY") {
           ips::disparity_map_t d;
           if (!decode(m, &d) || !ips::fw::validate(d).ok()) {
             ++bad_messages;
             return;
           }
-          (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
+          if (inOrder(ch, d.utime)) (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
         } else if (ch == "TRACKER_DELTA") {
           ips::tracker_delta_t d;
-          if (decode(m, &d)) {
+          if (!decode(m, &d) || !ips::fw::validate(d).ok()) {
+            ++bad_messages;
+            return;
+          }
+          if (inOrder(ch, d.utime)) {
             delta_msgs.push_back(d);
             ++deltas;
             deltas_valid += d.valid ? 1 : 0;
           }
         } else if (ch.rfind("HEALTH_", 0) == 0) {
           ips::health_t h;
-          if (!decode(m, &h)) {
+          if (!decode(m, &h) || !ips::fw::validate(h, ch).ok()) {
             ++bad_messages;
             return;
           }
@@ -326,7 +338,9 @@ int main(int argc, char** argv) {
           for (auto& run : runs)
             if (ch == run.channel) {
               ips::filter_state_t s;
-              if (decode(m, &s) && ips::fw::validate(s).ok() && !s.a_priori) {
+              if (!decode(m, &s) || !ips::fw::validate(s).ok()) {
+                ++bad_messages;
+              } else if (!s.a_priori && inOrder(ch, s.utime)) {
                 run.type = s.filter_type;
                 run.states.push_back(std::move(s));
               }
