@@ -2,7 +2,7 @@
 // The search windows of the inter-matching are placed by the best motion prior on the bus: the filter's
 // a-priori state at the new image time (FILTER_PRIOR) when a filter runs, else the gyro (IMU), else constant
 // velocity. When a filter has been seen, a pair waits for its prior (the filter publishes one for every image
-// time), so that a replayed log gives the same deltas as the live run.
+// time), else for the IMU to cover its time, so that a replayed log gives the same deltas as the live run.
 #include <ips/filter_state_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
@@ -104,14 +104,19 @@ class TrackerProcess {
   void onImu(const ips::imu_sample_t& m) {
     if (!ips::fw::validate(m).ok()) return;  // the filter counts bad IMU input; here it only places windows
     priors_.addGyro(m.utime, Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2]));
+    if (!pending_.empty()) drain();
   }
 
   void drain() {
     while (!pending_.empty()) {
       const int64_t t = pending_.begin()->first;
-      // Without a filter on the bus, nothing to wait for; with one, wait for its prior of this image time,
-      // but never hold more than one pair back.
-      if (!priors_.filterSeen() || priors_.hasFilterState(t) || pending_.size() > 1)
+      // With a filter on the bus, wait for its prior of this image time; else, with an IMU, for gyro samples up
+      // to the image time (a pair can arrive before the IMU samples of its exposure: images take longer to
+      // transfer). Which prior a pair gets then depends on stamps, not on arrival, and a replay repeats the live
+      // run. Never hold more than one pair back.
+      const bool prior_ready =
+          priors_.filterSeen() ? priors_.hasFilterState(t) : !priors_.gyroSeen() || priors_.gyroCovers(t);
+      if (prior_ready || pending_.size() > 1)
         processOldest();
       else
         break;

@@ -43,6 +43,9 @@ class PriorBuilder {
 
   bool filterSeen() const { return filter_seen_; }
   bool hasFilterState(int64_t utime) const { return filter_.count(utime) > 0; }
+  bool gyroSeen() const { return !gyro_.empty(); }
+  // The gyro samples reach t: a prior from them no longer depends on when the rest arrives.
+  bool gyroCovers(int64_t utime) const { return !gyro_.empty() && gyro_.back().first >= utime; }
 
   // Camera 0's motion from t0 to t1 from the filter's states at both times; nullopt unless both are held.
   std::optional<MotionPrior> fromFilter(int64_t t0, int64_t t1) const;
