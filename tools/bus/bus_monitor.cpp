@@ -54,13 +54,15 @@ class Monitor {
   }
 
   void watchHealth() {
-    node_.subscribeWithChannel<ips::health_t>(std::string(ips::channels::kHealthPrefix) + ".*",
-                                              [this](const ips::health_t& h, const std::string& channel) {
-                                                ips::fw::Verdict v = ips::fw::validate(h, channel);
-                                                if (!v.ok()) return node_.health().bad(v.reason, v.detail);
-                                                health_[h.process] = h;
-                                                publishers_[h.process].insert(h.host + ":" + std::to_string(h.pid));
-                                              });
+    node_.subscribeWithChannel<ips::health_t>(
+        std::string(ips::channels::kHealthPrefix) + ".*",
+        [this](const ips::health_t& h, const std::string& channel) {
+          ips::fw::Verdict v = ips::fw::validate(h, channel);
+          if (!v.ok()) return node_.health().bad(v.reason, v.detail);
+          health_[h.process] = h;
+          publishers_[h.process].insert(h.host + ":" + std::to_string(h.pid));
+        },
+        /*drop_repeats=*/false);  // an idle process reports alike twice
   }
 
   int64_t received(const std::string& channel) { return stats_[channel].received; }

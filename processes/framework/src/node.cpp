@@ -44,15 +44,19 @@ Node::Node(const std::string& process_name, const std::string& lcm_url)
   installSignalHandlers();
   // A second process started under this name by mistake (two trackers) would publish on the same channels and
   // the same health channel; its health messages carry another host or pid, which is counted and warned of.
-  subscribe<ips::health_t>(health_channel_, [this](const ips::health_t& h) {
-    const Verdict v = validate(h, health_channel_);
-    if (!v.ok()) return health_.bad(v.reason, v.detail);
-    if (h.pid == static_cast<int32_t>(getpid()) && h.host == health_.host()) return;
-    if (health_.counter("other_process_same_name") == 0)
-      IPS_WARN("another process named '" << name_ << "' runs on " << h.host << " (pid " << h.pid
-                                         << "): both publish on the same channels");
-    health_.count("other_process_same_name");
-  });
+  // Two reports of an idle process are identical: not repeats to drop.
+  subscribeWithChannel<ips::health_t>(
+      health_channel_,
+      [this](const ips::health_t& h, const std::string&) {
+        const Verdict v = validate(h, health_channel_);
+        if (!v.ok()) return health_.bad(v.reason, v.detail);
+        if (h.pid == static_cast<int32_t>(getpid()) && h.host == health_.host()) return;
+        if (health_.counter("other_process_same_name") == 0)
+          IPS_WARN("another process named '" << name_ << "' runs on " << h.host << " (pid " << h.pid
+                                             << "): both publish on the same channels");
+        health_.count("other_process_same_name");
+      },
+      /*drop_repeats=*/false);
 }
 
 Node::~Node() {

@@ -42,9 +42,11 @@ class Node {
   // counted ("handler_error") and logged, and the process goes on.
   template <class Msg>
   void subscribe(const std::string& channel, std::function<void(const Msg&)> handler);
-  // The same for a channel pattern, with the channel each message came on.
+  // The same for a channel pattern, with the channel each message came on. `drop_repeats` false for a stream
+  // whose messages may legitimately repeat byte for byte (an idle process's health reports).
   template <class Msg>
-  void subscribeWithChannel(const std::string& pattern, std::function<void(const Msg&, const std::string&)> handler);
+  void subscribeWithChannel(const std::string& pattern, std::function<void(const Msg&, const std::string&)> handler,
+                            bool drop_repeats = true);
 
   // Encodes and publishes; counts it in the health message.
   template <class Msg>
@@ -92,9 +94,9 @@ void Node::subscribe(const std::string& channel, std::function<void(const Msg&)>
 }
 
 template <class Msg>
-void Node::subscribeWithChannel(const std::string& pattern,
-                                std::function<void(const Msg&, const std::string&)> handler) {
-  auto recent = std::make_shared<RecentMessages>();
+void Node::subscribeWithChannel(const std::string& pattern, std::function<void(const Msg&, const std::string&)> handler,
+                                bool drop_repeats) {
+  auto recent = drop_repeats ? std::make_shared<RecentMessages>() : nullptr;
   subscribeRaw(pattern, [this, handler, recent](const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
     Msg msg;
     int decoded = -1;
@@ -110,7 +112,7 @@ void Node::subscribeWithChannel(const std::string& pattern,
                                       why + " as " + Msg::getTypeName());
       return;
     }
-    if (recent->seenBefore(rbuf->data, rbuf->data_size)) {
+    if (recent && recent->seenBefore(rbuf->data, rbuf->data_size)) {
       health_.dropped("duplicate");
       return;
     }
