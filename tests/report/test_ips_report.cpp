@@ -52,10 +52,11 @@ ips::filter_state_t state(int64_t utime, double x) {
   return s;
 }
 
-// A walk along x at 1 m/s for 10 s: ground truth at 10 Hz, EKF states at 10 Hz until `states_until_us`.
-void writeRun(const std::string& path, int64_t states_until_us) {
+// A walk along x at 1 m/s for 10 s: ground truth at 10 Hz, EKF states at 10 Hz until `states_until_us`, both
+// until `played_until_us`.
+void writeRun(const std::string& path, int64_t states_until_us, int64_t played_until_us = 11'000'000) {
   Recording r(path);
-  for (int64_t t = 1'000'000; t <= 11'000'000; t += 100'000) {
+  for (int64_t t = 1'000'000; t <= played_until_us; t += 100'000) {
     const double x = (t - 1'000'000) * 1e-6;
     r.add("GT_POSE", t, pose(t, x));
     if (t <= states_until_us) r.add("FILTER_STATE", t, state(t, x));
@@ -67,12 +68,12 @@ struct Result {
   std::string report;  // report.json, empty if none
 };
 
-Result runReport(const std::string& log, const std::string& name) {
+Result runReport(const std::string& log, const std::string& name, const std::string& more_args = "") {
   const fs::path out = fs::path(testing::TempDir()) / ("ips_report_" + std::to_string(getpid()) + "_" + name);
   fs::remove_all(out);
   fs::create_directories(out);
-  const std::string cmd =
-      std::string(IPS_REPORT) + " --log " + log + " --out " + out.string() + " > /dev/null 2>" + (out / "err").string();
+  const std::string cmd = std::string(IPS_REPORT) + " --log " + log + " --out " + out.string() + " " + more_args +
+                          " > /dev/null 2>" + (out / "err").string();
   const int status = std::system(cmd.c_str());
   Result r;
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -103,6 +104,20 @@ TEST(IpsReport, StatesStoppingBeforeTheEndFailTheRun) {
   EXPECT_EQ(r.exit_code, 4);
   EXPECT_NE(r.report.find("\"status\": \"failed\""), std::string::npos) << r.report;
   EXPECT_NE(r.report.find("FILTER_STATE: states stop"), std::string::npos) << r.report;
+}
+
+TEST(IpsReport, AnInputPlayedOnlyInPartFailsTheRun) {
+  // The player's deputy was killed at 6 s: the recording is consistent in itself (states to the end of what
+  // was played) but covers part of the input.
+  const std::string input = tempLog("input"), partial = tempLog("partial"), whole = tempLog("whole");
+  writeRun(input, 11'000'000);
+  writeRun(partial, 6'000'000, 6'000'000);
+  writeRun(whole, 11'000'000);
+  Result r = runReport(partial, "partial", "--images " + input + " --pictures 0");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("the player stopped early"), std::string::npos) << r.report;
+  r = runReport(whole, "whole", "--images " + input + " --pictures 0");
+  EXPECT_EQ(r.exit_code, 0) << r.report;
 }
 
 TEST(IpsReport, DamagedOrEmptyLogsFailTheRun) {

@@ -373,6 +373,18 @@ int main(int argc, char** argv) {
         if ((last_input_log_us - last_us) * 1e-6 > kMaxHealthSilenceS)
           failures.push_back("process " + process + " stopped reporting " +
                              std::to_string((last_input_log_us - last_us) * 1e-6) + " s before the end of the input");
+      // The input itself played to its end: a player stopped early (its deputy killed, the disk full) leaves a
+      // recording that is complete in itself but covers part of the walk.
+      if (args.has("--images")) {
+        int64_t input_log_gt_end = 0;
+        forEachMessage(args.get("--images"), failures, [&](const ips::fw::LogMessage& m) {
+          ips::ground_truth_t g{};
+          if (m.channel == "GT_POSE" && decode(m, &g)) input_log_gt_end = std::max(input_log_gt_end, g.utime);
+        });
+        if (input_log_gt_end * 1e-6 - input_end > kMaxStateGapS)
+          failures.push_back("the input was played to t=" + std::to_string(input_end) + " s of its " +
+                             std::to_string(input_log_gt_end * 1e-6) + " s (the player stopped early)");
+      }
     }
     std::sort(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t < b.t; });
     gt.erase(std::unique(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t == b.t; }),
