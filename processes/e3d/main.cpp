@@ -62,7 +62,7 @@ class E3dProcess {
 
  private:
   void onStereo(const ips::stereo_pair_t& m) {
-    if (!admission_.admit(m, node_.health())) return;
+    if (!admission_.admit(m, node_.health(), node_.arrivalUs())) return;
     if (every_nth_ > 1 && m.seq % every_nth_ != 0) return;  // not selected: neither work nor loss
     node_.health().accepted();
     Job job{m.utime, m.seq, ips::fw::mono8Copy(ips::fw::leftImage(m)), ips::fw::mono8Copy(ips::fw::rightImage(m))};

@@ -94,7 +94,7 @@ class FilterProcess {
     }
     // Across streams the estimator sorts (and counts what comes too late); within one stream a stamp that
     // does not increase, or leaps implausibly far, is a fault of the source and is never adopted.
-    if (!ips::fw::admitInOrder(order, m.utime, m.seq, node_.health(), what)) return false;
+    if (!ips::fw::admitInOrder(order, m.utime, m.seq, node_.health(), what, node_.arrivalUs())) return false;
     node_.health().accepted();
     return true;
   }

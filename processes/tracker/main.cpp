@@ -85,7 +85,7 @@ class TrackerProcess {
 
  private:
   void onStereo(const ips::stereo_pair_t& m) {
-    if (!admission_.admit(m, node_.health())) return;
+    if (!admission_.admit(m, node_.health(), node_.arrivalUs())) return;
     node_.health().accepted();
     Pending p{m.utime, m.seq, ips::fw::mono8Copy(ips::fw::leftImage(m)), ips::fw::mono8Copy(ips::fw::rightImage(m))};
     pending_.emplace(m.utime, std::move(p));

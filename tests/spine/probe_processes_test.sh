@@ -63,14 +63,14 @@ expect_counted() {  # expect_counted PROCESS NAME...: at least one of the counte
 }
 expect_counted tracker decode_error
 expect_counted tracker bad_size
-expect_counted tracker time_jump
+expect_counted tracker time_jump time_ahead_of_host
 expect_counted tracker other_process_same_name
 expect_counted filter decode_error
-expect_counted filter time_jump
+expect_counted filter time_jump time_ahead_of_host
 expect_counted filter nan
 expect_counted filter duplicate
 expect_counted e3d decode_error
-expect_counted e3d time_jump
+expect_counted e3d time_jump time_ahead_of_host
 grep -qE "^bus_monitor decode_error=[1-9]" "$W/monitor.txt" || { echo "FAIL: bus_monitor counted no decode error"; fail=1; }
 grep -qE "^bus_monitor .* bad=[1-9]" "$W/monitor.txt" || { echo "FAIL: bus_monitor counted no bad message"; fail=1; }
 # The damaged health messages on HEALTH_PROBE are refused, not shown as processes.

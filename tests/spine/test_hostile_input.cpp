@@ -201,6 +201,37 @@ TEST(HostileInput, StampAFewSecondsAheadOfAKnownRhythmIsRefused) {
   EXPECT_TRUE(order.check(t += 5'000, 130 + limits.confirm).clock_step);
 }
 
+TEST(HostileInput, LiveStampAheadOfTheHostClockIsRefused) {
+  // 8 Hz pairs arriving 30-60 ms after their stamps. A stamp 1.5 s ahead passes the rhythm test (20 intervals
+  // are 2.5 s) but not the host's clock: it arrived now, so it cannot be 1.5 s newer than the last pair.
+  ips::fw::StreamOrder::Limits limits;
+  ips::fw::StreamOrder order(limits);
+  const int64_t host_minus_head = 7'000'000'000;  // the host's clock and the head's differ: only the offset counts
+  int64_t t = 1'000'000;
+  for (int i = 1; i <= 20; ++i, t += 125'000)
+    ASSERT_TRUE(order.check(t, i, t + host_minus_head + 30'000 + (i % 3) * 15'000).accept) << i;
+  const int64_t now = t - 125'000 + host_minus_head + 40'000;
+  auto forged = order.check(t + 1'500'000, 21, now);
+  EXPECT_FALSE(forged.accept);
+  EXPECT_EQ(forged.outcome, ips::fw::StreamOrder::Outcome::ahead_of_host);
+  EXPECT_EQ(ips::fw::StreamOrder::reason(forged.outcome), std::string("time_ahead_of_host"));
+  // Without the arrival time (a log read offline) the same stamp is within the rhythm and accepted.
+  ips::fw::StreamOrder offline(limits);
+  int64_t u = 1'000'000;
+  for (int i = 1; i <= 20; ++i, u += 125'000) ASSERT_TRUE(offline.check(u, i).accept);
+  EXPECT_TRUE(offline.check(u - 125'000 + 1'500'000, 21).accept);
+  // The real stream goes on.
+  EXPECT_TRUE(order.check(t, 21, t + host_minus_head + 35'000).accept);
+}
+
+TEST(HostileInput, ReplayFasterThanRealTimeIsNotAheadOfTheHost) {
+  // lcm-logplayer at 4x: every pair arrives 94 ms "earlier" than the one before, over and over.
+  ips::fw::StreamOrder order;
+  int64_t t = 1'000'000, arrival = 50'000'000;
+  for (int i = 1; i <= 400; ++i, t += 125'000, arrival += 125'000 / 4)
+    ASSERT_TRUE(order.check(t, i, arrival).accept) << i;
+}
+
 TEST(HostileInput, HealthMessagesNamingNoPossibleProcessAreRefused) {
   ips::health_t h = ips::test_support::sampleHealth();
   EXPECT_TRUE(ips::fw::validate(h, "HEALTH_TRACKER").ok());

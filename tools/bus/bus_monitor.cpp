@@ -131,7 +131,7 @@ class Monitor {
       }
     }
     const int64_t seq = seqOf(m);
-    auto r = s.order.check(m.utime, seq != 0 ? seq : s.received);
+    auto r = s.order.check(m.utime, seq != 0 ? seq : s.received, node_.arrivalUs());
     if (!r.accept) ++s.backwards;
     s.gaps += r.gap;
     if (s.first_utime == 0) s.first_utime = m.utime;

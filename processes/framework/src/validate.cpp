@@ -136,7 +136,16 @@ Verdict validate(const ips::disparity_map_t& m) {
 }
 
 const char* StreamOrder::reason(Outcome o) {
-  return o == Outcome::jump ? "time_jump" : o == Outcome::backwards ? "time_backwards" : "";
+  switch (o) {
+    case Outcome::jump:
+      return "time_jump";
+    case Outcome::backwards:
+      return "time_backwards";
+    case Outcome::ahead_of_host:
+      return "time_ahead_of_host";
+    default:
+      return "";
+  }
 }
 
 int64_t StreamOrder::maxStep() const {
@@ -157,9 +166,10 @@ void StreamOrder::recordStep(int64_t step) {
   num_steps_ = std::min(num_steps_ + 1, kSteps);
 }
 
-StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
+StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq, int64_t arrival_us) {
   Result r;
-  if (!first_ && !fitsAfter(utime, last_utime_)) {
+  const bool ahead_of_host = aheadOfHost(utime, arrival_us);
+  if (!first_ && (ahead_of_host || !fitsAfter(utime, last_utime_))) {
     // Not on the current time line: a candidate for a new one, adopted only once confirmed.
     if (candidate_count_ > 0 && fitsAfter(utime, candidate_utime_))
       ++candidate_count_;
@@ -168,12 +178,13 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
     candidate_utime_ = utime;
     if (candidate_count_ < limits_.confirm) {
       r.accept = false;
-      r.outcome = utime <= last_utime_ ? Outcome::backwards : Outcome::jump;
+      r.outcome = utime <= last_utime_ ? Outcome::backwards : ahead_of_host ? Outcome::ahead_of_host : Outcome::jump;
       return r;
     }
     r.clock_step = true;
-    first_ = true;   // the new line starts here: no sequence gap is counted across the step
-    num_steps_ = 0;  // and its rhythm is learnt again
+    first_ = true;           // the new line starts here: no sequence gap is counted across the step
+    num_steps_ = 0;          // and its rhythm is learnt again,
+    have_delivery_ = false;  // and its delivery
   }
   candidate_count_ = 0;
   if (!first_) {
@@ -191,13 +202,18 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq) {
     }
   }
   if (!first_) recordStep(utime - last_utime_);
+  if (arrival_us != 0) {
+    const int64_t delivery = arrival_us - utime;
+    fastest_delivery_us_ = have_delivery_ ? std::min(fastest_delivery_us_, delivery) : delivery;
+    have_delivery_ = true;
+  }
   first_ = false;
   last_utime_ = utime;
   last_seq_ = seq;
   return r;
 }
 
-bool StereoAdmission::admit(const ips::stereo_pair_t& m, Health& health) {
+bool StereoAdmission::admit(const ips::stereo_pair_t& m, Health& health, int64_t arrival_us) {
   health.received(m.utime);
   Verdict v = validate(m);
   if (!v.ok()) {
@@ -210,15 +226,18 @@ bool StereoAdmission::admit(const ips::stereo_pair_t& m, Health& health) {
                                std::to_string(height_) + ")");
     return false;
   }
-  return admitInOrder(order_, m.utime, m.seq, health, "stereo");
+  return admitInOrder(order_, m.utime, m.seq, health, "stereo", arrival_us);
 }
 
-bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health, const std::string& what) {
-  const StreamOrder::Result r = order.check(utime, seq);
+bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health, const std::string& what,
+                  int64_t arrival_us) {
+  const StreamOrder::Result r = order.check(utime, seq, arrival_us);
   if (!r.accept) {
     health.bad(StreamOrder::reason(r.outcome),
                what + " stamp " + std::to_string(utime) + " us " +
-                   (r.outcome == StreamOrder::Outcome::jump ? "implausibly far ahead of" : "not after") +
+                   (r.outcome == StreamOrder::Outcome::jump            ? "implausibly far ahead of"
+                    : r.outcome == StreamOrder::Outcome::ahead_of_host ? "ahead of the host's clock, after"
+                                                                       : "not after") +
                    " the stream's last one (" + std::to_string(order.lastUtime()) + " us)");
     return false;
   }

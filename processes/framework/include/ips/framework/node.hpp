@@ -32,6 +32,9 @@ class Node {
   Node& operator=(const Node&) = delete;
 
   const std::string& name() const { return name_; }
+  // When the message being handled arrived, on the host's clock (LCM's receive time) [us]; for the stream
+  // checks' host-clock test. 0 outside a handler.
+  int64_t arrivalUs() const { return arrival_us_; }
   Health& health() { return health_; }
   lcm::LCM& lcm() { return *lcm_; }
 
@@ -82,6 +85,7 @@ class Node {
   void subscribeRaw(const std::string& channel, std::function<void(const lcm::ReceiveBuffer*, const std::string&)> fn);
 
   std::string name_;
+  int64_t arrival_us_ = 0;
   std::string health_channel_;
   std::unique_ptr<lcm::LCM> lcm_;
   Health health_;
@@ -116,11 +120,13 @@ void Node::subscribeWithChannel(const std::string& pattern, std::function<void(c
       health_.dropped("duplicate");
       return;
     }
+    arrival_us_ = rbuf->recv_utime;
     try {
       handler(msg, channel);
     } catch (const std::exception& e) {
       health_.bad("handler_error", "on " + channel + ": " + e.what());
     }
+    arrival_us_ = 0;
   });
 }
 

@@ -2,6 +2,7 @@
 // Checks of incoming messages before anything uses them. Each returns an empty string when the message is
 // usable, else the reason (for the health counter) and a description. A process counts the reason and drops
 // only that message.
+#include <algorithm>
 #include <cstdint>
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
@@ -59,6 +60,11 @@ class StreamOrder {
     int gap_intervals = 20;
     // Never tighter than this, whatever the rhythm: jitter of a driver's stamps, a sensor sending in bursts.
     int64_t min_forward_step_us = 50'000;
+    // Live, a message cannot be delivered faster than the fastest of its stream: a stamp further ahead of the
+    // host's clock (mapped to the stream's clock by that fastest delivery) than this is implausible. Half a
+    // second: far above scheduling jitter, and above the drift of a log replayed faster than real time (at 5x,
+    // 0.1 s per 8 Hz pair).
+    int64_t max_lead_over_host_us = 500'000;
     // Messages in a row on a new time line before it is adopted: one forged stamp never is, and a real clock
     // step costs this many messages.
     int confirm = 5;
@@ -66,7 +72,7 @@ class StreamOrder {
     // what this rate and the time elapsed allow is a reset of the source's counter, not lost messages.
     double max_rate_hz = 10'000.0;
   };
-  enum class Outcome { accepted, backwards, jump };
+  enum class Outcome { accepted, backwards, jump, ahead_of_host };
   struct Result {
     bool accept = true;  // false: the time went backwards, repeated or jumped implausibly far
     Outcome outcome = Outcome::accepted;
@@ -76,13 +82,22 @@ class StreamOrder {
   };
   StreamOrder() : StreamOrder(Limits{}) {}
   explicit StreamOrder(Limits limits) : limits_(limits) {}
-  Result check(int64_t utime, int64_t seq);
+  // `arrival_us`: when the message arrived, on the host's clock (LCM's receive time), 0 when unknown (a log
+  // read offline): then the host-clock check is skipped.
+  Result check(int64_t utime, int64_t seq, int64_t arrival_us = 0);
   int64_t lastUtime() const { return last_utime_; }
   // The health counter name for a rejected message ("time_backwards" or "time_jump").
   static const char* reason(Outcome o);
 
  private:
   bool fitsAfter(int64_t utime, int64_t previous) const { return utime > previous && utime - previous <= maxStep(); }
+  // A replay faster than real time delivers each message up to one interval early: the tolerance is at least
+  // the stream's interval (a map every 3 s replayed at twice the speed leads by 1.5 s).
+  bool aheadOfHost(int64_t utime, int64_t arrival_us) const {
+    if (arrival_us == 0 || !have_delivery_) return false;
+    const int64_t tolerance = std::max(limits_.max_lead_over_host_us, maxStep() / limits_.gap_intervals);
+    return fastest_delivery_us_ - (arrival_us - utime) > tolerance;
+  }
   int64_t maxStep() const;
   void recordStep(int64_t step);
   Limits limits_;
@@ -90,6 +105,9 @@ class StreamOrder {
   static constexpr int kSteps = 9;
   int64_t steps_[kSteps] = {};
   int num_steps_ = 0, next_step_ = 0;
+  // The fastest delivery seen (arrival on the host's clock minus stamp): maps the host's clock to the stream's.
+  bool have_delivery_ = false;
+  int64_t fastest_delivery_us_ = 0;
   bool first_ = true;
   int64_t last_utime_ = 0;
   int64_t last_seq_ = 0;
@@ -101,7 +119,8 @@ class StreamOrder {
 // Checks one message of a stream with `order` and counts the outcome in `health` under the stream's name
 // `what`: rejected stamps as bad ("time_backwards", "time_jump"), lost messages as dropped ("<what>_seq_gap"),
 // sequence resets and confirmed clock steps as counters with a warning. False means: drop this message.
-bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health, const std::string& what);
+bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health, const std::string& what,
+                  int64_t arrival_us = 0);
 
 // The checks every consumer of stereo pairs makes before it uses one: a valid message of the calibrated size
 // whose stamp goes forward. Counts what it rejects (bad) and the pairs lost before this one (dropped, from
@@ -109,7 +128,7 @@ bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health
 class StereoAdmission {
  public:
   StereoAdmission(int width, int height) : width_(width), height_(height) {}
-  bool admit(const ips::stereo_pair_t& m, Health& health);
+  bool admit(const ips::stereo_pair_t& m, Health& health, int64_t arrival_us = 0);
 
  private:
   int width_, height_;
