@@ -87,7 +87,8 @@ done
 if ! wait $sheriff; then
   say "the sheriff failed; its log:"; cat "$run/sheriff.log"; exit 1
 fi
-kill -TERM $deputy; wait $deputy 2>/dev/null || true
+# (the deputy may be gone: killed, with another one started in its place that finished the job)
+kill -TERM $deputy 2>/dev/null || true; wait $deputy 2>/dev/null || true
 trap - EXIT
 
 # 4. The report.
