@@ -123,5 +123,5 @@ for victim in $VICTIMS; do
     fi
   done
 done
-[ $fail = 0 ] && say "PASS: three replays with a process killed in each: recoveries or flagged runs, memory flat"
+[ $fail = 0 ] && say "PASS: replays with the $VICTIMS killed: recovered or flagged, memory flat, recordings readable"
 exit $fail
