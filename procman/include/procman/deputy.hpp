@@ -1,7 +1,7 @@
 #pragma once
-// The procman deputy: runs on every machine, starts, watches and stops the commands a sheriff orders, and
-// reports them. Speaks the procman LCM protocol (package procman_lcm) so that the upstream procman sheriff
-// can drive it and our sheriff can drive an upstream deputy:
+// The procman deputy: runs on every machine, starts, watches and stops the commands a sheriff orders (through
+// its ProcessTable, which knows nothing of LCM), and reports them. Speaks the procman LCM protocol (package
+// procman_lcm) so that the upstream procman sheriff can drive it and our sheriff can drive an upstream deputy:
 //   PM_DISCOVER  discovery_t    sent for `discovery_ms` after start; another deputy with our id -> exit 2
 //   PM_INFO      deputy_info_t  sent every `info_period_ms` and after every change
 //   PM_ORDERS    orders_t       listened to only after the discovery period
@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "procman/process_table.hpp"
 #include "procman/safe_subscribe.hpp"
 #include "procman_lcm/deputy_info_t.hpp"
 #include "procman_lcm/discovery_t.hpp"
@@ -60,24 +61,17 @@ class Deputy {
   int run();
 
  private:
-  struct Command;
   void onDiscovery(const lcm::ReceiveBuffer*, const std::string&, const procman_lcm::discovery_t* msg);
   void onInfo(const lcm::ReceiveBuffer*, const std::string&, const procman_lcm::deputy_info_t* msg);
   void onOrders(const lcm::ReceiveBuffer*, const std::string&, const procman_lcm::orders_t* msg);
 
   void discoveryTick(int64_t now);
-  void startCommand(Command& cmd, int32_t runid);
-  void stopCommand(Command& cmd);
-  void reapChildren();
-  void readOutput(Command& cmd);
   void handleTimers(int64_t now);
-  void updateCpuAndMemory();
   void publishInfo();
   void transmit(const std::string& command_id, const std::string& text);
   void note(const std::string& command_id, const std::string& text);  // deputy's own message, also to stderr
   void flushOutput(bool force);
   void beginExit();
-  void removeCommand(const std::string& id);
 
   DeputyOptions opt_;
   std::unique_ptr<lcm::LCM> lcm_;
@@ -94,12 +88,10 @@ class Deputy {
   int64_t exit_deadline_us_ = 0;
   bool quit_ = false;
   int exit_code_ = kExitClean;
-  std::map<std::string, std::unique_ptr<Command>> commands_;
+  std::unique_ptr<ProcessTable> table_;  // the commands: process control without LCM
   procman_lcm::output_t pending_output_;
   size_t pending_bytes_ = 0;
   int64_t last_flush_us_ = 0;
-  struct SystemSample;
-  std::unique_ptr<SystemSample> sys_;
 };
 
 }  // namespace ips::procman
