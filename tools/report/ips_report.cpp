@@ -4,6 +4,7 @@
 // with the filter's 3-sigma bounds, and colour-mapped disparity maps beside their rectified images.
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <ips/disparity_map_t.hpp>
@@ -260,6 +261,9 @@ int main(int argc, char** argv) {
         .required("--out", "DIR", "output folder (report.json and PNG pictures)");
     if (!args.parse()) return 0;
     const std::string out = args.get("--out");
+    std::error_code mkdir_error;
+    std::filesystem::create_directories(out, mkdir_error);
+    if (mkdir_error) throw std::runtime_error("cannot create the output folder " + out + ": " + mkdir_error.message());
 
     std::vector<FilterRun> runs;
     {
