@@ -47,7 +47,7 @@ Eigen::Isometry3d groundTruthDelta(const std::string& source, const std::string&
 
 }  // namespace
 
-// The real two-frame test of the issue: 0.5 s apart, 0.32 m and 15.6 deg, no prior.
+// The real two-frame test: EuRoC pairs 0.5 s apart, 0.32 m and 15.6 deg, no prior.
 TEST(TrackerEuroc, MovingPairsAgainstBothGroundTruths) {
   const std::string t0 = "1403715400262142976", t1 = "1403715400762142976";
   const EurocCase c = loadEuroc(t0, t1);
