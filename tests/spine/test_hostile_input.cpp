@@ -224,6 +224,22 @@ TEST(HostileInput, LiveStampAheadOfTheHostClockIsRefused) {
   EXPECT_TRUE(order.check(t, 21, t + host_minus_head + 35'000).accept);
 }
 
+TEST(HostileInput, LiveSourcePausingForASecondIsFollowedAtOnce) {
+  // A 30 Hz tilt sensor silent for 1.2 s (far more than 20 intervals): its next sample arrives 1.2 s later on
+  // the host's clock too, so it is the same time line, not a jump to confirm. The same stamp arriving in the
+  // stream's rhythm is refused.
+  ips::fw::StreamOrder live, burst;
+  int64_t t = 1'000'000, arrival = 90'000'000;
+  for (int i = 1; i <= 20; ++i, t += 33'000, arrival += 33'000) {
+    ASSERT_TRUE(live.check(t, i, arrival + 2'000).accept);
+    ASSERT_TRUE(burst.check(t, i, arrival + 2'000).accept);
+  }
+  auto resumed = live.check(t + 1'200'000, 21, arrival + 1'200'000 + 2'500);
+  EXPECT_TRUE(resumed.accept);
+  EXPECT_FALSE(resumed.clock_step);
+  EXPECT_FALSE(burst.check(t + 1'200'000, 21, arrival + 2'500).accept);
+}
+
 TEST(HostileInput, ReplayFasterThanRealTimeIsNotAheadOfTheHost) {
   // lcm-logplayer at 4x: every pair arrives 94 ms "earlier" than the one before, over and over.
   ips::fw::StreamOrder order;

@@ -169,7 +169,7 @@ void StreamOrder::recordStep(int64_t step) {
 StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq, int64_t arrival_us) {
   Result r;
   const bool ahead_of_host = aheadOfHost(utime, arrival_us);
-  if (!first_ && (ahead_of_host || !fitsAfter(utime, last_utime_))) {
+  if (!first_ && (ahead_of_host || !(fitsAfter(utime, last_utime_) || pauseConfirmedByHost(utime, arrival_us)))) {
     // Not on the current time line: a candidate for a new one, adopted only once confirmed.
     if (candidate_count_ > 0 && fitsAfter(utime, candidate_utime_))
       ++candidate_count_;
@@ -202,6 +202,7 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq, int64_t arriv
     }
   }
   if (!first_) recordStep(utime - last_utime_);
+  last_arrival_us_ = arrival_us;
   if (arrival_us != 0) {
     const int64_t delivery = arrival_us - utime;
     fastest_delivery_us_ = have_delivery_ ? std::min(fastest_delivery_us_, delivery) : delivery;

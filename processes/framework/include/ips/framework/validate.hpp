@@ -91,6 +91,14 @@ class StreamOrder {
 
  private:
   bool fitsAfter(int64_t utime, int64_t previous) const { return utime > previous && utime - previous <= maxStep(); }
+  // Live, a longer step is a genuine pause of the source when the host's clock advanced as far between the two
+  // arrivals (within the rhythm's allowance): a sensor silent for a second is followed at once, a corrupt stamp
+  // arriving in the stream's rhythm is not.
+  bool pauseConfirmedByHost(int64_t utime, int64_t arrival_us) const {
+    if (arrival_us == 0 || last_arrival_us_ == 0 || utime <= last_utime_) return false;
+    const int64_t step = utime - last_utime_;
+    return step <= limits_.max_forward_step_us && arrival_us - last_arrival_us_ >= step - maxStep();
+  }
   // A replay faster than real time delivers each message up to one interval early: the tolerance is at least
   // the stream's interval (a map every 3 s replayed at twice the speed leads by 1.5 s).
   bool aheadOfHost(int64_t utime, int64_t arrival_us) const {
@@ -108,6 +116,7 @@ class StreamOrder {
   // The fastest delivery seen (arrival on the host's clock minus stamp): maps the host's clock to the stream's.
   bool have_delivery_ = false;
   int64_t fastest_delivery_us_ = 0;
+  int64_t last_arrival_us_ = 0;  // of the last accepted message, 0 when unknown
   bool first_ = true;
   int64_t last_utime_ = 0;
   int64_t last_seq_ = 0;
