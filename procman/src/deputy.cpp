@@ -67,7 +67,7 @@ Deputy::Deputy(DeputyOptions options) : opt_(std::move(options)) {
         for (uint64_t p = 1; p <= dropped; p *= 10)
           if (p == dropped)
             note("", "dropped a message on " + channel + " (" + reason + "); " + std::to_string(dropped) +
-                         " dropped so far");
+                         " dropped so far on it");
       });
   info_sub_ = subscriber_->subscribe(kInfoChannel, &Deputy::onInfo, this);
   subscriber_->subscribe(kDiscoverChannel, &Deputy::onDiscovery, this);

@@ -101,7 +101,7 @@ Sheriff::Sheriff(SheriffConfig config, SheriffOptions options) : opt_(std::move(
       *lcm_, [](const std::string& channel, const std::string& reason, uint64_t dropped) {
         for (uint64_t p = 1; p <= dropped; p *= 10)
           if (p == dropped)
-            std::fprintf(stderr, "procman-sheriff: dropped a message on %s (%s); %llu dropped so far\n",
+            std::fprintf(stderr, "procman-sheriff: dropped a message on %s (%s); %llu dropped so far on it\n",
                          channel.c_str(), reason.c_str(), static_cast<unsigned long long>(dropped));
       });
   subscriber_->subscribe(kInfoChannel, &Sheriff::onInfo, this);

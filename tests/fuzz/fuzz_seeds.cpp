@@ -17,10 +17,7 @@
 #include <vector>
 #if __has_include(<procman_lcm/orders_t.hpp>)
 #define IPS_FUZZ_PROCMAN 1
-#include <procman_lcm/deputy_info_t.hpp>
-#include <procman_lcm/discovery_t.hpp>
-#include <procman_lcm/orders_t.hpp>
-#include <procman_lcm/output_t.hpp>
+#include "ips/test_support/procman_samples.hpp"
 #endif
 
 #include "ips/drivers/mmq50.hpp"
@@ -78,44 +75,10 @@ int main(int argc, char** argv) {
   writeMessage(dir, gt);
 
 #ifdef IPS_FUZZ_PROCMAN
-  procman_lcm::cmd_t cmd{};
-  cmd.command_id = "tracker";
-  cmd.exec_str = "build/bin/tracker --calib $IPS_CALIB";
-  cmd.group = "ips";
-  cmd.auto_respawn = true;
-  cmd.stop_signal = 15;
-  cmd.stop_time_allowed = 7;
-  procman_lcm::orders_t orders{};
-  orders.utime = 1000;
-  orders.deputy_id = "local";
-  orders.sheriff_id = "sheriff";
-  orders.ncmds = 1;
-  orders.cmds.resize(1);
-  orders.cmds[0].cmd = cmd;
-  orders.cmds[0].desired_runid = 1;
-  orders.cmds[0].force_quit = false;
-  writeMessage(dir, orders, "fuzz_decode_procman_");
-  procman_lcm::deputy_info_t info{};
-  info.utime = 1000;
-  info.deputy_id = "local";
-  info.ncmds = 1;
-  info.cmds.resize(1);
-  info.cmds[0].cmd = cmd;
-  info.cmds[0].pid = 42;
-  info.cmds[0].actual_runid = 1;
-  writeMessage(dir, info, "fuzz_decode_procman_");
-  procman_lcm::output_t output{};
-  output.utime = 1000;
-  output.deputy_id = "local";
-  output.num_commands = 1;
-  output.command_ids = {"tracker"};
-  output.text = {"tracker: running\n"};
-  writeMessage(dir, output, "fuzz_decode_procman_");
-  procman_lcm::discovery_t discovery{};
-  discovery.utime = 1000;
-  discovery.transmitter_id = "sheriff";
-  discovery.nonce = 7;
-  writeMessage(dir, discovery, "fuzz_decode_procman_");
+  writeMessage(dir, ips::test_support::sampleOrders(), "fuzz_decode_procman_");
+  writeMessage(dir, ips::test_support::sampleDeputyInfo(), "fuzz_decode_procman_");
+  writeMessage(dir, ips::test_support::sampleOutput(), "fuzz_decode_procman_");
+  writeMessage(dir, ips::test_support::sampleDiscovery(), "fuzz_decode_procman_");
 #endif
 
   // Serial: the first byte selects checksums (bit 0: MMQ-50 sum16, bit 1: Z260 XOR), then the line's bytes.

@@ -79,16 +79,9 @@ class Sender {
   // Every 4-byte window after the type's fingerprint replaced by a hostile length.
   template <class Msg>
   void hostileLengths(const std::string& channel, const Msg& valid) {
-    const std::vector<uint8_t> good = encodeMessage(valid);
-    const int32_t size = static_cast<int32_t>(good.size());
-    const int32_t hostile[] = {INT32_MIN, -1, 0, size + 1, size * 4, INT32_MAX};
-    for (size_t at = 8; at + 4 <= good.size(); ++at)
-      for (int32_t v : hostile) {
-        std::vector<uint8_t> bad = good;
-        const auto u = static_cast<uint32_t>(v);
-        for (int i = 0; i < 4; ++i) bad[at + i] = static_cast<uint8_t>(u >> (24 - 8 * i));
-        raw("hostile_length", channel, bad);
-      }
+    ips::test_support::forEachHostileLength(
+        encodeMessage(valid),
+        [&](const std::vector<uint8_t>& bad, size_t, int32_t) { raw("hostile_length", channel, bad); });
   }
 
   void print() const {
@@ -151,8 +144,7 @@ void attack(lcm::LCM& lcm, double wait_s) {
   for (size_t at = 8; at + 4 <= bytes.size(); ++at) {
     // data_size is the 4-byte field right before the left image's 8 bytes
     if (at + 4 + tiny.total() * 2 == bytes.size()) {
-      const uint32_t v = static_cast<uint32_t>(INT32_MAX);
-      for (int i = 0; i < 4; ++i) bytes[at + i] = static_cast<uint8_t>(v >> (24 - 8 * i));
+      ips::test_support::putBigEndian32(bytes, at, INT32_MAX);
     }
   }
   send.raw("data_size_2gb", ch::kStereo, bytes);

@@ -31,29 +31,20 @@
 namespace {
 
 using ips::test_support::encodeMessage;
-
-void putBigEndian32(std::vector<uint8_t>& buf, size_t at, int32_t v) {
-  const auto u = static_cast<uint32_t>(v);
-  for (int i = 0; i < 4; ++i) buf[at + i] = static_cast<uint8_t>(u >> (24 - 8 * i));
-}
+using ips::test_support::forEachHostileLength;
+using ips::test_support::putBigEndian32;
 
 // Decodes every variant of `valid` with one 4-byte window replaced by a hostile length; `check` then looks at
 // the message the decoder filled (or partly filled before it gave up).
 template <class Msg, class Check>
 void decodeEveryHostileLength(const Msg& valid, Check check) {
-  const std::vector<uint8_t> good = encodeMessage(valid);
-  const int32_t size = static_cast<int32_t>(good.size());
-  const int32_t hostile[] = {INT32_MIN, -1, 0, size + 1, size * 4, INT32_MAX};
-  for (size_t at = 8; at + 4 <= good.size(); ++at) {  // the first 8 bytes are the type's fingerprint
-    for (int32_t v : hostile) {
-      std::vector<uint8_t> bad = good;
-      putBigEndian32(bad, at, v);
-      Msg m;
-      int rc = 0;
-      ASSERT_NO_THROW(rc = m.decode(bad.data(), 0, size)) << Msg::getTypeName() << " at byte " << at << " = " << v;
-      check(m, rc, size);
-    }
-  }
+  forEachHostileLength(encodeMessage(valid), [&](const std::vector<uint8_t>& bad, size_t at, int32_t v) {
+    const auto size = static_cast<int>(bad.size());
+    Msg m;
+    int rc = 0;
+    ASSERT_NO_THROW(rc = m.decode(bad.data(), 0, size)) << Msg::getTypeName() << " at byte " << at << " = " << v;
+    check(m, rc, size);
+  });
 }
 
 // Every vector the decoder allocated holds at most as many elements as the datagram has bytes.

@@ -8,6 +8,7 @@
 #include <functional>
 #include <lcm/lcm-cpp.hpp>
 #include <list>
+#include <map>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -16,7 +17,8 @@ namespace ips::procman {
 
 class SafeSubscriber {
  public:
-  // Called for every dropped message with its channel, the reason and the number dropped so far.
+  // Called for every dropped message with its channel, the reason and the number dropped so far on that channel
+  // (counted per channel, so that a flood on one channel does not hide the first bad packet on another).
   using Reporter = std::function<void(const std::string& channel, const std::string& reason, uint64_t dropped)>;
 
   SafeSubscriber(lcm::LCM& lcm, Reporter report) : lcm_(lcm), report_(std::move(report)) {}
@@ -42,6 +44,10 @@ class SafeSubscriber {
   }
 
   uint64_t dropped() const { return dropped_; }
+  uint64_t dropped(const std::string& channel) const {
+    const auto it = dropped_per_channel_.find(channel);
+    return it == dropped_per_channel_.end() ? 0 : it->second;
+  }
 
  private:
   struct Entry {
@@ -59,13 +65,15 @@ class SafeSubscriber {
   };
   void drop(const std::string& channel, const std::string& reason) {
     ++dropped_;
-    if (report_) report_(channel, reason, dropped_);
+    const uint64_t on_channel = ++dropped_per_channel_[channel];
+    if (report_) report_(channel, reason, on_channel);
   }
 
   lcm::LCM& lcm_;
   Reporter report_;
   std::list<std::unique_ptr<Entry>> entries_;
   uint64_t dropped_ = 0;
+  std::map<std::string, uint64_t> dropped_per_channel_;
 };
 
 }  // namespace ips::procman

@@ -1,6 +1,8 @@
 #pragma once
 // Small valid messages of the project's types with every variable-length field in use, for tests that encode,
 // mutate or replay them, and for the fuzz targets' seeds. Stamps are 1000 us unless given.
+#include <climits>
+#include <cstddef>
 #include <cstdint>
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
@@ -13,6 +15,28 @@
 namespace ips::test_support {
 
 using ips::fw::encodeMessage;
+
+// Writes v big-endian (LCM's byte order) into the 4 bytes at `at`.
+inline void putBigEndian32(std::vector<uint8_t>& buf, size_t at, int32_t v) {
+  const auto u = static_cast<uint32_t>(v);
+  for (int i = 0; i < 4; ++i) buf[at + i] = static_cast<uint8_t>(u >> (24 - 8 * i));
+}
+
+// Calls visit(bytes, at, value) for every variant of a valid encoding with one 4-byte window after the type's
+// fingerprint replaced by a hostile length: INT32_MIN, -1, 0, one more than the datagram, four times the
+// datagram and INT32_MAX. Wherever a string length or an array count sits, one of these is what a faulty or
+// malicious sender puts there.
+template <class Visit>
+void forEachHostileLength(const std::vector<uint8_t>& good, Visit visit) {
+  const auto size = static_cast<int32_t>(good.size());
+  const int32_t hostile[] = {INT32_MIN, -1, 0, size + 1, size * 4, INT32_MAX};
+  for (size_t at = 8; at + 4 <= good.size(); ++at)  // the first 8 bytes are the type's fingerprint
+    for (int32_t v : hostile) {
+      std::vector<uint8_t> bad = good;
+      putBigEndian32(bad, at, v);
+      visit(bad, at, v);
+    }
+}
 
 inline ips::disparity_map_t sampleDisparityMap(int64_t utime = 1000) {
   ips::disparity_map_t m{};
