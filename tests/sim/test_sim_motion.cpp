@@ -258,3 +258,68 @@ TEST(SimTrajectory, RoutesStayClearOfTheBuilding) {
     EXPECT_GT(min_dist, 0.3) << name;
   }
 }
+
+// The calibration the processes are told: the truth by default; with calibration_errors the truth moved by
+// errors whose spread over many seeds is the configured one (per axis for rotations: the mean squared angle of
+// a rotation with three independent axes of standard deviation s is 3 s^2), the same for one seed every time,
+// and written with its source so that a run can say what it ran on.
+TEST(SimHead, CalibrationForProcessesCarriesTheConfiguredErrors) {
+  Scenario sc = Scenario::defaults();
+  const SensorHead head = SensorHead::make(sc);
+  const ips::StereoCalibration same = head.calibrationForProcesses(sc);
+  EXPECT_EQ(same.source, "true");
+  EXPECT_EQ(same.cam0.K, head.calibration.cam0.K);
+  EXPECT_EQ(same.R_cam1_cam0, head.calibration.R_cam1_cam0);
+
+  CalibrationErrors& e = sc.calibration_errors;
+  e.focal_rel = 5e-4;
+  e.principal_px = 0.3;
+  e.stereo_rotation_deg = 0.01;
+  e.imu_rotation_deg = 0.05;
+  e.tilt_rotation_deg = 0.05;
+  std::vector<double> focal, principal;
+  double stereo_sq = 0, imu_sq = 0, tilt_sq = 0;
+  const int seeds = 400;
+  for (int seed = 1; seed <= seeds; ++seed) {
+    sc.seed = seed;
+    const SensorHead h = SensorHead::make(sc);
+    const ips::StereoCalibration told = h.calibrationForProcesses(sc);
+    ASSERT_EQ(told.source, "perturbed");
+    for (auto [t, c] : {std::pair{&told.cam0, &h.calibration.cam0}, std::pair{&told.cam1, &h.calibration.cam1}}) {
+      focal.push_back(t->K(0, 0) / c->K(0, 0) - 1);
+      EXPECT_NEAR(t->K(1, 1) / c->K(1, 1), t->K(0, 0) / c->K(0, 0), 1e-12) << "one focal length, both axes";
+      principal.push_back(t->K(0, 2) - c->K(0, 2));
+      principal.push_back(t->K(1, 2) - c->K(1, 2));
+    }
+    const auto angle = [](const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+      return Eigen::AngleAxisd(a * b.transpose()).angle() / kDeg;
+    };
+    stereo_sq += std::pow(angle(told.R_cam1_cam0, h.calibration.R_cam1_cam0), 2);
+    imu_sq += std::pow(angle(told.T_imu_cam0.linear(), h.calibration.T_imu_cam0.linear()), 2);
+    tilt_sq += std::pow(angle(told.R_tilt_cam0, h.calibration.R_tilt_cam0), 2);
+    // The right camera turns about its own centre: its position in camera 0 stays.
+    EXPECT_NEAR((told.R_cam1_cam0.transpose() * told.t_cam1_cam0 -
+                 h.calibration.R_cam1_cam0.transpose() * h.calibration.t_cam1_cam0)
+                    .norm(),
+                0, 1e-12);
+    EXPECT_EQ(told.T_imu_cam0.translation(), h.calibration.T_imu_cam0.translation());
+  }
+  // 800 focal samples, 1600 principal ones, 400 rotations: the spread within 10 % (about 3 standard errors).
+  EXPECT_NEAR(stddev(focal), e.focal_rel, 0.1 * e.focal_rel);
+  EXPECT_NEAR(stddev(principal), e.principal_px, 0.1 * e.principal_px);
+  EXPECT_NEAR(std::sqrt(stereo_sq / seeds / 3), e.stereo_rotation_deg, 0.1 * e.stereo_rotation_deg);
+  EXPECT_NEAR(std::sqrt(imu_sq / seeds / 3), e.imu_rotation_deg, 0.1 * e.imu_rotation_deg);
+  EXPECT_NEAR(std::sqrt(tilt_sq / seeds / 3), e.tilt_rotation_deg, 0.1 * e.tilt_rotation_deg);
+
+  // One seed gives one perturbation, and the file keeps it with its source.
+  sc.seed = 7;
+  const SensorHead h7 = SensorHead::make(sc);
+  const ips::StereoCalibration a = h7.calibrationForProcesses(sc), b = h7.calibrationForProcesses(sc);
+  EXPECT_EQ(a.cam1.K, b.cam1.K);
+  const std::string file = testing::TempDir() + "/perturbed.calib.yaml";
+  ips::saveCalibration(file, a);
+  const ips::StereoCalibration loaded = ips::loadCalibration(file);
+  EXPECT_EQ(loaded.source, "perturbed");
+  EXPECT_NEAR((loaded.cam0.K - a.cam0.K).norm(), 0, 1e-9);
+  EXPECT_NEAR((loaded.R_tilt_cam0 - a.R_tilt_cam0).norm(), 0, 1e-9);
+}

@@ -95,6 +95,7 @@ StereoCalibration loadCalibration(const std::string& path) {
     c.T_imu_cam0.translation() = t.topRightCorner<3, 1>();
   }
   if (cfg.has("R_tilt_cam0")) c.R_tilt_cam0 = orthonormalize(cfg.getMatrix("R_tilt_cam0", 3, 3));
+  if (cfg.has("source")) c.source = cfg.getString("source");
   return c;
 }
 
@@ -111,6 +112,7 @@ void saveCalibration(const std::string& path, const StereoCalibration& c) {
   fs << "t_cam1_cam0" << toCv(c.t_cam1_cam0);
   fs << "T_imu_cam0" << toCv(c.T_imu_cam0.matrix());
   fs << "R_tilt_cam0" << toCv(c.R_tilt_cam0);
+  if (!c.source.empty()) fs << "source" << c.source;
 }
 
 StereoRectification computeRectification(const StereoCalibration& c, double alpha) {

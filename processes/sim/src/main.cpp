@@ -1,6 +1,7 @@
 // sim: the simulated sensor head. Batch mode writes an LCM log as fast as it can; live mode publishes in real
 // time (or scaled by --rate). Channels: STEREO, IMU, TILT (as the real drivers), GT_POSE, GT_DISPARITY.
-// The head's calibration goes to FILE.calib.yaml beside the log (batch) or to --calib-out (live).
+// The head's calibration goes to FILE.calib.yaml beside the log (batch) or to --calib-out (live): the truth, or
+// with the scenario's calibration_errors a perturbed one (the truth then beside it as FILE.true.calib.yaml).
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -229,6 +230,24 @@ int runLive(ips::sim::Simulation& sim, const std::string& url, double rate) {
   return 0;
 }
 
+// FILE.calib.yaml is what the processes are given. When it is perturbed, the truth goes beside it as
+// FILE.true.calib.yaml, for evaluation only.
+void writeCalibrations(const ips::sim::Scenario& scenario, const ips::sim::SensorHead& head,
+                       const std::string& calib_path) {
+  const ips::StereoCalibration told = head.calibrationForProcesses(scenario);
+  ips::saveCalibration(calib_path, told);
+  if (told.source != "perturbed") return;
+  ips::StereoCalibration truth = head.calibration;
+  truth.source = "true";
+  const std::string suffix = ".calib.yaml";
+  const bool has_suffix = calib_path.size() > suffix.size() &&
+                          calib_path.compare(calib_path.size() - suffix.size(), suffix.size(), suffix) == 0;
+  const std::string truth_path =
+      (has_suffix ? calib_path.substr(0, calib_path.size() - suffix.size()) : calib_path) + ".true.calib.yaml";
+  ips::saveCalibration(truth_path, truth);
+  IPS_INFO("the processes get a perturbed calibration (" << calib_path << "); the truth is in " << truth_path);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -268,12 +287,12 @@ int main(int argc, char** argv) {
 
     const std::string calib_path = args.has("--out") ? args.get("--out") + ".calib.yaml" : args.get("--calib-out");
     if (options.duration_s == 0) {  // only the calibration (for processes started before the head)
-      ips::saveCalibration(calib_path, ips::sim::SensorHead::make(scenario).calibration);
+      writeCalibrations(scenario, ips::sim::SensorHead::make(scenario), calib_path);
       IPS_INFO("--duration 0: wrote the calibration " << calib_path << " and nothing else");
       return 0;
     }
     ips::sim::Simulation sim(scenario, options);
-    ips::saveCalibration(calib_path, sim.head().calibration);
+    writeCalibrations(scenario, sim.head(), calib_path);
     IPS_INFO("scenario '" << scenario.name << "' (" << scenario.source << "), seed " << scenario.seed << ", "
                           << options.duration_s << " s of a " << sim.trajectory().duration() << " s, "
                           << sim.trajectory().pathLength() << " m trajectory; " << sim.world().quads.size()

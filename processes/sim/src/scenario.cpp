@@ -127,6 +127,13 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "tilt/stamp_offset_us", tilt.stamp_offset_us);
   get(c, "tilt/jitter_us", tilt.jitter_us);
 
+  CalibrationErrors& ce = s.calibration_errors;
+  get(c, "calibration_errors/focal_rel", ce.focal_rel);
+  get(c, "calibration_errors/principal_px", ce.principal_px);
+  get(c, "calibration_errors/stereo_rotation_deg", ce.stereo_rotation_deg);
+  get(c, "calibration_errors/imu_rotation_deg", ce.imu_rotation_deg);
+  get(c, "calibration_errors/tilt_rotation_deg", ce.tilt_rotation_deg);
+
   TrajectoryConfig& tr = s.trajectory;
   get(c, "trajectory/type", tr.type);
   if (c.has("trajectory/waypoints")) {
@@ -187,6 +194,11 @@ void Scenario::validate() const {
   require(imu.rate_hz > 0 && imu.rate_hz <= 10000, "imu/rate_hz must be in (0, 10000]");
   require(tilt.rate_hz > 0 && tilt.rate_hz <= 1000, "tilt/rate_hz must be in (0, 1000]");
   require(tilt.time_constant_s >= 0, "tilt/time_constant_s must not be negative");
+  const CalibrationErrors& ce = calibration_errors;
+  require(ce.focal_rel >= 0 && ce.focal_rel < 0.1 && ce.principal_px >= 0 && ce.principal_px < 50 &&
+              ce.stereo_rotation_deg >= 0 && ce.stereo_rotation_deg < 5 && ce.imu_rotation_deg >= 0 &&
+              ce.imu_rotation_deg < 5 && ce.tilt_rotation_deg >= 0 && ce.tilt_rotation_deg < 5,
+          "calibration_errors must be non-negative and small (focal_rel < 0.1, principal_px < 50, rotations < 5 deg)");
   require(trajectory.type == "walk" || trajectory.type == "vehicle" || trajectory.type == "still",
           "trajectory/type must be walk, vehicle or still");
   require(!trajectory.waypoints.empty(), "trajectory/waypoints must not be empty");

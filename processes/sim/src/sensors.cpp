@@ -58,6 +58,31 @@ SensorHead SensorHead::make(const Scenario& s) {
   return head;
 }
 
+StereoCalibration SensorHead::calibrationForProcesses(const Scenario& s) const {
+  StereoCalibration told = calibration;
+  const CalibrationErrors& e = s.calibration_errors;
+  if (!e.any()) {
+    told.source = "true";
+    return told;
+  }
+  told.source = "perturbed";
+  Rng rng(streamSeed(s.seed, kStreamCalibration));
+  for (CameraIntrinsics* cam : {&told.cam0, &told.cam1}) {
+    const double scale = 1 + rng.normal() * e.focal_rel;
+    cam->K(0, 0) *= scale;
+    cam->K(1, 1) *= scale;
+    cam->K(0, 2) += rng.normal() * e.principal_px;
+    cam->K(1, 2) += rng.normal() * e.principal_px;
+  }
+  // The right camera turned about its own centre: rotation and translation of cam1-from-cam0 both turn.
+  const Eigen::Matrix3d dR_stereo = smallRotation(rng, e.stereo_rotation_deg * kDeg);
+  told.R_cam1_cam0 = dR_stereo * told.R_cam1_cam0;
+  told.t_cam1_cam0 = dR_stereo * told.t_cam1_cam0;
+  told.T_imu_cam0.linear() = smallRotation(rng, e.imu_rotation_deg * kDeg) * told.T_imu_cam0.linear();
+  told.R_tilt_cam0 = smallRotation(rng, e.tilt_rotation_deg * kDeg) * told.R_tilt_cam0;
+  return told;
+}
+
 ImuSimulator::ImuSimulator(const ImuFigures& f, const Trajectory& trajectory, int64_t start_utime, uint64_t seed)
     : f_(f), traj_(trajectory), start_utime_(start_utime), rng_(streamSeed(seed, kStreamImu)) {
   const double arw = f.gyro_arw_deg_sqrt_h * kDeg / 60.0;  // rad/s/sqrt(Hz) = rad/sqrt(s)

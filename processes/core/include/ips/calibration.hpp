@@ -37,6 +37,10 @@ struct StereoCalibration {
   Eigen::Vector3d t_cam1_cam0 = Eigen::Vector3d::Zero();  // metres; about (-baseline, 0, 0) for a left/right head
   Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
   Eigen::Matrix3d R_tilt_cam0 = Eigen::Matrix3d::Identity();
+  // How it was obtained, so that a run can say what it ran on: "true" (the simulator's own head), "perturbed"
+  // (the simulator's head with the errors a good calibration leaves), "estimated" (the calibration tools),
+  // "converted" (from another tool's format). Empty when the file does not say.
+  std::string source;
 
   double baseline() const { return t_cam1_cam0.norm(); }
 };

@@ -44,6 +44,14 @@ class Rng {
 };
 
 // Purposes of the random streams of one scenario.
-enum RngStream : uint64_t { kStreamHead = 1, kStreamImu, kStreamTilt, kStreamCamera, kStreamPixels, kStreamWorld };
+enum RngStream : uint64_t {
+  kStreamHead = 1,
+  kStreamImu,
+  kStreamTilt,
+  kStreamCamera,
+  kStreamPixels,
+  kStreamWorld,
+  kStreamCalibration  // last, so that adding it left the other streams as they were
+};
 
 }  // namespace ips::sim

@@ -83,8 +83,8 @@ struct TrajectoryConfig {
   // The head stands still this long before it starts moving, as a person does before walking off: the
   // navigation filter initialises at rest (roll, pitch and gyro bias from the first seconds).
   double start_still_s = 3.0;
-  double yaw_deg = 0;            // heading for 'still'
-  double pitch_down_deg = 6.0;   // constant pitch of the head
+  double yaw_deg = 0;           // heading for 'still'
+  double pitch_down_deg = 6.0;  // constant pitch of the head
   double roll_deg = 0.0;
   // Gait (walk) or vibration (vehicle): vertical bounce, lateral sway and head wobble.
   double step_frequency_hz = 1.7;
@@ -96,6 +96,22 @@ struct TrajectoryConfig {
   double ramp_s = 2.0;         // gait amplitude ramps up after start and down before stop
 
   static std::vector<Eigen::Vector2d> defaultWaypoints();
+};
+
+// What the processes are told about the head differs from the truth the simulator renders with by these
+// errors (standard deviations, drawn once per seed): the residual errors of a good calibration. All zero: the
+// processes get the true calibration.
+struct CalibrationErrors {
+  double focal_rel = 0;            // relative error of each camera's focal length
+  double principal_px = 0;         // per coordinate of each principal point
+  double stereo_rotation_deg = 0;  // per axis of the relative rotation of the cameras
+  double imu_rotation_deg = 0;     // per axis of the camera-to-IMU rotation
+  double tilt_rotation_deg = 0;    // per axis of the camera-to-tilt-sensor rotation
+
+  bool any() const {
+    return focal_rel > 0 || principal_px > 0 || stereo_rotation_deg > 0 || imu_rotation_deg > 0 ||
+           tilt_rotation_deg > 0;
+  }
 };
 
 struct WorldConfig {
@@ -118,6 +134,7 @@ struct Scenario {
   CameraFigures camera;
   ImuFigures imu;
   TiltFigures tilt;
+  CalibrationErrors calibration_errors;
   TrajectoryConfig trajectory;
   WorldConfig world;
 

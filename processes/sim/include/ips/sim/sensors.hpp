@@ -21,6 +21,9 @@ struct SensorHead {
 
   // Intrinsics from the camera figures; the IMU and tilt misalignments are drawn from the seed.
   static SensorHead make(const Scenario& scenario);
+  // The calibration the processes are given: the true one (source "true") or, with calibration_errors, the true
+  // one with errors drawn from the seed (source "perturbed"). The renderer always uses the truth.
+  StereoCalibration calibrationForProcesses(const Scenario& scenario) const;
   // Pose of camera 0 / camera 1 in the world when the body is at T_world_imu.
   Eigen::Isometry3d cam0InWorld(const Eigen::Isometry3d& T_world_imu) const { return T_world_imu * T_imu_cam0; }
   Eigen::Isometry3d cam1InWorld(const Eigen::Isometry3d& T_world_imu) const {
