@@ -3,7 +3,8 @@
 # deputy on this machine and has the sheriff run procman/main_job.pmd (tracker, EKF and UKF filters, e3d and
 # lcm-logger, with lcm-logplayer playing the walk through them), then writes the report to out/<run>/
 # (out/latest points at it).
-# Environment: IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_REPLAY_SPEED (default 1),
+# Environment: IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario
+# file instead of the built-in walk), IPS_REPLAY_SPEED (default 1),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), LCM_DEFAULT_URL.
 # IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder or KITTI odometry folder, told
 # apart by layout): dataset_to_lcm writes it as the head's log, the tracker runs with the head's config
@@ -44,10 +45,12 @@ elif [ -n "${IPS_SIM_LOG:-}" ]; then
   say "1/4 using the simulated log $IPS_SIM_LOG"
   ln -sf "$(realpath "$IPS_SIM_LOG")" "$run/walk.lcmlog"
   cp "$IPS_SIM_LOG.calib.yaml" "$run/walk.lcmlog.calib.yaml"
+  [ ! -f "$IPS_SIM_LOG.true.calib.yaml" ] || cp "$IPS_SIM_LOG.true.calib.yaml" "$run/walk.lcmlog.true.calib.yaml"
 else
   say "1/4 simulating the default walk (build/bin/sim; the paper's 90 m, 2 min indoor walk)"
   sim_args=(--out "$run/walk.lcmlog" --gt-disparity-every 8 --seed "${IPS_SEED:-1}")
   [ -n "${IPS_DURATION:-}" ] && sim_args+=(--duration "$IPS_DURATION")
+  [ -n "${IPS_SCENARIO:-}" ] && sim_args+=(--scenario "$IPS_SCENARIO")
   sim "${sim_args[@]}" 2>&1 | sed -u 's/^/    /'
 fi
 walk_s=$(lcm-logplayer --help >/dev/null 2>&1; python3 - "$run/walk.lcmlog" <<'PY' 2>/dev/null || echo 0
@@ -97,8 +100,11 @@ report_rc=0
 # The logger writes results.lcmlog.00 (and .01, ... if it was restarted: ips_report then fails the run).
 results=$(ls "$run"/results.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
 [ -n "$results" ] || { say "FAILED: no recording (results.lcmlog.*) in $run"; exit 1; }
-ips_report --log "$results" --images "$run/walk.lcmlog" --calib "$run/walk.lcmlog.calib.yaml" \
-  --out "$run" "${report_args[@]}" > "$run/report.txt" || report_rc=$?
+# Evaluated against the truth when the processes ran on a perturbed calibration (sim with calibration_errors).
+eval_calib=$run/walk.lcmlog.calib.yaml
+[ ! -f "$run/walk.lcmlog.true.calib.yaml" ] || eval_calib=$run/walk.lcmlog.true.calib.yaml
+ips_report --log "$results" --images "$run/walk.lcmlog" --calib "$eval_calib" \
+  --process-calib "$run/walk.lcmlog.calib.yaml" --out "$run" "${report_args[@]}" > "$run/report.txt" || report_rc=$?
 if [ ! -s "$run/report.json" ]; then
   say "FAILED: ips_report wrote no report (exit $report_rc)"; exit 1
 fi
@@ -108,6 +114,7 @@ r = json.load(open(sys.argv[1]))
 for e in r.get('estimators', []):
     print(f"  {e['name']}: ATE {e['ate_rmse_m']} m, RPE {e['rpe_trans_pct']} % and {e['rpe_rot_deg_per_m']} deg/m over {r['rpe_lengths_m']} m, end error {e['end_error_pct']} % (first pose aligned)")
 print(f"  walk: {r['distance_m']:.1f} m in {r['duration_s']:.0f} s; tracker deltas {r['tracker_deltas_valid']}/{r['tracker_deltas']} valid")
+print(f"  calibration the processes ran on: {r.get('calibration_source', 'unspecified')}")
 for f in [f for f in r['filters'] if f['states']]:
     print(f"  {f['filter']}: end error {f['end_error_m']} m ({f['end_error_pct']} % of the distance), ATE RMSE {f['ate_rmse_m']} m")
 print(f"  disparity: bad 2.0 {r['disparity_bad2_pct']} %, density {r['disparity_density_pct']} % ({r['disparity_maps_with_ground_truth']} maps with ground truth)")

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "ips/calibration.hpp"
 #include "ips/framework/log_writer.hpp"
 
 namespace fs = std::filesystem;
@@ -94,6 +95,28 @@ TEST(IpsReport, CompleteRunIsOk) {
   const Result r = runReport(log, "complete");
   EXPECT_EQ(r.exit_code, 0) << r.report;
   EXPECT_NE(r.report.find("\"status\": \"ok\""), std::string::npos) << r.report;
+}
+
+// The report names the calibration the processes ran on, from the file's source; unspecified without one.
+TEST(IpsReport, NamesTheCalibrationTheProcessesRanOn) {
+  const std::string log = tempLog("calibration");
+  writeRun(log, 11'000'000);
+  EXPECT_NE(runReport(log, "no_calib").report.find("\"calibration_source\": \"unspecified\""), std::string::npos);
+  ips::StereoCalibration truth;
+  truth.cam0.width = truth.cam1.width = 64;
+  truth.cam0.height = truth.cam1.height = 48;
+  truth.t_cam1_cam0 = Eigen::Vector3d(-0.2, 0, 0);
+  truth.source = "true";
+  ips::StereoCalibration told = truth;
+  told.source = "perturbed";
+  const std::string truth_file = tempLog("truth") + ".calib.yaml", told_file = tempLog("told") + ".calib.yaml";
+  ips::saveCalibration(truth_file, truth);
+  ips::saveCalibration(told_file, told);
+  const Result r = runReport(log, "calib", "--calib " + truth_file + " --process-calib " + told_file);
+  EXPECT_EQ(r.exit_code, 0) << r.report;
+  EXPECT_NE(r.report.find("\"calibration_source\": \"perturbed\""), std::string::npos) << r.report;
+  EXPECT_NE(runReport(log, "true_calib", "--calib " + truth_file).report.find("\"calibration_source\": \"true\""),
+            std::string::npos);
 }
 
 TEST(IpsReport, StatesStoppingBeforeTheEndFailTheRun) {

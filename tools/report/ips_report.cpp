@@ -252,7 +252,9 @@ int main(int argc, char** argv) {
             "--log", "FILE[,FILE]",
             "LCM log recorded during the run (filter states, deltas, disparity, health, GT), or its parts in order")
         .option("--images", "FILE", "the input log with STEREO pairs (for the disparity pictures)")
-        .option("--calib", "FILE", "calibration (for rectifying the pictures' images)")
+        .option("--calib", "FILE", "the head's true calibration (for evaluation: rectifying the pictures' images)")
+        .option("--process-calib", "FILE",
+                "the calibration the processes ran on, whose source the report names; default: --calib")
         .option("--filters", "CH[,CH]", "filter state channels and their names", "FILTER_STATE,FILTER_STATE_UKF")
         .option("--pictures", "N", "disparity maps to draw", "3")
         .option("--lengths", "M[,M]",
@@ -605,6 +607,14 @@ int main(int argc, char** argv) {
     }
     js << "\n  },\n";
     js << "  \"bad_messages\": " << bad_messages << ",\n";
+    // What the processes ran on: "true", "perturbed", "estimated", "converted", or "unspecified".
+    std::string calibration_source = "unspecified";
+    if (args.has("--process-calib") || args.has("--calib")) {
+      const ips::StereoCalibration ran_on =
+          ips::loadCalibration(args.has("--process-calib") ? args.get("--process-calib") : args.get("--calib"));
+      if (!ran_on.source.empty()) calibration_source = ran_on.source;
+    }
+    js << "  \"calibration_source\": " << jsonString(calibration_source) << ",\n";
     js << "  \"status\": \"" << (failures.empty() ? "ok" : "failed") << "\",\n  \"failures\": [";
     for (size_t i = 0; i < failures.size(); ++i) js << (i ? ", " : "") << jsonString(failures[i]);
     js << "]\n}\n";
