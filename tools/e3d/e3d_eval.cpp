@@ -1,4 +1,4 @@
-// e3d_eval: accuracy of E3D (and, with --opencv, of OpenCV StereoSGBM MODE_HH with the settings) on
+// e3d_eval: accuracy of E3D (and, with --opencv, of OpenCV StereoSGBM MODE_HH with fixed settings) on
 // the scenes of ../shared/data/stereo. Per scene: bad 0.5/1/2/4 px in the non-occluded region and in all
 // evaluated pixels (pixels without a disparity count as bad), mean absolute error of the valid disparities
 // (all region), density; writes colour-mapped disparity PNGs.
