@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
     if (args.has("help")) {
       std::cout << "usage: e3d_bench [--scene DIR] [--size WxH] [--frames N] [--opencv-frames N] [--no-opencv]\n"
                    "                 [--device D]\n"
-                << kParamUsage;
+                << paramUsage();
       return 0;
     }
     std::vector<std::string> known = paramKeys();

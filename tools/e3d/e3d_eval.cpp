@@ -216,7 +216,7 @@ int main(int argc, char** argv) {
     if (args.has("help")) {
       std::cout << "usage: e3d_eval [--data DIR] [--scenes a,b] [--out-dir DIR] [--opencv] [--device D]\n"
                 << "       e3d_eval --radiometric [--costs census,ad,sad,mi] [...]\n"
-                << kParamUsage;
+                << paramUsage();
       return 0;
     }
     std::vector<std::string> known = paramKeys();

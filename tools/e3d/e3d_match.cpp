@@ -22,7 +22,7 @@ int main(int argc, char** argv) {
       std::cout << "usage: e3d_match --left L.png --right R.png --num-disparities N --out disparity.pfm\n"
                    "  [--out-png colour.png] [--out-right right.pfm] [--device INDEX|NAME (or env IPS_VK_DEVICE)]\n"
                    "  [--check-reference  also run the CPU reference and count differing pixels]\n"
-                << kParamUsage;
+                << paramUsage();
       return argc == 1 ? 2 : 0;
     }
     std::vector<std::string> known = paramKeys();

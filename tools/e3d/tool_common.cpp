@@ -4,6 +4,7 @@
 #include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 #include <stdexcept>
 
 #include "ips/config.hpp"
@@ -69,22 +70,41 @@ std::vector<std::string> paramKeys() {
 }
 std::vector<std::string> paramFlags() { return {"no-subpixel", "no-median", "fill"}; }
 
-const char* kParamUsage =
-    "  SGM options (defaults: config/e3d.yaml values, see processes/e3d/README.md):\n"
-    "    --config FILE           YAML with a section 'sgm' (SgmParams keys)\n"
-    "    --cost census|ad|sad|mi matching cost (another cost than the config's takes that cost's penalties)\n"
-    "    --mi-levels N --mi-coarse-iterations N   the Mutual Information hierarchy (default 5, 2)\n"
-    "    --num-disparities N     1..256\n"
-    "    --min-disparity N\n"
-    "    --p1 N --p2 N           penalties in cost units (p2 + the cost's maximum, 24 or 63, <= 255)\n"
-    "    --p2-slope N            adaptive P2 = max(P1, P2 - N*|dI|/16), 0 = off\n"
-    "    --paths 8|4\n"
-    "    --uniqueness PERCENT    0 = off\n"
-    "    --lr-max-diff PX        < 0 = no left-right check\n"
-    "    --no-subpixel --no-median\n"
-    "    --fill                  fill invalid pixels from their row neighbours (background)\n"
-    "    --right-map diagonal|match  right map for the check: diagonal search, or a second match right to left\n"
-    "    --aggregation auto|rows|lines  how the device walks the paths (same results; auto: rows on a CPU device)\n";
+std::string paramUsage() {
+  // The defaults printed are those paramsFromArgs starts from (SgmParams{} and SgmParams::forCost), not a copy.
+  const SgmParams d;
+  const auto penalties = [](Cost cost) {
+    const SgmParams c = SgmParams::forCost(cost);
+    return std::string(toString(cost)) + " " + std::to_string(c.p1) + "/" + std::to_string(c.p2) + "/" +
+           std::to_string(c.p2_slope);
+  };
+  const auto yesNo = [](bool on) { return on ? std::string("on") : std::string("off"); };
+  std::ostringstream o;
+  o << "  SGM options (without --config the built-in defaults shown; --config FILE starts from its section sgm):\n"
+    << "    --config FILE           YAML with a section 'sgm' (SgmParams keys), e.g. config/e3d.yaml\n"
+    << "    --cost census|ad|sad|mi matching cost (default " << toString(d.cost)
+    << "; another cost than the config's takes that cost's penalties)\n"
+    << "    --mi-levels N --mi-coarse-iterations N   the Mutual Information hierarchy (default " << d.mi_levels << ", "
+    << d.mi_coarse_iterations << ")\n"
+    << "    --num-disparities N     1.." << kMaxDisparities << " (default " << d.num_disparities << ")\n"
+    << "    --min-disparity N       (default " << d.min_disparity << ")\n"
+    << "    --p1 N --p2 N           penalties in cost units (p2 + the cost's maximum, 24 or 63, <= 255)\n"
+    << "    --p2-slope N            adaptive P2 = max(P1, P2 - N*|dI|/16), 0 = off\n"
+    << "                            (default P1/P2/p2_slope per cost: " << penalties(Cost::census) << ", "
+    << penalties(Cost::ad) << ", " << penalties(Cost::sad) << ", " << penalties(Cost::mi) << ")\n"
+    << "    --paths 8|4             (default " << d.paths << ")\n"
+    << "    --uniqueness PERCENT    0 = off (default " << d.uniqueness << ")\n"
+    << "    --lr-max-diff PX        < 0 = no left-right check (default " << d.lr_max_diff << ")\n"
+    << "    --no-subpixel --no-median   (default: subpixel " << yesNo(d.subpixel) << ", median " << yesNo(d.median)
+    << ")\n"
+    << "    --fill                  dense product: invalid pixels take the background of their row neighbours\n"
+    << "                            (default " << yesNo(d.fill_invalid) << ": invalid pixels stay invalid)\n"
+    << "    --right-map diagonal|match  right map for the check: diagonal search, or a second match right to left\n"
+    << "                            (default " << toString(d.right_map) << ")\n"
+    << "    --aggregation auto|rows|lines  how the device walks the paths (same results; auto: rows on a CPU device)\n"
+    << "                            (default " << toString(d.aggregation) << ")\n";
+  return o.str();
+}
 
 SgmParams paramsFromArgs(const Args& a) {
   SgmParams p;

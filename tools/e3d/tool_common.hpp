@@ -31,7 +31,8 @@ class Args {
 SgmParams paramsFromArgs(const Args& args);
 std::vector<std::string> paramKeys();
 std::vector<std::string> paramFlags();
-extern const char* kParamUsage;
+// Usage text of the SGM options, with the defaults paramsFromArgs really starts from (SgmParams{}).
+std::string paramUsage();
 
 // Reads an image and converts it to 8-bit grey (COLOR_BGR2GRAY); throws naming the file.
 cv::Mat loadGrey(const std::string& path);
