@@ -1,4 +1,5 @@
-// e3d_eval: accuracy of E3D (and, with --opencv, of OpenCV StereoSGBM MODE_HH with fixed settings) on
+// e3d_eval: accuracy of E3D (and, with --opencv, of OpenCV StereoSGBM MODE_HH and MODE_SGBM_3WAY with fixed
+// settings; with --peer-cmd, of an external matcher) on
 // the scenes of ../shared/data/stereo. Per scene: bad 0.5/1/2/4 px in the non-occluded region and in all
 // evaluated pixels (pixels without a disparity count as bad), mean absolute error of the valid disparities
 // (all region), density; writes colour-mapped disparity PNGs.
@@ -10,6 +11,7 @@
 #include <dirent.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -122,21 +124,37 @@ Scores score(const Scene& s, const cv::Mat& disp /* CV_32F, inf = invalid */) {
   return r;
 }
 
-cv::Mat openCvHH(const Scene& s, int num_disparities) {
-  auto sgbm = cv::StereoSGBM::create(0, num_disparities, 5, 8 * 25, 32 * 25, 1, 0, 10, 0, 0, cv::StereoSGBM::MODE_HH);
+// OpenCV StereoSGBM (MODE_HH or MODE_SGBM_3WAY) with the settings of a census-like SGM, no speckle filter; CV_16S
+// x16 as E3D's maps, its invalid pixels (negative) set to kInvalidDisparity so that the same fill applies.
+cv::Mat openCvSgbm(const Scene& s, int num_disparities, int mode) {
+  auto sgbm = cv::StereoSGBM::create(0, num_disparities, 5, 8 * 25, 32 * 25, 1, 0, 10, 0, 0, mode);
   cv::Mat d16;
   sgbm->compute(s.left, s.right, d16);
-  cv::Mat out(d16.size(), CV_32F);
-  for (int y = 0; y < d16.rows; ++y)
-    for (int x = 0; x < d16.cols; ++x) {
-      const int16_t v = d16.at<int16_t>(y, x);
-      out.at<float>(y, x) = v < 0 ? INFINITY : v / 16.0f;
+  d16.setTo(kInvalidDisparity, d16 < 0);
+  return d16;
+}
+
+// A peer matcher run as an external program: PEER_CMD LEFT.png RIGHT.png NUM_DISPARITIES OUT.pfm (PFM float,
+// inf or negative = invalid). Its map is rounded to 1/16 px into CV_16S (E3D's form), so the same fill applies.
+cv::Mat peerMatch(const std::string& cmd, const std::string& scene_dir, int num_disparities,
+                  const std::string& out_pfm) {
+  const std::string line = cmd + " '" + scene_dir + "/left.png' '" + scene_dir + "/right.png' " +
+                           std::to_string(num_disparities) + " '" + out_pfm + "'";
+  if (std::system(line.c_str()) != 0) throw std::runtime_error("peer command failed: " + line);
+  const cv::Mat d = cv::imread(out_pfm, cv::IMREAD_UNCHANGED);
+  if (d.empty() || d.type() != CV_32FC1) throw std::runtime_error("peer output '" + out_pfm + "' is not a PFM map");
+  cv::Mat d16(d.size(), CV_16S);
+  for (int y = 0; y < d.rows; ++y)
+    for (int x = 0; x < d.cols; ++x) {
+      const float v = d.at<float>(y, x);
+      d16.at<int16_t>(y, x) =
+          (std::isfinite(v) && v >= 0) ? static_cast<int16_t>(std::lround(v * kSubpixelScale)) : kInvalidDisparity;
     }
-  return out;
+  return d16;
 }
 
 void printRow(const std::string& scene, const std::string& method, const Scores& r) {
-  std::cout << std::left << std::setw(18) << scene << std::setw(8) << method << std::right << std::fixed
+  std::cout << std::left << std::setw(18) << scene << std::setw(10) << method << std::right << std::fixed
             << std::setprecision(2);
   for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_nonocc[t];
   for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_all[t];
@@ -215,12 +233,16 @@ int main(int argc, char** argv) {
     Args args(argc, argv, flags);
     if (args.has("help")) {
       std::cout << "usage: e3d_eval [--data DIR] [--scenes a,b] [--out-dir DIR] [--opencv] [--device D]\n"
+                << "         [--peer-cmd CMD [--peer-name NAME] [--peer-tmp FILE.pfm]]\n"
+                << "  every method unfilled and with the same background fill (+f); a peer is run as\n"
+                << "  CMD LEFT.png RIGHT.png NUM_DISPARITIES OUT.pfm (PFM, inf = invalid)\n"
                 << "       e3d_eval --radiometric [--costs census,ad,sad,mi] [...]\n"
                 << paramUsage();
       return 0;
     }
     std::vector<std::string> known = paramKeys();
-    for (const char* k : {"data", "scenes", "out-dir", "device", "costs"}) known.push_back(k);
+    for (const char* k : {"data", "scenes", "out-dir", "device", "costs", "peer-cmd", "peer-name", "peer-tmp"})
+      known.push_back(k);
     for (const auto& f : flags) known.push_back(f);
     args.checkKnown(known);
     const std::string data = args.get("data", std::string(IPS_DATA_DIR) + "/stereo");
@@ -241,38 +263,60 @@ int main(int argc, char** argv) {
     VulkanContext ctx(args.get("device", ""));
     if (args.has("radiometric")) return radiometricTable(names, data, base, args, ctx);
     std::cout << "E3D: " << base.describe() << " (num_disparities per scene unless given)\n";
-    std::cout << std::left << std::setw(18) << "scene" << std::setw(8) << "method" << std::right
+    std::cout << std::left << std::setw(18) << "scene" << std::setw(10) << "method" << std::right
               << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density\n";
-    double sum_e3d[2] = {0, 0}, sum_cv[2] = {0, 0};  // bad 2.0 in the non-occluded region, in all pixels
+    // Every method's raw map is scored unfilled and with the same fill (fillInvalid, the CPU reference of E3D's
+    // fill), so that no method gains from a post-processing the others lack.
+    struct Sums {
+      double bad2_nonocc = 0, bad2_all = 0, density = 0;
+    };
+    std::map<std::string, Sums> sums;
+    std::vector<std::string> order;
     int count = 0;
     for (const auto& name : names) {
       Scene s = loadScene(data + "/" + name);
       SgmParams p = base;
       if (!args.has("num-disparities")) p.num_disparities = s.num_disparities;
+      const bool fill_requested = p.fill_invalid;
+      p.fill_invalid = false;
       StereoMatcher matcher(ctx, s.left.size(), p);
-      cv::Mat disp = disparityToFloat(matcher.match(s.left, s.right).disparity);
-      Scores e = score(s, disp);
-      printRow(name, "e3d", e);
-      sum_e3d[0] += e.bad_nonocc[2];
-      sum_e3d[1] += e.bad_all[2];
-      if (!out_dir.empty()) cv::imwrite(out_dir + "/" + name + "_e3d.png", colourDisparity(disp, s.num_disparities));
+      std::vector<std::pair<std::string, cv::Mat>> raw = {{"e3d", matcher.match(s.left, s.right).disparity}};
       if (args.has("opencv")) {
-        cv::Mat hh = openCvHH(s, s.num_disparities);
-        Scores o = score(s, hh);
-        printRow(name, "cv_hh", o);
-        sum_cv[0] += o.bad_nonocc[2];
-        sum_cv[1] += o.bad_all[2];
-        if (!out_dir.empty()) cv::imwrite(out_dir + "/" + name + "_cv_hh.png", colourDisparity(hh, s.num_disparities));
+        raw.emplace_back("cv_hh", openCvSgbm(s, p.num_disparities, cv::StereoSGBM::MODE_HH));
+        raw.emplace_back("cv_3way", openCvSgbm(s, p.num_disparities, cv::StereoSGBM::MODE_SGBM_3WAY));
       }
+      if (args.has("peer-cmd"))
+        raw.emplace_back(args.get("peer-name", "peer"),
+                         peerMatch(args.get("peer-cmd", ""), data + "/" + name, p.num_disparities,
+                                   args.get("peer-tmp", "/tmp/e3d_eval_peer.pfm")));
+      for (const auto& [method, d16] : raw)
+        for (const bool filled : {false, true}) {
+          // Without --opencv or a peer the E3D row follows the configuration's fill alone, as before.
+          if (!args.has("opencv") && !args.has("peer-cmd") && filled != fill_requested) continue;
+          cv::Mat map = d16.clone();
+          if (filled) fillInvalid(map);
+          const std::string label = method + (filled ? "+f" : "");
+          const cv::Mat disp = disparityToFloat(map);
+          const Scores e = score(s, disp);
+          printRow(name, label, e);
+          if (!sums.count(label)) order.push_back(label);
+          Sums& sum = sums[label];
+          sum.bad2_nonocc += e.bad_nonocc[2];
+          sum.bad2_all += e.bad_all[2];
+          sum.density += e.density;
+          if (!out_dir.empty())
+            cv::imwrite(out_dir + "/" + name + "_" + label + ".png", colourDisparity(disp, s.num_disparities));
+        }
       ++count;
     }
     // nonocc: the pixels each scene's evaluation mask marks as evaluated; all: occluded pixels too. Invalid
-    // pixels count as bad in both.
-    const char* region[2] = {"nonocc", "all"};
-    for (int r = 0; r < 2; ++r) {
-      std::cout << "average bad2.0 " << region[r] << ": e3d " << sum_e3d[r] / count;
-      if (args.has("opencv")) std::cout << "  cv_hh " << sum_cv[r] / count;
-      std::cout << "\n";
+    // pixels count as bad in both. "+f": with the background fill.
+    std::cout << "mean over " << count << " scenes: method  bad2.0 nonocc  bad2.0 all  density\n";
+    for (const auto& label : order) {
+      const Sums& sum = sums[label];
+      std::cout << "average " << std::left << std::setw(10) << label << std::right << std::setw(8)
+                << sum.bad2_nonocc / count << std::setw(12) << sum.bad2_all / count << std::setw(9)
+                << sum.density / count << "\n";
     }
     return 0;
   } catch (const std::exception& e) {

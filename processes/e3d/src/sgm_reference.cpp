@@ -125,32 +125,6 @@ SgmParams levelParams(const SgmParams& p, int level) {
   return lp;
 }
 
-// Step 7: each invalid pixel takes the smaller (background) of the nearest valid disparities on its row.
-void fillInvalid(cv::Mat& dl) {
-  const int W = dl.cols, H = dl.rows;
-  for (int y = 0; y < H; ++y) {
-    const cv::Mat row = dl.row(y).clone();
-    std::vector<int> next_valid(W, kInvalidDisparity);
-    int next = kInvalidDisparity;
-    for (int x = W - 1; x >= 0; --x) {
-      if (row.at<int16_t>(x) != kInvalidDisparity) next = row.at<int16_t>(x);
-      next_valid[x] = next;
-    }
-    int last = kInvalidDisparity;
-    for (int x = 0; x < W; ++x) {
-      const int d = row.at<int16_t>(x);
-      if (d != kInvalidDisparity) {
-        last = d;
-      } else if (last != kInvalidDisparity) {
-        dl.at<int16_t>(y, x) =
-            static_cast<int16_t>(next_valid[x] == kInvalidDisparity ? last : std::min(last, next_valid[x]));
-      } else {
-        dl.at<int16_t>(y, x) = static_cast<int16_t>(next_valid[x]);
-      }
-    }
-  }
-}
-
 // One match with a given Mutual Information table (ignored by the other costs): steps 3-6 (no fill).
 SgmResult matchWithTable(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, const cv::Mat& mi_table) {
   const int W = left.cols, H = left.rows;
@@ -190,6 +164,32 @@ SgmResult matchWithTable(const cv::Mat& left, const cv::Mat& right, const SgmPar
 }
 
 }  // namespace
+
+// Step 7: each invalid pixel takes the smaller (background) of the nearest valid disparities on its row.
+void fillInvalid(cv::Mat& dl) {
+  const int W = dl.cols, H = dl.rows;
+  for (int y = 0; y < H; ++y) {
+    const cv::Mat row = dl.row(y).clone();
+    std::vector<int> next_valid(W, kInvalidDisparity);
+    int next = kInvalidDisparity;
+    for (int x = W - 1; x >= 0; --x) {
+      if (row.at<int16_t>(x) != kInvalidDisparity) next = row.at<int16_t>(x);
+      next_valid[x] = next;
+    }
+    int last = kInvalidDisparity;
+    for (int x = 0; x < W; ++x) {
+      const int d = row.at<int16_t>(x);
+      if (d != kInvalidDisparity) {
+        last = d;
+      } else if (last != kInvalidDisparity) {
+        dl.at<int16_t>(y, x) =
+            static_cast<int16_t>(next_valid[x] == kInvalidDisparity ? last : std::min(last, next_valid[x]));
+      } else {
+        dl.at<int16_t>(y, x) = static_cast<int16_t>(next_valid[x]);
+      }
+    }
+  }
+}
 
 SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& p) {
   p.validate();

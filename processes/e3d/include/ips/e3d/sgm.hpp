@@ -96,6 +96,11 @@ struct SgmResult {
 // left, right: CV_8UC1, same size. Throws std::invalid_argument on bad input.
 SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params);
 
+// Step 7 on any CV_16S map (invalid = kInvalidDisparity), in place: each invalid pixel takes the smaller
+// (background) of the nearest valid disparities left and right on its row. The CPU reference of the device's fill,
+// so that an evaluation can apply the same fill to every method's raw map.
+void fillInvalid(cv::Mat& disparity16);
+
 // Converts a CV_16S disparity map to CV_32F pixels (invalid = +inf), the PFM convention.
 cv::Mat disparityToFloat(const cv::Mat& disparity16);
 
