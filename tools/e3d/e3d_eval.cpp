@@ -88,13 +88,14 @@ Scene loadScene(const std::string& dir) {
 struct Scores {
   double bad_nonocc[4] = {0, 0, 0, 0}, bad_all[4] = {0, 0, 0, 0};
   double mean_error = 0, density = 0;
+  double bad2_valid = 0;  // bad 2.0 % among the valid nonocc pixels: whether added pixels are right ones
 };
 
 const double kThresholds[4] = {0.5, 1.0, 2.0, 4.0};
 
 Scores score(const Scene& s, const cv::Mat& disp /* CV_32F, inf = invalid */) {
   Scores r;
-  long n_non = 0, n_all = 0, valid = 0;
+  long n_non = 0, n_all = 0, valid = 0, valid_non = 0, bad2_valid_non = 0;
   double err_sum = 0;
   for (int y = 0; y < disp.rows; ++y)
     for (int x = 0; x < disp.cols; ++x) {
@@ -108,6 +109,10 @@ Scores score(const Scene& s, const cv::Mat& disp /* CV_32F, inf = invalid */) {
       if (ok) {
         ++valid;
         err_sum += err;
+        if (non) {
+          ++valid_non;
+          bad2_valid_non += err > 2.0;
+        }
       }
       for (int t = 0; t < 4; ++t)
         if (err > kThresholds[t]) {
@@ -121,6 +126,7 @@ Scores score(const Scene& s, const cv::Mat& disp /* CV_32F, inf = invalid */) {
   }
   r.mean_error = err_sum / std::max(1L, valid);
   r.density = 100.0 * valid / std::max(1L, n_all);
+  r.bad2_valid = 100.0 * bad2_valid_non / std::max(1L, valid_non);
   return r;
 }
 
@@ -158,7 +164,7 @@ void printRow(const std::string& scene, const std::string& method, const Scores&
             << std::setprecision(2);
   for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_nonocc[t];
   for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_all[t];
-  std::cout << std::setw(7) << r.mean_error << std::setw(8) << r.density << "\n";
+  std::cout << std::setw(7) << r.mean_error << std::setw(8) << r.density << std::setw(8) << r.bad2_valid << "\n";
 }
 
 // The right image as another camera or exposure would see it: the radiometric changes of --radiometric.
@@ -264,11 +270,11 @@ int main(int argc, char** argv) {
     if (args.has("radiometric")) return radiometricTable(names, data, base, args, ctx);
     std::cout << "E3D: " << base.describe() << " (num_disparities per scene unless given)\n";
     std::cout << std::left << std::setw(18) << "scene" << std::setw(10) << "method" << std::right
-              << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density\n";
+              << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density  b2.0v\n";
     // Every method's raw map is scored unfilled and with the same fill (fillInvalid, the CPU reference of E3D's
     // fill), so that no method gains from a post-processing the others lack.
     struct Sums {
-      double bad2_nonocc = 0, bad2_all = 0, density = 0;
+      double bad2_nonocc = 0, bad2_all = 0, density = 0, bad2_valid = 0;
     };
     std::map<std::string, Sums> sums;
     std::vector<std::string> order;
@@ -304,6 +310,7 @@ int main(int argc, char** argv) {
           sum.bad2_nonocc += e.bad_nonocc[2];
           sum.bad2_all += e.bad_all[2];
           sum.density += e.density;
+          sum.bad2_valid += e.bad2_valid;
           if (!out_dir.empty())
             cv::imwrite(out_dir + "/" + name + "_" + label + ".png", colourDisparity(disp, s.num_disparities));
         }
@@ -311,12 +318,13 @@ int main(int argc, char** argv) {
     }
     // nonocc: the pixels each scene's evaluation mask marks as evaluated; all: occluded pixels too. Invalid
     // pixels count as bad in both. "+f": with the background fill.
-    std::cout << "mean over " << count << " scenes: method  bad2.0 nonocc  bad2.0 all  density\n";
+    std::cout << "mean over " << count
+              << " scenes: method  bad2.0 nonocc  bad2.0 all  density  bad2.0 of valid nonocc\n";
     for (const auto& label : order) {
       const Sums& sum = sums[label];
       std::cout << "average " << std::left << std::setw(10) << label << std::right << std::setw(8)
                 << sum.bad2_nonocc / count << std::setw(12) << sum.bad2_all / count << std::setw(9)
-                << sum.density / count << "\n";
+                << sum.density / count << std::setw(9) << sum.bad2_valid / count << "\n";
     }
     return 0;
   } catch (const std::exception& e) {
