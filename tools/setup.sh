@@ -15,6 +15,7 @@ PACKAGES=(
   clang libclang-rt-14-dev
   default-jdk-headless libjchart2d-java
   iproute2 procps nftables
+  opencv-doc
 )
 
 SUDO=""

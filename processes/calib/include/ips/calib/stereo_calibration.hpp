@@ -1,0 +1,96 @@
+#pragma once
+// Stereo calibration of a head from chessboard image pairs: both cameras' interior orientation and their
+// relative exterior orientation, for two lens models (OpenCV's radial-tangential k1 k2 p1 p2 k3, and the
+// equidistant fisheye model k1..k4), the model chosen by its epipolar error on views left out of the fit.
+// No LCM: the tool and the tests hand it images.
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "ips/calibration.hpp"
+
+namespace ips::calib {
+
+struct ChessboardSpec {
+  cv::Size inner_corners;  // corners per row and column (OpenCV's patternSize), e.g. 9x6
+  double square_m = 0;     // edge of one square, metres
+};
+
+struct StereoImagePair {
+  std::string name;  // for messages: the left file name or the log's timestamp
+  cv::Mat left, right;
+};
+
+struct CalibrationOptions {
+  // A view whose RMS reprojection error exceeds this multiple of the median view's is dropped and the fit repeated:
+  // a sub-pixel detection leaves every view within a small multiple of the median; a view several times worse has a
+  // misdetected or blurred board and would bias the fit.
+  double outlier_rms_factor = 3.0;
+  // Views below this RMS are never outliers (detection noise of a sharp board is a few tenths of a pixel).
+  double outlier_rms_floor_px = 1.0;
+};
+
+enum class LensModel { kRadialTangential, kFisheye };
+std::string lensModelName(LensModel model);
+
+struct RejectedView {
+  std::string name;
+  std::string reason;
+};
+
+struct ViewFigures {
+  std::string name;
+  double rms_left_px = 0, rms_right_px = 0;  // each camera's board pose fitted to the view, its corners reprojected
+  double epipolar_px = 0;                    // as ModelFigures::epipolar_px, on this view
+};
+
+struct ModelFigures {
+  LensModel model = LensModel::kRadialTangential;
+  double rms_px = 0;  // stereo fit's RMS reprojection error over all views, both cameras
+  // Epipolar error as OpenCV's stereo_calib sample measures it: corners undistorted into the original camera
+  // matrix, each corner's distance to the epipolar line of its partner, both images' distances summed per corner
+  // pair, averaged over pairs.
+  double epipolar_px = 0;
+  double heldout_epipolar_px = 0;  // the same, each view scored by a fit that left it out (leave one out)
+  double rectified_row_px = 0;     // mean |y_left - y_right| of corners after rectification, fit views
+  double heldout_rectified_row_px = 0;
+  bool ok = false;
+  std::string failure;  // why the model could not be fitted (ok == false)
+};
+
+struct StereoCalibrationResult {
+  StereoCalibration calib;  // the chosen model's; source "estimated"
+  LensModel model = LensModel::kRadialTangential;
+  ModelFigures figures;                  // the chosen model's
+  std::vector<ModelFigures> candidates;  // every model tried
+  std::vector<ViewFigures> views;        // the views used, chosen model
+  std::vector<RejectedView> rejected;
+  cv::Size image_size;
+};
+
+// Finds the board in one image (findChessboardCorners + cornerSubPix). Returns false when it is not found.
+bool detectChessboard(const cv::Mat& image, cv::Size inner_corners, std::vector<cv::Point2f>& corners);
+
+// Throws std::runtime_error with a one-line message when the pairs differ in size, the board is found in fewer
+// than three pairs, or no model can be fitted.
+StereoCalibrationResult calibrateStereo(const std::vector<StereoImagePair>& pairs, const ChessboardSpec& board,
+                                        const CalibrationOptions& options = {});
+
+// The same from corners already found: for each view its name and both images' corners in the board's row-major
+// order (as detectChessboard returns them). `rejected` lists views dropped before (carried into the result).
+StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string>& names,
+                                                   const std::vector<std::vector<cv::Point2f>>& left,
+                                                   const std::vector<std::vector<cv::Point2f>>& right,
+                                                   const ChessboardSpec& board, cv::Size image_size,
+                                                   const CalibrationOptions& options = {},
+                                                   std::vector<RejectedView> rejected = {});
+
+// Writes the calibration (saveCalibration) followed by the figures, the rejected views and the date.
+void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result);
+
+// One rectified pair side by side with horizontal lines every `line_spacing_px` rows: matching points must lie on
+// the same line.
+cv::Mat drawRectifiedCheck(const StereoCalibration& calib, const cv::Mat& left, const cv::Mat& right,
+                           int line_spacing_px = 32);
+
+}  // namespace ips::calib

@@ -1,0 +1,87 @@
+// calibrate_stereo: both cameras and the stereo geometry of a head from chessboard image pairs, written as the
+// project's calibration file. The library (ips/calib/stereo_calibration.hpp) does the work; this reads the
+// images and prints the figures. The last line is `rms_px=... epipolar_px=... heldout_epipolar_px=...`.
+#include <glob.h>
+
+#include <cstdio>
+#include <opencv2/imgcodecs.hpp>
+#include <string>
+#include <vector>
+
+#include "ips/args.hpp"
+#include "ips/calib/stereo_calibration.hpp"
+
+namespace {
+
+std::vector<std::string> matching(const std::string& pattern) {
+  // POSIX glob (sorted): the shell's syntax, including [..] sets, which cv::glob lacks.
+  glob_t found{};
+  std::vector<std::string> files;
+  if (::glob(pattern.c_str(), 0, nullptr, &found) == 0)
+    for (size_t i = 0; i < found.gl_pathc; ++i) files.emplace_back(found.gl_pathv[i]);
+  globfree(&found);
+  return files;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    ips::Args args(argc, argv, "Stereo calibration from chessboard image pairs -> the project's calibration file");
+    args.required("--left", "GLOB", "left images (quoted glob; sorted, paired by order with --right)")
+        .required("--right", "GLOB", "right images")
+        .required("--board", "WxH", "inner corners per row and column, e.g. 9x6")
+        .required("--square", "METRES", "edge of one board square")
+        .required("--out", "FILE.yaml", "calibration file to write")
+        .option("--check-png", "FILE.png", "write the first pair rectified, with horizontal lines, to this file");
+    if (!args.parse()) return 0;
+    const std::vector<std::string> left = matching(args.get("--left")), right = matching(args.get("--right"));
+    if (left.empty()) throw std::runtime_error("--left " + args.get("--left") + ": no files matched");
+    if (right.empty()) throw std::runtime_error("--right " + args.get("--right") + ": no files matched");
+    if (left.size() != right.size())
+      throw std::runtime_error("--left matched " + std::to_string(left.size()) + " files, --right " +
+                               std::to_string(right.size()));
+    ips::calib::ChessboardSpec board;
+    if (std::sscanf(args.get("--board").c_str(), "%dx%d", &board.inner_corners.width, &board.inner_corners.height) != 2)
+      throw std::runtime_error("--board " + args.get("--board") + ": expected WxH, e.g. 9x6");
+    board.square_m = args.getDouble("--square");
+
+    std::vector<ips::calib::StereoImagePair> pairs;
+    for (size_t i = 0; i < left.size(); ++i)
+      pairs.push_back({left[i], cv::imread(left[i], cv::IMREAD_GRAYSCALE), cv::imread(right[i], cv::IMREAD_GRAYSCALE)});
+    const ips::calib::StereoCalibrationResult result = ips::calib::calibrateStereo(pairs, board);
+
+    for (const auto& r : result.rejected) std::printf("rejected %s: %s\n", r.name.c_str(), r.reason.c_str());
+    for (const auto& v : result.views)
+      std::printf("view %s: rms_left_px=%.3f rms_right_px=%.3f epipolar_px=%.3f\n", v.name.c_str(), v.rms_left_px,
+                  v.rms_right_px, v.epipolar_px);
+    for (const auto& c : result.candidates) {
+      if (c.ok)
+        std::printf(
+            "model %s: rms_px=%.3f epipolar_px=%.3f heldout_epipolar_px=%.3f rectified_row_px=%.3f "
+            "heldout_rectified_row_px=%.3f\n",
+            ips::calib::lensModelName(c.model).c_str(), c.rms_px, c.epipolar_px, c.heldout_epipolar_px,
+            c.rectified_row_px, c.heldout_rectified_row_px);
+      else
+        std::printf("model %s: not fitted: %s\n", ips::calib::lensModelName(c.model).c_str(), c.failure.c_str());
+    }
+    std::printf("chosen %s (lowest held-out epipolar error), %zu views used, %zu rejected, baseline %.4f m\n",
+                ips::calib::lensModelName(result.model).c_str(), result.views.size(), result.rejected.size(),
+                result.calib.baseline());
+    ips::calib::saveStereoCalibration(args.get("--out"), result);
+    if (args.has("--check-png")) {
+      const cv::Mat check = ips::calib::drawRectifiedCheck(result.calib, pairs.front().left, pairs.front().right);
+      if (!cv::imwrite(args.get("--check-png"), check))
+        throw std::runtime_error("--check-png " + args.get("--check-png") + ": cannot write");
+    }
+    std::printf("rms_px=%.4f epipolar_px=%.4f heldout_epipolar_px=%.4f\n", result.figures.rms_px,
+                result.figures.epipolar_px, result.figures.heldout_epipolar_px);
+    return 0;
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "calibrate_stereo: %s\n", e.what());
+    return 1;
+  }
+}
