@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <fstream>
 #include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -365,8 +366,9 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
 
 void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result) {
   saveCalibration(path, result.calib);
-  cv::FileStorage fs(path, cv::FileStorage::APPEND);
-  if (!fs.isOpened()) throw std::runtime_error(path + ": cannot append the calibration figures");
+  // The figures go into the same YAML document as the calibration (FileStorage::APPEND would start a second
+  // document): written to memory, their header dropped, appended as text.
+  cv::FileStorage fs(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
   char date[32];
   const std::time_t now = std::time(nullptr);
   std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
