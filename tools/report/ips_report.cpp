@@ -17,6 +17,7 @@
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -266,6 +267,14 @@ int main(int argc, char** argv) {
     std::error_code mkdir_error;
     std::filesystem::create_directories(out, mkdir_error);
     if (mkdir_error) throw std::runtime_error("cannot create the output folder " + out + ": " + mkdir_error.message());
+    // Both calibrations read once, before any log: a bad file ends the report at once, naming itself.
+    std::optional<ips::StereoCalibration> truth_calib;
+    if (args.has("--calib")) truth_calib = ips::loadCalibration(args.get("--calib"));
+    // What the processes ran on: "true", "perturbed", "estimated", "converted", or "unspecified".
+    std::string calibration_source = "unspecified";
+    const std::optional<ips::StereoCalibration> ran_on =
+        args.has("--process-calib") ? std::optional(ips::loadCalibration(args.get("--process-calib"))) : truth_calib;
+    if (ran_on && !ran_on->source.empty()) calibration_source = ran_on->source;
 
     std::vector<FilterRun> runs;
     {
@@ -463,7 +472,7 @@ int main(int argc, char** argv) {
         lengths = distance > 40 ? std::vector<double>{10, 20, 40} : std::vector<double>{1, 2};
       }
       Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
-      if (args.has("--calib")) T_imu_cam0 = ips::loadCalibration(args.get("--calib")).T_imu_cam0;
+      if (truth_calib) T_imu_cam0 = truth_calib->T_imu_cam0;
       struct Estimate {
         std::string name;
         Trajectory est, ref;
@@ -553,9 +562,8 @@ int main(int argc, char** argv) {
     js << "  \"disparity_density_pct\": " << jsonNumber(scores.empty() ? NAN : density / scores.size()) << ",\n";
 
     // Pictures of a few maps beside their rectified left images.
-    if (args.has("--images") && args.has("--calib") && !scores.empty()) {
-      const ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
-      const ips::StereoRectification rect = ips::computeRectification(calib);
+    if (args.has("--images") && truth_calib && !scores.empty()) {
+      const ips::StereoRectification rect = ips::computeRectification(*truth_calib);
       const int want = static_cast<int>(args.getInt("--pictures"));
       std::set<int64_t> pick;
       for (int i = 0; i < want && i < static_cast<int>(scores.size()); ++i)
@@ -565,7 +573,7 @@ int main(int argc, char** argv) {
         if (im.channel != "STEREO") return;
         ips::stereo_pair_t p;
         if (!decode(im, &p) || !pick.count(p.seq) || !est_disp.count(p.utime)) return;
-        if (!ips::fw::validate(p).ok() || p.width != calib.cam0.width || p.height != calib.cam0.height) {
+        if (!ips::fw::validate(p).ok() || p.width != truth_calib->cam0.width || p.height != truth_calib->cam0.height) {
           ++bad_messages;
           return;
         }
@@ -607,13 +615,6 @@ int main(int argc, char** argv) {
     }
     js << "\n  },\n";
     js << "  \"bad_messages\": " << bad_messages << ",\n";
-    // What the processes ran on: "true", "perturbed", "estimated", "converted", or "unspecified".
-    std::string calibration_source = "unspecified";
-    if (args.has("--process-calib") || args.has("--calib")) {
-      const ips::StereoCalibration ran_on =
-          ips::loadCalibration(args.has("--process-calib") ? args.get("--process-calib") : args.get("--calib"));
-      if (!ran_on.source.empty()) calibration_source = ran_on.source;
-    }
     js << "  \"calibration_source\": " << jsonString(calibration_source) << ",\n";
     js << "  \"status\": \"" << (failures.empty() ? "ok" : "failed") << "\",\n  \"failures\": [";
     for (size_t i = 0; i < failures.size(); ++i) js << (i ? ", " : "") << jsonString(failures[i]);
