@@ -125,6 +125,19 @@ TEST(StereoCalibration, RecoversAKnownStereoCamera) {
   EXPECT_NEAR(c.baseline(), cv::norm(t_stereo), 1e-3 * cv::norm(t_stereo));
   // Exact corners: only float rounding of the corners (1e-5 px) is left.
   EXPECT_LT(result.figures.rms_px, 1e-3);
+
+  // The file: the calibration every process reads, with the figures and the date in the same document.
+  const std::string file = testing::TempDir() + "/estimated.calib.yaml";
+  ips::calib::saveStereoCalibration(file, result);
+  const ips::StereoCalibration loaded = ips::loadCalibration(file);
+  EXPECT_EQ(loaded.source, "estimated");
+  EXPECT_NEAR((loaded.cam1.K - c.cam1.K).norm(), 0, 1e-9);
+  cv::FileStorage fs(file, cv::FileStorage::READ);
+  const cv::FileNode figures = fs["calibration_figures"];
+  ASSERT_TRUE(figures.isMap()) << "no calibration_figures in " << file;
+  EXPECT_NEAR(static_cast<double>(figures["heldout_epipolar_px"]), result.figures.heldout_epipolar_px, 1e-9);
+  EXPECT_EQ(static_cast<int>(figures["views"].size()), 30);
+  EXPECT_EQ(static_cast<std::string>(figures["date"]).size(), 20u) << "YYYY-MM-DDTHH:MM:SSZ";
 }
 
 TEST(StereoCalibration, TooFewBoardsIsAnError) {

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <ctime>
-#include <fstream>
 #include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -365,46 +364,45 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
 }
 
 void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result) {
-  saveCalibration(path, result.calib);
-  // The figures go into the same YAML document as the calibration (FileStorage::APPEND would start a second
-  // document): written to memory, their header dropped, appended as text.
-  cv::FileStorage fs(".yml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
-  char date[32];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  fs << "calibration_figures"
-     << "{";
-  fs << "date" << date << "lens_model" << lensModelName(result.model);
-  fs << "rms_px" << result.figures.rms_px << "epipolar_px" << result.figures.epipolar_px;
-  fs << "heldout_epipolar_px" << result.figures.heldout_epipolar_px;
-  fs << "rectified_row_px" << result.figures.rectified_row_px;
-  fs << "heldout_rectified_row_px" << result.figures.heldout_rectified_row_px;
-  fs << "candidates"
-     << "[";
-  for (const auto& c : result.candidates) {
-    fs << "{"
-       << "lens_model" << lensModelName(c.model) << "fitted" << static_cast<int>(c.ok);
-    if (c.ok)
-      fs << "rms_px" << c.rms_px << "epipolar_px" << c.epipolar_px << "heldout_epipolar_px" << c.heldout_epipolar_px;
-    else
-      fs << "failure" << c.failure;
-    fs << "}";
-  }
-  fs << "]"
-     << "views"
-     << "[";
-  for (const auto& v : result.views)
-    fs << "{"
-       << "name" << v.name << "rms_left_px" << v.rms_left_px << "rms_right_px" << v.rms_right_px << "epipolar_px"
-       << v.epipolar_px << "}";
-  fs << "]"
-     << "rejected"
-     << "[";
-  for (const auto& r : result.rejected)
-    fs << "{"
-       << "name" << r.name << "reason" << r.reason << "}";
-  fs << "]"
-     << "}";
+  // The figures go into the calibration's own YAML document (FileStorage::APPEND would start a second one).
+  saveCalibration(path, result.calib, [&](cv::FileStorage& fs) {
+    char date[32];
+    const std::time_t now = std::time(nullptr);
+    std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+    fs << "calibration_figures"
+       << "{";
+    fs << "date" << date << "lens_model" << lensModelName(result.model);
+    fs << "rms_px" << result.figures.rms_px << "epipolar_px" << result.figures.epipolar_px;
+    fs << "heldout_epipolar_px" << result.figures.heldout_epipolar_px;
+    fs << "rectified_row_px" << result.figures.rectified_row_px;
+    fs << "heldout_rectified_row_px" << result.figures.heldout_rectified_row_px;
+    fs << "candidates"
+       << "[";
+    for (const auto& c : result.candidates) {
+      fs << "{"
+         << "lens_model" << lensModelName(c.model) << "fitted" << static_cast<int>(c.ok);
+      if (c.ok)
+        fs << "rms_px" << c.rms_px << "epipolar_px" << c.epipolar_px << "heldout_epipolar_px" << c.heldout_epipolar_px;
+      else
+        fs << "failure" << c.failure;
+      fs << "}";
+    }
+    fs << "]"
+       << "views"
+       << "[";
+    for (const auto& v : result.views)
+      fs << "{"
+         << "name" << v.name << "rms_left_px" << v.rms_left_px << "rms_right_px" << v.rms_right_px << "epipolar_px"
+         << v.epipolar_px << "}";
+    fs << "]"
+       << "rejected"
+       << "[";
+    for (const auto& r : result.rejected)
+      fs << "{"
+         << "name" << r.name << "reason" << r.reason << "}";
+    fs << "]"
+       << "}";
+  });
 }
 
 cv::Mat drawRectifiedCheck(const StereoCalibration& calib, const cv::Mat& left, const cv::Mat& right,

@@ -99,7 +99,8 @@ StereoCalibration loadCalibration(const std::string& path) {
   return c;
 }
 
-void saveCalibration(const std::string& path, const StereoCalibration& c) {
+void saveCalibration(const std::string& path, const StereoCalibration& c,
+                     const std::function<void(cv::FileStorage&)>& write_more) {
   cv::FileStorage fs(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
   if (!fs.isOpened()) throw ConfigError(path + ": cannot write calibration");
   fs.writeComment(
@@ -113,6 +114,7 @@ void saveCalibration(const std::string& path, const StereoCalibration& c) {
   fs << "T_imu_cam0" << toCv(c.T_imu_cam0.matrix());
   fs << "R_tilt_cam0" << toCv(c.R_tilt_cam0);
   if (!c.source.empty()) fs << "source" << c.source;
+  if (write_more) write_more(fs);
 }
 
 StereoRectification computeRectification(const StereoCalibration& c, double alpha) {

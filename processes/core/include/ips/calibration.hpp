@@ -7,6 +7,7 @@
 // A transform named T_a_b maps a point from frame b into frame a: X_a = T_a_b * X_b.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <string>
 
@@ -47,7 +48,10 @@ struct StereoCalibration {
 
 // Throws ConfigError naming the file and key on any problem.
 StereoCalibration loadCalibration(const std::string& path);
-void saveCalibration(const std::string& path, const StereoCalibration& calib);
+// `write_more`, when given, adds keys of its own to the same document after the calibration's (a tool's figures);
+// every reader ignores keys it does not know.
+void saveCalibration(const std::string& path, const StereoCalibration& calib,
+                     const std::function<void(cv::FileStorage&)>& write_more = {});
 
 // The rectified geometry of a head: both rectified cameras share K_rect and differ by a pure
 // translation of `baseline` along x, so matching points lie on the same row and x_left - x_right = d,
