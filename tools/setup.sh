@@ -16,6 +16,8 @@ PACKAGES=(
   default-jdk-headless libjchart2d-java
   iproute2 procps nftables
   opencv-doc
+  libcpp-httplib-dev nlohmann-json3-dev libjs-three libjs-chart.js
+  chromium chromium-driver python3-selenium fonts-dejavu-core
 )
 
 SUDO=""
