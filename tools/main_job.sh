@@ -3,7 +3,7 @@
 # deputy on this machine and has the sheriff run procman/main_job.pmd (tracker, EKF and UKF filters, e3d and
 # lcm-logger, with lcm-logplayer playing the walk through them), then writes the report to out/<run>/
 # (out/latest points at it).
-# Environment: IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario
+# Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario
 # file instead of the built-in walk), IPS_REPLAY_SPEED (default 1),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), LCM_DEFAULT_URL.
 # IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder or KITTI odometry folder, told
@@ -70,6 +70,9 @@ PY
 #    second main job on the same LCM URL is refused by the deputy's discovery, exit 2).
 export LCM_DEFAULT_URL=${LCM_DEFAULT_URL:-udpm://239.255.76.67:7667?ttl=0}
 export IPS_RUN_DIR=$run IPS_REPLAY_SPEED=${IPS_REPLAY_SPEED:-1.0}
+# The live view: IPS_VIEWER_PORT, else a port free on this machine (a fixed one may be taken by another job).
+IPS_VIEWER_PORT=${IPS_VIEWER_PORT:-$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')}
+export IPS_VIEWER_PORT
 deputy_id=mainjob
 say "2/4 starting procman-deputy '$deputy_id' on $LCM_DEFAULT_URL"
 procman-deputy --id "$deputy_id" > "$run/deputy.log" 2>&1 &
@@ -78,6 +81,7 @@ trap 'kill -TERM $deputy 2>/dev/null || true; wait $deputy 2>/dev/null || true' 
 
 # 3. The sheriff runs the processing stages over the walk; progress every 15 s.
 say "3/4 replaying ${walk_s} s of sensor data through tracker, filters (EKF, UKF) and e3d (procman/main_job.pmd)"
+say "    live view: http://127.0.0.1:$IPS_VIEWER_PORT/ (open it in a browser on this machine while the walk plays)"
 procman-sheriff --config procman/main_job.pmd --timeout 1800 --script run \
   > "$run/sheriff.log" 2>&1 &
 sheriff=$!

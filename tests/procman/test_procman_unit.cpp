@@ -216,6 +216,7 @@ TEST(SheriffConfig, ProjectConfigurationsLoad) {
   for (const char* id : {"camera", "imu", "tilt", "tracker", "filter"})
     EXPECT_EQ(deputyOf(vehicle, id), "sensors") << id;
   EXPECT_EQ(deputyOf(vehicle, "e3d"), "processing");
+  EXPECT_EQ(deputyOf(vehicle, "viewer"), "processing");
   EXPECT_NE(vehicle.findScript("start_all"), nullptr);
 
   const auto replay = pm::loadSheriffConfig(dir + "/replay.pmd");
@@ -223,6 +224,8 @@ TEST(SheriffConfig, ProjectConfigurationsLoad) {
   for (const auto& c : replay.commands) has_player = has_player || c.exec.find("lcm-logplayer") != std::string::npos;
   EXPECT_TRUE(has_player);
   EXPECT_NE(replay.findScript("replay"), nullptr);
+  EXPECT_NE(deputyOf(replay, "viewer"), "<missing>");
+  EXPECT_NE(deputyOf(pm::loadSheriffConfig(dir + "/main_job.pmd"), "viewer"), "<missing>");
 }
 
 // What the upstream sheriff and deputy need of a configuration: a deputy named by every command (its sheriff
