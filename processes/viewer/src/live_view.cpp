@@ -165,12 +165,17 @@ void LiveView::onPose(const std::string& source, const PoseSample& pose) {
       for (const PoseSample& t : truth->second.points)
         if (!nearest || std::abs(t.utime - pose.utime) < std::abs(nearest->utime - pose.utime)) nearest = &t;
       if (std::abs(nearest->utime - pose.utime) * 1e-6 <= params_.trajectory_min_interval_s) {
-        Eigen::Isometry3d T_truth = Eigen::Isometry3d::Identity(), T_est = Eigen::Isometry3d::Identity();
-        T_truth.linear() = nearest->orientation.normalized().toRotationMatrix();
-        T_truth.translation() = nearest->position;
-        T_est.linear() = pose.orientation.normalized().toRotationMatrix();
-        T_est.translation() = pose.position;
-        track.world_from_estimate = T_truth * T_est.inverse();
+        // Yaw and position only, as the report aligns: roll and pitch are the filter's own (gravity makes
+        // them observable), so a tilt error stays visible.
+        auto yaw = [](const Eigen::Quaterniond& q) {
+          const Eigen::Vector3d x = q * Eigen::Vector3d::UnitX();
+          return std::atan2(x.y(), x.x());
+        };
+        const Eigen::Matrix3d R =
+            Eigen::AngleAxisd(yaw(nearest->orientation) - yaw(pose.orientation), Eigen::Vector3d::UnitZ())
+                .toRotationMatrix();
+        track.world_from_estimate.linear() = R;
+        track.world_from_estimate.translation() = nearest->position - R * pose.position;
         track.aligned = true;
       }
     }
