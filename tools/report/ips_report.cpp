@@ -1,7 +1,11 @@
 // ips_report: the main job's report. Reads the LCM log recorded while the system ran (filter states, tracker
 // deltas, disparity maps, health, and the simulator's ground truth) and writes report.json with the figures
-// of the run, plus pictures: the trajectories against ground truth (top view), the position error over time
-// with the filter's 3-sigma bounds, and colour-mapped disparity maps beside their rectified images.
+// of the run, and report.html: one self-contained page (report_page.html filled with the run's data) that draws
+// the figures table, the trajectories against ground truth, the filters' errors with their 3-sigma bounds and
+// NEES, the tracker's inliers and the processes' latency over time, disparity examples with colour bars beside
+// ground truth and the error map, and one of them triangulated into a 3D point cloud. The run's PNG pictures
+// are screenshots of that page (tools/report/render_pictures.sh).
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -15,7 +19,6 @@
 #include <ips/tracker_delta_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <set>
@@ -28,6 +31,7 @@
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
+#include "report_page.hpp"
 
 namespace {
 
@@ -59,6 +63,19 @@ int64_t forEachMessage(const std::string& path, std::vector<std::string>& failur
 constexpr double kMaxStateGapS = 2.0;
 // A process whose health messages (sent every second while it runs) stop this long before the input ends died.
 constexpr double kMaxHealthSilenceS = 10.0;
+// What the page draws per series: enough for a line that looks continuous at a screen's width (a few thousand
+// pixels), few enough that the self-contained page stays a few megabytes for a run of hours.
+constexpr size_t kMaxPageTrajectoryPoints = 3000;
+constexpr size_t kMaxPageErrorSamples = 2000;
+// The 3D view's point cloud (one disparity map triangulated): enough to see the scene's surfaces, few enough
+// to rotate smoothly in a laptop's browser.
+constexpr size_t kMaxCloudPoints = 40000;
+// Disparities below one pixel are not triangulated: there a quarter-pixel matching error moves the point by more
+// than a quarter of its depth.
+constexpr double kMinCloudDisparityPx = 1.0;
+// The disparity error map's scale: twice the bad-pixel threshold of the figures, so that its middle is the
+// threshold.
+constexpr double kBadDisparityPx = 2.0;
 
 struct FilterRun {
   std::string channel;
@@ -72,6 +89,9 @@ struct ProcessFigures {
   double latency_sum = 0;
   int latency_n = 0;
   ips::health_t last;
+  // Over the run, for the page: the stamp of the newest input [s], the mean processing time [ms] and the
+  // input rate [Hz] of each report interval.
+  std::vector<double> t, latency_ms, rate_hz;
 };
 
 struct DisparityScore {
@@ -125,61 +145,83 @@ Trajectory alignStart(const Trajectory& est, const Trajectory& gt) {
   return out;
 }
 
-void plotErrors(const std::string& path, const std::vector<FilterRun>& runs, const std::vector<Trajectory>& aligned,
-                const Trajectory& gt) {
-  const int w = 1200, h_panel = 220, margin = 60;
-  const int panels = 3;
-  cv::Mat img(panels * h_panel + 40, w, CV_8UC3, cv::Scalar(255, 255, 255));
-  const cv::Scalar colours[] = {{0, 0, 220}, {220, 0, 0}, {0, 150, 0}};
-  double t0 = 1e300, t1 = -1e300, emax = 1e-3;
-  std::vector<std::vector<std::array<double, 7>>> curves(runs.size());  // t, ex, ey, ez, 3sx, 3sy, 3sz
-  for (size_t k = 0; k < runs.size(); ++k) {
-    const size_t n = std::min(runs[k].states.size(), aligned[k].size());
-    const size_t step = std::max<size_t>(1, n / 2000);
-    for (size_t i = 0; i < n; i += step) {
-      const auto& s = runs[k].states[i];
-      const TrajPoint& p = aligned[k][i];
-      const Eigen::Vector3d e = p.p - truthAt(gt, p.t);
-      std::array<double, 7> c{p.t, e.x(), e.y(), e.z(), 0, 0, 0};
-      for (int a = 0; a < 3; ++a) c[4 + a] = s.cov_dim > a ? 3 * std::sqrt(std::max(0.0, s.covariance[a][a])) : 0;
-      curves[k].push_back(c);
-      t0 = std::min(t0, p.t), t1 = std::max(t1, p.t);
-      for (int a = 0; a < 3; ++a) emax = std::max({emax, std::fabs(c[1 + a]), c[4 + a]});
-    }
-  }
-  if (t0 >= t1) return;
-  emax = std::min(emax, 5.0);
-  const char* axis[] = {"x error [m]", "y error [m]", "z error [m]"};
-  for (int a = 0; a < panels; ++a) {
-    const int top = 20 + a * h_panel, mid = top + h_panel / 2;
-    auto X = [&](double t) { return static_cast<int>(margin + (t - t0) / (t1 - t0) * (w - 2 * margin)); };
-    auto Y = [&](double e) {
-      return static_cast<int>(mid - std::max(-1.0, std::min(1.0, e / emax)) * (h_panel / 2 - 15));
-    };
-    cv::line(img, {margin, mid}, {w - margin, mid}, cv::Scalar(180, 180, 180), 1);
-    cv::putText(img, axis[a], {5, top + 15}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1);
-    std::ostringstream lim;
-    lim << "+-" << std::setprecision(2) << emax << " m";
-    cv::putText(img, lim.str(), {5, top + 35}, cv::FONT_HERSHEY_SIMPLEX, 0.45, cv::Scalar(90, 90, 90), 1);
-    for (size_t k = 0; k < curves.size(); ++k) {
-      const auto& c = curves[k];
-      for (size_t i = 1; i < c.size(); ++i) {
-        cv::line(img, {X(c[i - 1][0]), Y(c[i - 1][1 + a])}, {X(c[i][0]), Y(c[i][1 + a])}, colours[k % 3], 1,
-                 cv::LINE_AA);
-        cv::line(img, {X(c[i - 1][0]), Y(c[i - 1][4 + a])}, {X(c[i][0]), Y(c[i][4 + a])},
-                 colours[k % 3] * 0.5 + cv::Scalar(120, 120, 120), 1);
-        cv::line(img, {X(c[i - 1][0]), Y(-c[i - 1][4 + a])}, {X(c[i][0]), Y(-c[i][4 + a])},
-                 colours[k % 3] * 0.5 + cv::Scalar(120, 120, 120), 1);
+// The truth's attitude at time t (slerp between the neighbouring poses).
+Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) {
+  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const TrajPoint& a, double v) { return a.t < v; });
+  if (it == gt.begin()) return gt.front().q;
+  if (it == gt.end()) return gt.back().q;
+  const TrajPoint& b = *it;
+  const TrajPoint& a = *(it - 1);
+  return a.q.slerp((t - a.t) / std::max(1e-12, b.t - a.t), b.q);
+}
+
+// Where filter_state_t's error-state covariance holds the position and the attitude error (see its .lcm).
+constexpr int kCovPosition = 0;
+constexpr int kCovAttitude = 18;
+// The two-sided 95 % band of a chi-square variable with 3 degrees of freedom (the position NEES of a
+// consistent filter, one sample): 2.5 % and 97.5 % quantiles.
+constexpr double kChi2Dof3Lo = 0.2158, kChi2Dof3Hi = 9.3484;
+
+// A filter's errors against the truth over time, with the bounds its covariance claims: position [m] and
+// attitude error (rotation vector in world) [deg] per axis, their 3-sigma, and the position NEES.
+struct ErrorSeries {
+  std::vector<double> t, nees;
+  std::array<std::vector<double>, 3> pos, pos3s, att, att3s;
+  double nees_mean = NAN;
+  double nees_in_band_pct = NAN;
+};
+
+ErrorSeries errorSeries(const FilterRun& run, const Trajectory& est, const Trajectory& aligned, const Trajectory& gt,
+                        double t0, size_t max_samples) {
+  ErrorSeries out;
+  const size_t n = std::min({run.states.size(), est.size(), aligned.size()});
+  if (n == 0 || gt.empty()) return out;
+  // The start alignment's rotation carries the filter's covariance into the truth's frame as well.
+  const Eigen::Matrix3d R = (aligned.front().q * est.front().q.inverse()).toRotationMatrix();
+  auto block = [](const ips::filter_state_t& s, int at) {
+    Eigen::Matrix3d P;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) P(r, c) = s.covariance[at + r][at + c];
+    return P;
+  };
+  const std::vector<size_t> shown = ips::report::subsample(n, max_samples);
+  size_t next_shown = 0;
+  double nees_sum = 0;
+  int64_t nees_n = 0, nees_in = 0;
+  for (size_t i = 0; i < n; ++i) {
+    const ips::filter_state_t& s = run.states[i];
+    const TrajPoint& p = aligned[i];
+    const Eigen::Vector3d e = p.p - truthAt(gt, p.t);
+    const bool has_pos = s.cov_dim >= kCovPosition + 3, has_att = s.cov_dim >= kCovAttitude + 3;
+    Eigen::Matrix3d Pp = Eigen::Matrix3d::Constant(NAN), Pa = Eigen::Matrix3d::Constant(NAN);
+    double nees = NAN;
+    if (has_pos) {
+      Pp = R * block(s, kCovPosition) * R.transpose();
+      Eigen::LDLT<Eigen::Matrix3d> ldlt(Pp);
+      if (ldlt.info() == Eigen::Success && ldlt.isPositive() && Pp.determinant() > 0) {
+        nees = e.dot(ldlt.solve(e));
+        nees_sum += nees, ++nees_n;
+        nees_in += nees >= kChi2Dof3Lo && nees <= kChi2Dof3Hi ? 1 : 0;
       }
     }
+    if (next_shown >= shown.size() || shown[next_shown] != i) continue;
+    ++next_shown;
+    if (has_att) Pa = R * block(s, kCovAttitude) * R.transpose();
+    // q_true = exp(dtheta) * q_est: the attitude error as a rotation vector in world, as the covariance has it.
+    // (Eigen's angle-axis of a quaternion has its angle in [0, pi]: the shortest rotation.)
+    const Eigen::AngleAxisd d(truthAttitudeAt(gt, p.t) * p.q.inverse());
+    const Eigen::Vector3d dtheta_w = d.angle() * d.axis();
+    out.t.push_back(p.t - t0);
+    out.nees.push_back(nees);
+    for (int a = 0; a < 3; ++a) {
+      out.pos[a].push_back(e[a]);
+      out.pos3s[a].push_back(has_pos ? 3 * std::sqrt(std::max(0.0, Pp(a, a))) : NAN);
+      out.att[a].push_back(dtheta_w[a] * 180 / M_PI);
+      out.att3s[a].push_back(has_att ? 3 * std::sqrt(std::max(0.0, Pa(a, a))) * 180 / M_PI : NAN);
+    }
   }
-  for (size_t k = 0; k < runs.size(); ++k)
-    cv::putText(img, runs[k].channel + " (error, grey: +-3 sigma)", {w - 420, 15 + 18 * static_cast<int>(k)},
-                cv::FONT_HERSHEY_SIMPLEX, 0.45, colours[k % 3], 1);
-  std::ostringstream tl;
-  tl << "time " << std::fixed << std::setprecision(1) << t0 << " .. " << t1 << " s";
-  cv::putText(img, tl.str(), {margin, img.rows - 8}, cv::FONT_HERSHEY_SIMPLEX, 0.5, cv::Scalar(0, 0, 0), 1);
-  cv::imwrite(path, img);
+  if (nees_n) out.nees_mean = nees_sum / nees_n, out.nees_in_band_pct = 100.0 * nees_in / nees_n;
+  return out;
 }
 
 cv::Mat disparityMat(const ips::disparity_map_t& m) {
@@ -211,30 +253,11 @@ DisparityScore score(const ips::disparity_map_t& est, const ips::disparity_map_t
       if (ev >= 0) ++valid_est;
       if (gv < 0) continue;
       ++sc.evaluated;
-      if (ev < 0 || std::fabs(ev - gv) > 2.0f) ++bad;
+      if (ev < 0 || std::fabs(ev - gv) > kBadDisparityPx) ++bad;
     }
   sc.bad2_pct = sc.evaluated ? 100.0 * bad / sc.evaluated : 0;
   sc.density_pct = 100.0 * valid_est / (static_cast<double>(e.rows) * e.cols);
   return sc;
-}
-
-cv::Mat colourDisparity(const cv::Mat& d, float max_d) {
-  cv::Mat u8;
-  d.convertTo(u8, CV_8U, 255.0 / std::max(1.f, max_d));
-  cv::Mat colour;
-  cv::applyColorMap(u8, colour, cv::COLORMAP_JET);
-  colour.setTo(cv::Scalar(0, 0, 0), d < 0);
-  return colour;
-}
-
-std::string jsonString(const std::string& v) {
-  std::string o = "\"";
-  for (char c : v) {
-    if (c == '"' || c == '\\') o += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) c = ' ';
-    o += c;
-  }
-  return o + "\"";
 }
 
 std::string jsonNumber(double v) {
@@ -257,11 +280,15 @@ int main(int argc, char** argv) {
         .option("--process-calib", "FILE",
                 "the calibration the processes ran on, whose source the report names; default: --calib")
         .option("--filters", "CH[,CH]", "filter state channels and their names", "FILTER_STATE,FILTER_STATE_UKF")
-        .option("--pictures", "N", "disparity maps to draw", "3")
+        .option("--pictures", "N", "disparity maps shown as examples on the page", "3")
         .option("--lengths", "M[,M]",
                 "sub-sequence lengths of the relative errors (KITTI devkit style); default 10,20,40 m when the "
                 "ground truth is longer than 40 m, else 1,2 m")
-        .required("--out", "DIR", "output folder (report.json and PNG pictures)");
+        .option("--page-template", "FILE", "the report page's HTML template", IPS_REPORT_PAGE_TEMPLATE)
+        .option("--js-dir", "DIR",
+                "where Debian's libjs-chart.js and libjs-three are (chart.js/, three/), inlined into the page",
+                IPS_JS_DIR)
+        .required("--out", "DIR", "output folder (report.json and report.html)");
     if (!args.parse()) return 0;
     const std::string out = args.get("--out");
     std::error_code mkdir_error;
@@ -349,6 +376,11 @@ int main(int argc, char** argv) {
           if (h.input_rate_hz > 0) f.rate_sum += h.input_rate_hz, ++f.rate_n;
           if (h.latency_ms > 0) f.latency_sum += h.latency_ms, ++f.latency_n;
           f.last = h;
+          if (h.utime > 0 && h.latency_ms > 0) {  // intervals without an input processed have no latency
+            f.t.push_back(h.utime * 1e-6);
+            f.latency_ms.push_back(h.latency_ms);
+            f.rate_hz.push_back(h.input_rate_hz);
+          }
         } else {
           for (auto& run : runs)
             if (ch == run.channel) {
@@ -405,6 +437,27 @@ int main(int argc, char** argv) {
     gt.erase(std::unique(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t == b.t; }),
              gt.end());
 
+    // The page's data beside report.json's figures: the series it draws, as "key": value fields.
+    std::vector<std::string> page;
+    double t0 = gt.empty() ? NAN : gt.front().t;  // the page's time axis starts at the first ground truth
+    for (const auto& run : runs)
+      if (!run.states.empty() && !(t0 <= run.states.front().utime * 1e-6)) t0 = run.states.front().utime * 1e-6;
+    if (!std::isfinite(t0)) t0 = delta_msgs.empty() ? 0.0 : delta_msgs.front().utime * 1e-6;
+    std::vector<std::string> page_trajectories, page_errors;
+    auto trajectoryJson = [&](const std::string& name, const std::string& kind, const Trajectory& tr) {
+      std::vector<double> t, x, y, z;
+      for (size_t i : ips::report::subsample(tr.size(), kMaxPageTrajectoryPoints)) {
+        t.push_back(tr[i].t - t0);
+        x.push_back(tr[i].p.x()), y.push_back(tr[i].p.y()), z.push_back(tr[i].p.z());
+      }
+      page_trajectories.push_back(
+          "{\"name\": " + ips::report::jsonString(name) + ", \"kind\": \"" + kind +
+          "\", \"poses\": " + std::to_string(tr.size()) + ", \"t\": " + ips::report::jsonArray(t, 7) +
+          ", \"x\": " + ips::report::jsonArray(x, 6) + ", \"y\": " + ips::report::jsonArray(y, 6) +
+          ", \"z\": " + ips::report::jsonArray(z, 6) + "}");
+    };
+    if (!gt.empty()) trajectoryJson("ground truth", "truth", gt);
+
     std::ostringstream js;
     js << "{\n";
     double distance = 0;
@@ -413,17 +466,13 @@ int main(int argc, char** argv) {
     js << "  \"duration_s\": " << jsonNumber(gt.empty() ? 0 : gt.back().t - gt.front().t) << ",\n";
     js << "  \"tracker_deltas\": " << deltas << ",\n  \"tracker_deltas_valid\": " << deltas_valid << ",\n";
     js << "  \"filters\": [\n";
-    std::vector<Trajectory> aligned_all;
-    std::vector<std::string> labels;
     bool first_run = true;
     double first_end_err = NAN, first_end_pct = NAN, first_ate = NAN;
     for (auto& run : runs) {
       Trajectory est;
       for (const auto& s : run.states) est.push_back(toPoint(s.utime, s.position, s.orientation));
       Trajectory aligned = alignStart(est, gt);
-      aligned_all.push_back(aligned);
       const std::string name = run.type == ips::filter_state_t::FILTER_UKF ? "ukf" : "ekf";
-      labels.push_back(name + " (" + run.channel + ")");
       double ate = NAN, end_err = NAN, end_pct = NAN;
       if (est.size() >= 3 && gt.size() >= 3) {
         Trajectory ea, ra;
@@ -439,9 +488,28 @@ int main(int argc, char** argv) {
         }
       }
       if (first_run) first_end_err = end_err, first_end_pct = end_pct, first_ate = ate;
+      const ErrorSeries err = errorSeries(run, est, aligned, gt, t0, kMaxPageErrorSamples);
       js << (first_run ? "" : ",\n") << "    {\"channel\": \"" << run.channel << "\", \"filter\": \"" << name
          << "\", \"states\": " << run.states.size() << ", \"end_error_m\": " << jsonNumber(end_err)
-         << ", \"end_error_pct\": " << jsonNumber(end_pct) << ", \"ate_rmse_m\": " << jsonNumber(ate) << "}";
+         << ", \"end_error_pct\": " << jsonNumber(end_pct) << ", \"ate_rmse_m\": " << jsonNumber(ate)
+         << ", \"nees_position_mean\": " << jsonNumber(err.nees_mean)
+         << ", \"nees_position_in_95_band_pct\": " << jsonNumber(err.nees_in_band_pct) << "}";
+      if (!aligned.empty()) {
+        const std::string label = (name == "ukf" ? "UKF (" : "EKF (") + run.channel + ")";
+        trajectoryJson(label, name, aligned);
+        std::ostringstream e;
+        e << "{\"name\": " << ips::report::jsonString(label) << ", \"kind\": \"" << name
+          << "\", \"t\": " << ips::report::jsonArray(err.t, 7) << ", \"nees\": " << ips::report::jsonArray(err.nees, 4);
+        const char* keys[] = {"pos", "pos3s", "att", "att3s"};
+        const std::array<std::vector<double>, 3>* series[] = {&err.pos, &err.pos3s, &err.att, &err.att3s};
+        for (int k = 0; k < 4; ++k) {
+          e << ", \"" << keys[k] << "\": [";
+          for (int a = 0; a < 3; ++a) e << (a ? "," : "") << ips::report::jsonArray((*series[k])[a], 4);
+          e << "]";
+        }
+        e << "}";
+        page_errors.push_back(e.str());
+      }
       first_run = false;
       ips::filter::writeTum(out + "/trajectory_" + run.channel + ".tum", aligned);
     }
@@ -449,14 +517,6 @@ int main(int argc, char** argv) {
     js << "  \"end_error_m\": " << jsonNumber(first_end_err) << ",\n  \"end_error_pct\": " << jsonNumber(first_end_pct)
        << ",\n  \"ate_rmse_m\": " << jsonNumber(first_ate) << ",\n";
     if (!gt.empty()) ips::filter::writeTum(out + "/trajectory_ground_truth.tum", gt);
-    if (!gt.empty() && !aligned_all.empty()) {
-      std::vector<Trajectory> nonempty;
-      std::vector<std::string> nl;
-      for (size_t k = 0; k < aligned_all.size(); ++k)
-        if (!aligned_all[k].empty()) nonempty.push_back(aligned_all[k]), nl.push_back(labels[k]);
-      if (!nonempty.empty()) ips::filter::plotTopDown(out + "/trajectory_top.png", gt, nonempty, nl);
-      plotErrors(out + "/error_over_time.png", runs, aligned_all, gt);
-    }
 
     // Every estimator that ran against the ground truth, as recordings are judged: ATE (SE(3)-aligned), relative
     // errors over sub-sequences of fixed length (KITTI devkit, every pose a start) and the end-point error with
@@ -511,6 +571,14 @@ int main(int argc, char** argv) {
         }
         if (!t.ref.empty()) ips::filter::writeTum(out + "/trajectory_ground_truth_cam0.tum", t.ref);
         ips::filter::writeTum(out + "/trajectory_tracker.tum", t.est);
+        {
+          // On the page beside the truth: the chain placed at the truth's camera-0 pose at its first pair, as its
+          // end error is judged (the camera is a lever arm away from the body the filters and the truth give).
+          Trajectory ea, ra;
+          if (t.ref.size() >= 3) ips::filter::associate(t.est, t.ref, 0.05, &ea, &ra);
+          trajectoryJson("tracker (camera 0, chained increments)", "tracker",
+                         ea.empty() ? t.est : ips::filter::alignFirstPose(ea, ra));
+        }
         estimates.push_back(std::move(t));
       }
       for (const auto& run : runs) {
@@ -561,18 +629,26 @@ int main(int argc, char** argv) {
     js << "  \"disparity_bad2_pct\": " << jsonNumber(evaluated ? bad2 / evaluated : NAN) << ",\n";
     js << "  \"disparity_density_pct\": " << jsonNumber(scores.empty() ? NAN : density / scores.size()) << ",\n";
 
-    // Pictures of a few maps beside their rectified left images.
+    // Examples for the page: a few maps beside their rectified left images, the ground truth and the error map,
+    // colour-mapped here (the page places them with colour bars drawn from the same colour tables); the middle
+    // one triangulated into the 3D view's point cloud.
+    const cv::Scalar kInvalidBgr(255, 255, 255), kNotEvaluatedBgr(160, 160, 160), kNoEstimateBgr(255, 255, 0);
+    std::vector<std::string> page_examples;
+    std::string page_cloud = "null";
     if (args.has("--images") && truth_calib && !scores.empty()) {
       const ips::StereoRectification rect = ips::computeRectification(*truth_calib);
       const int want = static_cast<int>(args.getInt("--pictures"));
       std::set<int64_t> pick;
       for (int i = 0; i < want && i < static_cast<int>(scores.size()); ++i)
         pick.insert(scores[scores.size() * (2 * i + 1) / (2 * want)].seq);
-      int drawn = 0;
+      const int64_t cloud_seq = pick.empty() ? -1 : *std::next(pick.begin(), static_cast<long>(pick.size() / 2));
+      std::map<int64_t, const DisparityScore*> score_of;
+      for (const auto& sc : scores) score_of[sc.seq] = &sc;
+      std::map<int64_t, std::string> examples;  // by seq, in order
       forEachMessage(args.get("--images"), failures, [&](const ips::fw::LogMessage& im) {
         if (im.channel != "STEREO") return;
         ips::stereo_pair_t p;
-        if (!decode(im, &p) || !pick.count(p.seq) || !est_disp.count(p.utime)) return;
+        if (!decode(im, &p) || !pick.count(p.seq) || !est_disp.count(p.utime) || examples.count(p.seq)) return;
         if (!ips::fw::validate(p).ok() || p.width != truth_calib->cam0.width || p.height != truth_calib->cam0.height) {
           ++bad_messages;
           return;
@@ -580,34 +656,72 @@ int main(int argc, char** argv) {
         cv::Mat r0, r1;
         ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
         const ips::disparity_map_t& dm = est_disp[p.utime];
-        cv::Mat d = disparityMat(dm);
+        const cv::Mat d = disparityMat(dm);
         cv::resize(r0, r0, d.size(), 0, 0, cv::INTER_AREA);
-        cv::Mat grey;
-        cv::cvtColor(r0, grey, cv::COLOR_GRAY2BGR);
-        cv::Mat row;
-        std::vector<cv::Mat> parts{grey, colourDisparity(d, static_cast<float>(dm.min_disparity + dm.num_disparities))};
+        const double dmin = dm.min_disparity, dmax = dm.min_disparity + dm.num_disparities;
+        const cv::Mat est_invalid = d < 0;
+        std::ostringstream e;
+        e << "{\"seq\": " << p.seq << ", \"t\": " << jsonNumber(p.utime * 1e-6 - t0) << ", \"width\": " << d.cols
+          << ", \"height\": " << d.rows << ", \"disparity_min\": " << jsonNumber(dmin)
+          << ", \"disparity_max\": " << jsonNumber(dmax) << ", \"error_max\": " << jsonNumber(2 * kBadDisparityPx)
+          << ", \"left\": \"" << ips::report::pngDataUri(r0) << "\", \"estimate\": \""
+          << ips::report::pngDataUri(
+                 ips::report::colourMapped(d, dmin, dmax, cv::COLORMAP_TURBO, est_invalid, kInvalidBgr))
+          << "\"";
         if (gt_disp.count(p.utime)) {
           cv::Mat g = disparityMat(gt_disp[p.utime]);
           cv::Mat gs;
           cv::resize(g, gs, d.size(), 0, 0, cv::INTER_NEAREST);
-          cv::Mat valid = gs >= 0;
+          const cv::Mat gt_invalid = gs < 0;
           gs = gs * (static_cast<double>(d.cols) / g.cols);
-          gs.setTo(-1.f, ~valid);
-          parts.push_back(colourDisparity(gs, static_cast<float>(dm.min_disparity + dm.num_disparities)));
+          gs.setTo(-1.f, gt_invalid);
+          cv::Mat err;
+          cv::absdiff(d, gs, err);
+          cv::Mat err_colour = ips::report::colourMapped(err, 0, 2 * kBadDisparityPx, cv::COLORMAP_INFERNO, gt_invalid,
+                                                         kNotEvaluatedBgr);
+          err_colour.setTo(kNoEstimateBgr, est_invalid & ~gt_invalid);
+          e << ", \"truth\": \""
+            << ips::report::pngDataUri(
+                   ips::report::colourMapped(gs, dmin, dmax, cv::COLORMAP_TURBO, gt_invalid, kInvalidBgr))
+            << "\", \"error\": \"" << ips::report::pngDataUri(err_colour) << "\"";
         }
-        cv::hconcat(parts, row);
-        cv::imwrite(out + "/disparity_" + std::to_string(p.seq) + ".png", row);
-        ++drawn;
+        if (score_of.count(p.seq)) {
+          const DisparityScore& sc = *score_of[p.seq];
+          e << ", \"bad2_pct\": " << jsonNumber(sc.bad2_pct) << ", \"density_pct\": " << jsonNumber(sc.density_pct)
+            << ", \"evaluated\": " << sc.evaluated;
+        }
+        e << "}";
+        examples[p.seq] = e.str();
+        if (p.seq == cloud_seq && dm.focal_px > 0 && dm.baseline_m > 0) {
+          // Camera 0 (rectified) frame: x right, y down, z forward [m]; the grey value of the left image.
+          const int valid = d.rows * d.cols - cv::countNonZero(est_invalid);
+          const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(valid / double(kMaxCloudPoints)))));
+          std::vector<double> xyz, grey;
+          for (int r = stride / 2; r < d.rows; r += stride)
+            for (int c = stride / 2; c < d.cols; c += stride) {
+              const float dv = d.at<float>(r, c);
+              if (dv < kMinCloudDisparityPx) continue;
+              const double z = dm.focal_px * dm.baseline_m / dv;
+              xyz.push_back((c - dm.cx) * z / dm.focal_px);
+              xyz.push_back((r - dm.cy) * z / dm.focal_px);
+              xyz.push_back(z);
+              grey.push_back(r0.at<uchar>(r, c));
+            }
+          page_cloud = "{\"seq\": " + std::to_string(p.seq) + ", \"points\": " + std::to_string(grey.size()) +
+                       ", \"stride_px\": " + std::to_string(stride) + ", \"xyz\": " + ips::report::jsonArray(xyz, 4) +
+                       ", \"grey\": " + ips::report::jsonArray(grey, 3) + "}";
+        }
       });
-      js << "  \"disparity_pictures\": " << drawn << ",\n";
+      for (const auto& kv : examples) page_examples.push_back(kv.second);
+      js << "  \"disparity_pictures\": " << examples.size() << ",\n";
     }
 
     js << "  \"processes\": {";
     bool first_proc = true;
     for (const auto& kv : procs) {
       const ProcessFigures& f = kv.second;
-      js << (first_proc ? "\n" : ",\n") << "    \"" << kv.first
-         << "\": {\"rate_hz\": " << jsonNumber(f.rate_n ? f.rate_sum / f.rate_n : 0)
+      js << (first_proc ? "\n" : ",\n") << "    " << ips::report::jsonString(kv.first)
+         << ": {\"rate_hz\": " << jsonNumber(f.rate_n ? f.rate_sum / f.rate_n : 0)
          << ", \"latency_ms\": " << jsonNumber(f.latency_n ? f.latency_sum / f.latency_n : 0)
          << ", \"received\": " << f.last.received << ", \"published\": " << f.last.published
          << ", \"dropped\": " << f.last.dropped << ", \"bad\": " << f.last.bad << "}";
@@ -615,14 +729,64 @@ int main(int argc, char** argv) {
     }
     js << "\n  },\n";
     js << "  \"bad_messages\": " << bad_messages << ",\n";
-    js << "  \"calibration_source\": " << jsonString(calibration_source) << ",\n";
+    js << "  \"calibration_source\": " << ips::report::jsonString(calibration_source) << ",\n";
     js << "  \"status\": \"" << (failures.empty() ? "ok" : "failed") << "\",\n  \"failures\": [";
-    for (size_t i = 0; i < failures.size(); ++i) js << (i ? ", " : "") << jsonString(failures[i]);
+    for (size_t i = 0; i < failures.size(); ++i) js << (i ? ", " : "") << ips::report::jsonString(failures[i]);
     js << "]\n}\n";
     std::ofstream report(out + "/report.json");
     report << js.str();
     report.close();
     if (!report) throw std::runtime_error(out + "/report.json: cannot write (disk full?)");
+
+    // The page: report.json's figures and the series it draws, filled into the template with the libraries.
+    {
+      std::vector<double> t, inliers, matches, valid;
+      for (size_t i : ips::report::subsample(delta_msgs.size(), kMaxPageErrorSamples)) {
+        const ips::tracker_delta_t& d = delta_msgs[i];
+        t.push_back(d.utime * 1e-6 - t0);
+        inliers.push_back(d.num_inliers);
+        matches.push_back(d.num_inter_matches);
+        valid.push_back(d.valid ? 1 : 0);
+      }
+      std::string latency = "[";
+      for (const auto& [process, f] : procs) {
+        if (f.t.empty()) continue;  // a process that reports no processing time (the filters)
+        std::vector<double> ft, fl, fr;
+        for (size_t i : ips::report::subsample(f.t.size(), kMaxPageErrorSamples)) {
+          ft.push_back(f.t[i] - t0);
+          fl.push_back(f.latency_ms[i]);
+          fr.push_back(f.rate_hz[i]);
+        }
+        latency += (latency.size() > 1 ? ", " : "") + std::string("{\"process\": ") + ips::report::jsonString(process) +
+                   ", \"t\": " + ips::report::jsonArray(ft, 7) + ", \"latency_ms\": " + ips::report::jsonArray(fl, 4) +
+                   ", \"rate_hz\": " + ips::report::jsonArray(fr, 4) + "}";
+      }
+      auto list = [](const std::vector<std::string>& items) {
+        std::string o = "[";
+        for (size_t i = 0; i < items.size(); ++i) o += (i ? ",\n" : "\n") + items[i];
+        return o + "]";
+      };
+      std::ostringstream data;
+      data << "{\"report\": " << js.str() << ", \"run\": " << ips::report::jsonString(out)
+           << ", \"t0\": " << jsonNumber(t0) << ", \"trajectories\": " << list(page_trajectories)
+           << ", \"errors\": " << list(page_errors) << ", \"nees_band\": [" << jsonNumber(kChi2Dof3Lo) << ", "
+           << jsonNumber(kChi2Dof3Hi) << "], \"tracker\": {\"t\": " << ips::report::jsonArray(t, 7)
+           << ", \"inliers\": " << ips::report::jsonArray(inliers)
+           << ", \"inter_matches\": " << ips::report::jsonArray(matches)
+           << ", \"valid\": " << ips::report::jsonArray(valid) << "}, \"latency\": " << latency << "]"
+           << ", \"disparity\": " << list(page_examples) << ", \"colour_maps\": {\"disparity\": \""
+           << ips::report::colourBarDataUri(cv::COLORMAP_TURBO) << "\", \"error\": \""
+           << ips::report::colourBarDataUri(cv::COLORMAP_INFERNO) << "\", \"invalid\": \""
+           << ips::report::cssColour(kInvalidBgr) << "\", \"not_evaluated\": \""
+           << ips::report::cssColour(kNotEvaluatedBgr) << "\", \"no_estimate\": \""
+           << ips::report::cssColour(kNoEstimateBgr) << "\"}, \"cloud\": " << page_cloud << "}";
+      const std::string js_dir = args.get("--js-dir");
+      ips::report::writePage(args.get("--page-template"),
+                             {{"/*@CHART_JS@*/", js_dir + "/chart.js/chart.min.js"},
+                              {"/*@THREE_JS@*/", js_dir + "/three/three.min.js"},
+                              {"/*@ORBIT_CONTROLS_JS@*/", js_dir + "/three/examples/js/controls/OrbitControls.js"}},
+                             data.str(), out + "/report.html");
+    }
     std::fputs(js.str().c_str(), stdout);
     for (const auto& f : failures) std::fprintf(stderr, "ips_report: FAILED: %s\n", f.c_str());
     return failures.empty() ? 0 : 4;

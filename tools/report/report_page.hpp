@@ -1,0 +1,43 @@
+// The report page: one self-contained HTML file (report_page.html filled with the run's data and the JavaScript
+// libraries it draws with, inlined so that it opens from file:// on a machine without network), and the pictures
+// it shows, colour-mapped here so that the page only places them.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+namespace ips::report {
+
+// A JSON array of numbers with `digits` significant digits (non-finite values as null).
+std::string jsonArray(const std::vector<double>& values, int digits = 6);
+// A JSON string literal.
+std::string jsonString(const std::string& value);
+
+// The image as a PNG data URI (data:image/png;base64,...).
+std::string pngDataUri(const cv::Mat& image);
+
+// values (CV_32F) mapped linearly from [vmin, vmax] through the OpenCV colour map (clamped at both ends); the
+// pixels where `marked` is non-zero get `marked_bgr` instead.
+cv::Mat colourMapped(const cv::Mat& values, double vmin, double vmax, int colormap, const cv::Mat& marked,
+                     const cv::Scalar& marked_bgr);
+// The colour map's 256 colours as a 256x1 image, low values left: the colour bar beside a colour-mapped image
+// is drawn from the same table as the image.
+std::string colourBarDataUri(int colormap);
+// "#rrggbb" of a BGR colour, for the page's legend swatches.
+std::string cssColour(const cv::Scalar& bgr);
+
+// Evenly spaced indices into a series of n samples, at most `max_samples` of them, the last sample included.
+std::vector<size_t> subsample(size_t n, size_t max_samples);
+
+struct PageScript {
+  std::string marker;  // the placeholder in the template, e.g. "/*@CHART_JS@*/"
+  std::string path;    // the file whose text replaces it
+};
+
+// Fills the template at `template_path`: every script's marker by that file's text and "/*@REPORT_DATA@*/" by
+// `data_json`, and writes the page to `out_path`. Throws naming the file that is missing or lacks its marker.
+void writePage(const std::string& template_path, const std::vector<PageScript>& scripts, const std::string& data_json,
+               const std::string& out_path);
+
+}  // namespace ips::report
