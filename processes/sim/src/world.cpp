@@ -289,4 +289,15 @@ World World::build(const WorldConfig& cfg, uint64_t seed) {
   return world;
 }
 
+double World::distanceToSurface(const Eigen::Vector3d& p) const {
+  double best = INFINITY;
+  for (const Quad& q : quads) {
+    // The nearest point of the rectangle: the projection onto its plane, clamped to its sides.
+    const Eigen::Vector3d d = p - q.origin;
+    const double s = std::clamp(d.dot(q.axis_s), 0.0, q.size_s), t = std::clamp(d.dot(q.axis_t), 0.0, q.size_t);
+    best = std::min(best, (d - s * q.axis_s - t * q.axis_t).norm());
+  }
+  return best;
+}
+
 }  // namespace ips::sim

@@ -41,6 +41,8 @@ struct World {
   // A textured rectangle on its own (for tests): a wall at distance `distance` in front of a camera at the origin
   // looking along +x of the world is not needed; tests add quads directly.
   int addTexture(const std::string& name, const cv::Mat& grey8);
+  // Distance [m] from a point to the nearest surface of the world (the ground truth of a map point).
+  double distanceToSurface(const Eigen::Vector3d& p) const;
 };
 
 // Procedural textures (CV_8UC1, side a power of two), deterministic per seed.

@@ -1,0 +1,38 @@
+#pragma once
+// Settings of the mapper (config/mapper.yaml), each with the reason for its default.
+#include "ips/config.hpp"
+
+namespace ips::mapper {
+
+struct MapperParams {
+  // Precision of one disparity [px]: semi-global matching with parabola subpixel refinement is good to about
+  // a quarter pixel on textured surfaces (the E3D README's figures on the evaluation scenes).
+  double disparity_sigma_px = 0.25;
+  // Depth error grows with the square of the range: sigma_z = z^2 sigma_d / (f b). A point is kept while
+  // sigma_z stays below this [m], twice the voxel size, so that one voxel is not smeared over more than its
+  // neighbours. The range this gives follows from the head: sqrt(max_depth_sigma_m f b / sigma_d), e.g.
+  // 12.4 m for KITTI's full-resolution f 718 px and b 0.54 m (the mapper logs it for its head at start).
+  double max_depth_sigma_m = 0.10;
+  // Closer than this the head's own mounting and the operator show up in the images [m].
+  double min_range_m = 0.3;
+  // Every n-th pixel of the map in both directions: neighbouring pixels at the ranges kept are closer than
+  // one voxel, so the map loses nothing and the work is divided by n^2.
+  int pixel_step = 2;
+  // Edge of a map voxel [m]: the points of one voxel are fused into their centroid. 5 cm is the accuracy
+  // asked of the map and about the depth precision at 4-5 m.
+  double voxel_size_m = 0.05;
+  // The map's bound: beyond this many voxels the ones furthest from the head are dropped (a building of
+  // 100 x 100 m with walls every few metres fits; memory about 40 bytes per voxel).
+  int max_voxels = 3000000;
+  // Poses of the navigation filter are interpolated between states at most this far apart [s] (the filter
+  // publishes at the IMU rate, 5 ms apart; a longer gap is a filter restart).
+  double max_pose_gap_s = 0.1;
+  // Disparity maps waiting for the pose at their time; beyond this the oldest is dropped (counted).
+  int max_pending_maps = 8;
+  // Stereo pairs kept for the grey value of the points (the map of a pair arrives a few pairs later).
+  int max_pending_images = 32;
+};
+
+MapperParams loadMapperParams(const Config& cfg);
+
+}  // namespace ips::mapper
