@@ -18,6 +18,7 @@ PACKAGES=(
   opencv-doc
   libcpp-httplib-dev nlohmann-json3-dev libjs-three libjs-chart.js
   chromium chromium-driver python3-selenium fonts-dejavu-core
+  libopen3d-dev
 )
 
 SUDO=""
