@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Live run, record and replay: the simulator publishes a short walk live through the real processes (tracker,
-# filter, e3d) while lcm-logger records what they publish; then the same walk, written as a log, is played
+# filter, e3d, mapper) while lcm-logger records what they publish; then the same walk, written as a log, is played
 # with lcm-logplayer through fresh processes, twice. All three recordings must hold identical tracker deltas,
-# filter states and disparity maps: every process takes time from message stamps only.
+# filter states, disparity maps and map points: every process takes time from message stamps only.
 set -euo pipefail
 BIN=$1; SRC=$2; WORK=${3:-$(mktemp -d)}
 DURATION=${IPS_REPLAY_TEST_S:-12}
@@ -18,7 +18,8 @@ run_once() {
   "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/tracker.yaml" --log-level warn & pids+=($!)
   "$BIN/filter" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/filter_sim.yaml" --log-level warn & pids+=($!)
   "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 4 --queue --log-level warn & pids+=($!)
-  lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|HEALTH_.*' -f "$out" >/dev/null 2>&1 &
+  "$BIN/mapper" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/mapper.yaml" --log-level warn & pids+=($!)
+  lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|POINTS|HEALTH_.*' -f "$out" >/dev/null 2>&1 &
   local logger=$!
   sleep 2  # let every process subscribe (e3d builds its Vulkan pipeline)
   if [ "$mode" = live ]; then
@@ -38,10 +39,10 @@ run_once() {
 run_once "$WORK/live.lcmlog" live
 run_once "$WORK/run1.lcmlog"
 run_once "$WORK/run2.lcmlog"
-channels='TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY'
+channels='TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|POINTS'
 "$BIN/log_diff" --channels "$channels" "$WORK/run1.lcmlog" "$WORK/run2.lcmlog" | tee "$WORK/diff.txt" || true
 "$BIN/log_diff" --channels "$channels" "$WORK/live.lcmlog" "$WORK/run1.lcmlog" | tee "$WORK/diff_live.txt" || true
-for ch in TRACKER_DELTA FILTER_STATE FILTER_PRIOR DISPARITY; do
+for ch in TRACKER_DELTA FILTER_STATE FILTER_PRIOR DISPARITY POINTS; do
   grep -q "^channel=$ch a=[1-9]" "$WORK/diff.txt" || { echo "FAIL: no $ch messages recorded"; exit 1; }
 done
 grep -q '^identical=1' "$WORK/diff.txt" || { echo "FAIL: the two replays differ"; exit 1; }
