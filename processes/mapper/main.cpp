@@ -1,6 +1,7 @@
 // mapper: georeferenced 3D maps. Every disparity map (DISPARITY) is turned into points in the world frame by
-// the navigation state at its image's time (FILTER_STATE interpolated, or the ground truth GT_POSE with
-// --pose-source truth) and the head's calibration; the points of each map are published on POINTS and fused
+// the navigation state at its image's time (FILTER_STATE interpolated; the tracker's increments chained with
+// --pose-source tracker, for a head without IMU; the ground truth GT_POSE with --pose-source truth) and the
+// head's calibration; the points of each map are published on POINTS and fused
 // into a voxel map, written at shutdown (and on SIGUSR1) to --map-out as PLY or PCD. A map waits for the
 // state at its time, so that a replayed log gives the same points as the live run. The library (ips_mapper)
 // knows nothing of LCM.
@@ -12,6 +13,7 @@
 #include <ips/ground_truth_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <ips/tracker_delta_t.hpp>
 #include <map>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -25,6 +27,7 @@
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/log.hpp"
+#include "ips/mapper/delta_chain.hpp"
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/pose_buffer.hpp"
 #include "ips/mapper/stereo_points.hpp"
@@ -192,9 +195,12 @@ int main(int argc, char** argv) {
   return ips::fw::guardedMain("mapper", [&] {
     ips::Args args(argc, argv, "mapper: disparity maps placed in the world by the navigation state, fused into a map");
     args.required("--calib", "FILE", "the head's calibration")
-        .option("--pose-source", "filter|truth", "navigation states (filter_state_t) or the ground truth (GT_POSE)",
-                "filter")
-        .option("--pose-channel", "CHANNEL", "channel of the poses (default FILTER_STATE, or GT_POSE for truth)")
+        .option(
+            "--pose-source", "filter|tracker|truth",
+            "navigation states (FILTER_STATE), the tracker's increments chained (TRACKER_DELTA) or the ground truth "
+            "(GT_POSE)",
+            "filter")
+        .option("--pose-channel", "CHANNEL", "channel of the poses (default: FILTER_STATE, TRACKER_DELTA or GT_POSE)")
         .option("--points-channel", "CHANNEL", "channel the points of each map go to", ips::channels::kPoints)
         .option("--map-out", "FILE", "the fused map written at shutdown and on SIGUSR1 (.ply or .pcd)")
         .option("--name", "NAME", "process name (health channel HEALTH_<NAME>)", "mapper");
@@ -202,8 +208,8 @@ int main(int argc, char** argv) {
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
     const std::string source = args.get("--pose-source");
-    if (source != "filter" && source != "truth")
-      throw ips::ArgError("--pose-source must be filter or truth, not '" + source + "'");
+    if (source != "filter" && source != "tracker" && source != "truth")
+      throw ips::ArgError("--pose-source must be filter, tracker or truth, not '" + source + "'");
     const auto calib = ips::loadCalibration(args.get("--calib"));
     const auto params = ips::mapper::loadMapperParams(ips::Config(args.get("--config")));
     const std::string map_out = args.has("--map-out") ? args.get("--map-out") : "";
@@ -221,6 +227,27 @@ int main(int argc, char** argv) {
             const ips::fw::Verdict v = ips::fw::validate(s);
             if (!v.ok()) return node.health().bad(v.reason, v.detail);
             mapper.onPose(fromState(s));
+          });
+    } else if (source == "tracker") {
+      auto chain = std::make_shared<ips::mapper::DeltaChain>(calib.T_imu_cam0);
+      node.subscribe<ips::tracker_delta_t>(
+          args.has("--pose-channel") ? args.get("--pose-channel") : ips::channels::kTrackerDelta,
+          [&node, &mapper, chain](const ips::tracker_delta_t& d) {
+            const ips::fw::Verdict v = ips::fw::validate(d);
+            if (!v.ok()) return node.health().bad(v.reason, v.detail);
+            Eigen::Isometry3d T_prev_now = Eigen::Isometry3d::Identity();
+            Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+            if (d.valid) {
+              T_prev_now.linear() = Eigen::Quaterniond(d.rotation[0], d.rotation[1], d.rotation[2], d.rotation[3])
+                                        .normalized()
+                                        .toRotationMatrix();
+              T_prev_now.translation() = Eigen::Vector3d(d.translation[0], d.translation[1], d.translation[2]);
+              for (int i = 0; i < 36; ++i) cov(i / 6, i % 6) = d.covariance[i];
+            } else {
+              // No motion known between these pairs: the chain goes on as if the head stood still.
+              node.health().count("tracker_delta_invalid");
+            }
+            for (const auto& pose : chain->add(d.utime_prev, d.utime, T_prev_now, cov)) mapper.onPose(pose);
           });
     } else {
       node.subscribe<ips::ground_truth_t>(
