@@ -280,6 +280,18 @@ TEST_F(ReportPage, FilterFiguresMatchTheDrift) {
   EXPECT_NEAR(std::stod(m[2]), nees_mean, 1e-3 * nees_mean) << report;
 }
 
+// The 3D view answers the mouse: a drag orbits the camera about its target, the wheel zooms (through chromedriver,
+// as a user's input events; tests/report/report_page_orbit.py).
+TEST_F(ReportPage, TheMapTurnsAndZoomsWithTheMouse) {
+  if (std::system("/usr/bin/python3 -c 'import selenium' 2>/dev/null && test -x /usr/bin/chromedriver") != 0)
+    GTEST_SKIP() << "python3-selenium or chromium-driver not installed";
+  const std::string out =
+      run("/usr/bin/python3 " + std::string(IPS_ORBIT_CHECK) + " --page " + (dir_ / "report.html").string() +
+          " --screenshot " + (dir_ / "map_3d_turned.png").string() + " 2>&1; echo exit=$?");
+  EXPECT_NE(out.find("exit=0"), std::string::npos) << out;
+  EXPECT_NE(out.find("drag: camera"), std::string::npos) << out;
+}
+
 TEST_F(ReportPage, PicturesAreScreenshotsOfItsSections) {
   const std::string listed =
       run(std::string(IPS_RENDER_PICTURES) + " " + (dir_ / "report.html").string() + " " + dir_.string() + " 2>&1");
