@@ -198,3 +198,20 @@ TEST(DeltaChain, ChainsIncrementsFromTheFirstBodyPose) {
   EXPECT_NEAR(all.back().covariance.trace(), 4 * 6e-4, 1e-12) << "covariances add up";
   EXPECT_EQ(chain.add(999, 1000, step, cov).size(), 2u) << "a broken chain starts over";
 }
+
+TEST(MapEval, SelfConsistencyMeasuresADoubledWall) {
+  // The same wall (x in [0, 2], z in [0, 2] at y = 3, every 2 cm) seen early, and late 4 cm further away; plus
+  // late points of another wall nobody saw early.
+  std::vector<Eigen::Vector3d> early, late;
+  for (int i = 0; i <= 100; ++i)
+    for (int j = 0; j <= 100; ++j) {
+      early.emplace_back(0.02 * i, 3.0, 0.02 * j);
+      late.emplace_back(0.02 * i, 3.04, 0.02 * j);
+      late.emplace_back(10 + 0.02 * i, 3.0, 0.02 * j);
+    }
+  const SelfConsistency c = selfConsistency(early, late, 0.2);
+  EXPECT_EQ(c.overlapping, 101u * 101u) << "only the wall seen twice";
+  EXPECT_NEAR(c.median_m, 0.04, 1e-9);
+  EXPECT_NEAR(c.p90_m, 0.04, 1e-9);
+  EXPECT_EQ(selfConsistency(early, {}, 0.2).overlapping, 0u);
+}
