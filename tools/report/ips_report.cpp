@@ -109,15 +109,30 @@ TrajPoint toPoint(int64_t utime, const double* p, const double* q) {
   return t;
 }
 
-// The truth at time t by linear interpolation (position only), for error curves.
-Eigen::Vector3d truthAt(const Trajectory& gt, double t) {
+// The truth's poses either side of time t and the weight of the later one (the end pose alone outside).
+struct TruthBracket {
+  const TrajPoint& before;
+  const TrajPoint& after;
+  double w;
+};
+TruthBracket truthBracket(const Trajectory& gt, double t) {
   auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const TrajPoint& a, double v) { return a.t < v; });
-  if (it == gt.begin()) return gt.front().p;
-  if (it == gt.end()) return gt.back().p;
-  const TrajPoint& b = *it;
+  if (it == gt.begin()) return {gt.front(), gt.front(), 0.0};
+  if (it == gt.end()) return {gt.back(), gt.back(), 0.0};
   const TrajPoint& a = *(it - 1);
-  const double w = (t - a.t) / std::max(1e-12, b.t - a.t);
-  return a.p + w * (b.p - a.p);
+  return {a, *it, (t - a.t) / std::max(1e-12, it->t - a.t)};
+}
+
+// The truth's position at time t by linear interpolation, for error curves.
+Eigen::Vector3d truthAt(const Trajectory& gt, double t) {
+  const TruthBracket k = truthBracket(gt, t);
+  return k.before.p + k.w * (k.after.p - k.before.p);
+}
+
+// The truth's attitude at time t (slerp between the neighbouring poses).
+Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) {
+  const TruthBracket k = truthBracket(gt, t);
+  return k.before.q.slerp(k.w, k.after.q);
 }
 
 // The estimate expressed in the truth's frame by the start pose (position and heading; roll and pitch are
@@ -143,16 +158,6 @@ Trajectory alignStart(const Trajectory& est, const Trajectory& gt) {
     p.q = Eigen::Quaterniond(R) * p.q;
   }
   return out;
-}
-
-// The truth's attitude at time t (slerp between the neighbouring poses).
-Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) {
-  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const TrajPoint& a, double v) { return a.t < v; });
-  if (it == gt.begin()) return gt.front().q;
-  if (it == gt.end()) return gt.back().q;
-  const TrajPoint& b = *it;
-  const TrajPoint& a = *(it - 1);
-  return a.q.slerp((t - a.t) / std::max(1e-12, b.t - a.t), b.q);
 }
 
 // Where filter_state_t's error-state covariance holds the position and the attitude error (see its .lcm).
