@@ -640,12 +640,17 @@ int main(int argc, char** argv) {
     const cv::Scalar kInvalidBgr(255, 255, 255), kNotEvaluatedBgr(160, 160, 160), kNoEstimateBgr(255, 255, 0);
     std::vector<std::string> page_examples;
     std::string page_cloud = "null";
-    if (args.has("--images") && truth_calib && !scores.empty()) {
+    if (args.has("--images") && truth_calib && !est_disp.empty()) {
       const ips::StereoRectification rect = ips::computeRectification(*truth_calib);
       const int want = static_cast<int>(args.getInt("--pictures"));
+      // Spread over the run: among the maps with ground truth, or all maps when there is none (a recording).
+      std::vector<int64_t> candidates;
+      for (const auto& sc : scores) candidates.push_back(sc.seq);
+      if (candidates.empty())
+        for (const auto& kv : est_disp) candidates.push_back(kv.second.seq);
       std::set<int64_t> pick;
-      for (int i = 0; i < want && i < static_cast<int>(scores.size()); ++i)
-        pick.insert(scores[scores.size() * (2 * i + 1) / (2 * want)].seq);
+      for (int i = 0; i < want && i < static_cast<int>(candidates.size()); ++i)
+        pick.insert(candidates[candidates.size() * (2 * i + 1) / (2 * want)]);
       const int64_t cloud_seq = pick.empty() ? -1 : *std::next(pick.begin(), static_cast<long>(pick.size() / 2));
       std::map<int64_t, const DisparityScore*> score_of;
       for (const auto& sc : scores) score_of[sc.seq] = &sc;
