@@ -637,7 +637,6 @@ int main(int argc, char** argv) {
     // Examples for the page: a few maps beside their rectified left images, the ground truth and the error map,
     // colour-mapped here (the page places them with colour bars drawn from the same colour tables); the middle
     // one triangulated into the 3D view's point cloud.
-    const cv::Scalar kInvalidBgr(255, 255, 255), kNotEvaluatedBgr(160, 160, 160), kNoEstimateBgr(255, 255, 0);
     std::vector<std::string> page_examples;
     std::string page_cloud = "null";
     if (args.has("--images") && truth_calib && !est_disp.empty()) {
@@ -668,59 +667,26 @@ int main(int argc, char** argv) {
         const ips::disparity_map_t& dm = est_disp[p.utime];
         const cv::Mat d = disparityMat(dm);
         cv::resize(r0, r0, d.size(), 0, 0, cv::INTER_AREA);
-        const double dmin = dm.min_disparity, dmax = dm.min_disparity + dm.num_disparities;
-        const cv::Mat est_invalid = d < 0;
-        std::ostringstream e;
-        e << "{\"seq\": " << p.seq << ", \"t\": " << jsonNumber(p.utime * 1e-6 - t0) << ", \"width\": " << d.cols
-          << ", \"height\": " << d.rows << ", \"disparity_min\": " << jsonNumber(dmin)
-          << ", \"disparity_max\": " << jsonNumber(dmax) << ", \"error_max\": " << jsonNumber(2 * kBadDisparityPx)
-          << ", \"left\": \"" << ips::report::pngDataUri(r0) << "\", \"estimate\": \""
-          << ips::report::pngDataUri(
-                 ips::report::colourMapped(d, dmin, dmax, cv::COLORMAP_TURBO, est_invalid, kInvalidBgr))
-          << "\"";
-        if (gt_disp.count(p.utime)) {
-          cv::Mat g = disparityMat(gt_disp[p.utime]);
-          cv::Mat gs;
-          cv::resize(g, gs, d.size(), 0, 0, cv::INTER_NEAREST);
-          const cv::Mat gt_invalid = gs < 0;
-          gs = gs * (static_cast<double>(d.cols) / g.cols);
-          gs.setTo(-1.f, gt_invalid);
-          cv::Mat err;
-          cv::absdiff(d, gs, err);
-          cv::Mat err_colour = ips::report::colourMapped(err, 0, 2 * kBadDisparityPx, cv::COLORMAP_INFERNO, gt_invalid,
-                                                         kNotEvaluatedBgr);
-          err_colour.setTo(kNoEstimateBgr, est_invalid & ~gt_invalid);
-          e << ", \"truth\": \""
-            << ips::report::pngDataUri(
-                   ips::report::colourMapped(gs, dmin, dmax, cv::COLORMAP_TURBO, gt_invalid, kInvalidBgr))
-            << "\", \"error\": \"" << ips::report::pngDataUri(err_colour) << "\"";
+        cv::Mat truth;
+        if (gt_disp.count(p.utime)) {  // at the map's scale
+          const cv::Mat g = disparityMat(gt_disp[p.utime]);
+          cv::resize(g, truth, d.size(), 0, 0, cv::INTER_NEAREST);
+          const cv::Mat gt_invalid = truth < 0;
+          truth = truth * (static_cast<double>(d.cols) / g.cols);
+          truth.setTo(-1.f, gt_invalid);
         }
+        std::ostringstream fields;
+        fields << ", \"seq\": " << p.seq << ", \"t\": " << jsonNumber(p.utime * 1e-6 - t0);
         if (score_of.count(p.seq)) {
           const DisparityScore& sc = *score_of[p.seq];
-          e << ", \"bad2_pct\": " << jsonNumber(sc.bad2_pct) << ", \"density_pct\": " << jsonNumber(sc.density_pct)
-            << ", \"evaluated\": " << sc.evaluated;
+          fields << ", \"bad2_pct\": " << jsonNumber(sc.bad2_pct) << ", \"density_pct\": " << jsonNumber(sc.density_pct)
+                 << ", \"evaluated\": " << sc.evaluated;
         }
-        e << "}";
-        examples[p.seq] = e.str();
-        if (p.seq == cloud_seq && dm.focal_px > 0 && dm.baseline_m > 0) {
-          // Camera 0 (rectified) frame: x right, y down, z forward [m]; the grey value of the left image.
-          const int valid = d.rows * d.cols - cv::countNonZero(est_invalid);
-          const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(valid / double(kMaxCloudPoints)))));
-          std::vector<double> xyz, grey;
-          for (int r = stride / 2; r < d.rows; r += stride)
-            for (int c = stride / 2; c < d.cols; c += stride) {
-              const float dv = d.at<float>(r, c);
-              if (dv < kMinCloudDisparityPx) continue;
-              const double z = dm.focal_px * dm.baseline_m / dv;
-              xyz.push_back((c - dm.cx) * z / dm.focal_px);
-              xyz.push_back((r - dm.cy) * z / dm.focal_px);
-              xyz.push_back(z);
-              grey.push_back(r0.at<uchar>(r, c));
-            }
-          page_cloud = "{\"seq\": " + std::to_string(p.seq) + ", \"points\": " + std::to_string(grey.size()) +
-                       ", \"stride_px\": " + std::to_string(stride) + ", \"xyz\": " + ips::report::jsonArray(xyz, 4) +
-                       ", \"grey\": " + ips::report::jsonArray(grey, 3) + "}";
-        }
+        examples[p.seq] = ips::report::disparityExampleJson(
+            r0, d, truth, dm.min_disparity, dm.min_disparity + dm.num_disparities, 2 * kBadDisparityPx, fields.str());
+        if (p.seq == cloud_seq && dm.focal_px > 0 && dm.baseline_m > 0)
+          page_cloud = ips::report::pointCloudJson(d, r0, dm.focal_px, dm.cx, dm.cy, dm.baseline_m, kMaxCloudPoints,
+                                                   kMinCloudDisparityPx, p.seq);
       });
       for (const auto& kv : examples) page_examples.push_back(kv.second);
       js << "  \"disparity_pictures\": " << examples.size() << ",\n";
@@ -784,12 +750,8 @@ int main(int argc, char** argv) {
            << ", \"inliers\": " << ips::report::jsonArray(inliers)
            << ", \"inter_matches\": " << ips::report::jsonArray(matches)
            << ", \"valid\": " << ips::report::jsonArray(valid) << "}, \"latency\": " << latency << "]"
-           << ", \"disparity\": " << list(page_examples) << ", \"colour_maps\": {\"disparity\": \""
-           << ips::report::colourBarDataUri(cv::COLORMAP_TURBO) << "\", \"error\": \""
-           << ips::report::colourBarDataUri(cv::COLORMAP_INFERNO) << "\", \"invalid\": \""
-           << ips::report::cssColour(kInvalidBgr) << "\", \"not_evaluated\": \""
-           << ips::report::cssColour(kNotEvaluatedBgr) << "\", \"no_estimate\": \""
-           << ips::report::cssColour(kNoEstimateBgr) << "\"}, \"cloud\": " << page_cloud << "}";
+           << ", \"disparity\": " << list(page_examples) << ", \"colour_maps\": " << ips::report::colourMapsJson()
+           << ", \"cloud\": " << page_cloud << "}";
       const std::string js_dir = args.get("--js-dir");
       ips::report::writePage(args.get("--page-template"),
                              {{"/*@CHART_JS@*/", js_dir + "/chart.js/chart.min.js"},

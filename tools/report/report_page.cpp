@@ -121,6 +121,56 @@ std::vector<size_t> subsample(size_t n, size_t max_samples) {
   return idx;
 }
 
+std::string colourMapsJson(const DisparityColours& colours) {
+  return "{\"disparity\": \"" + colourBarDataUri(cv::COLORMAP_TURBO) + "\", \"error\": \"" +
+         colourBarDataUri(cv::COLORMAP_INFERNO) + "\", \"invalid\": \"" + cssColour(colours.invalid) +
+         "\", \"not_evaluated\": \"" + cssColour(colours.not_evaluated) + "\", \"no_estimate\": \"" +
+         cssColour(colours.no_estimate) + "\"}";
+}
+
+std::string disparityExampleJson(const cv::Mat& left, const cv::Mat& estimate, const cv::Mat& truth, double dmin,
+                                 double dmax, double error_max, const std::string& fields,
+                                 const DisparityColours& colours) {
+  const cv::Mat est_invalid = estimate < 0;
+  std::ostringstream e;
+  e << std::setprecision(6) << "{\"width\": " << estimate.cols << ", \"height\": " << estimate.rows
+    << ", \"disparity_min\": " << dmin << ", \"disparity_max\": " << dmax << ", \"error_max\": " << error_max
+    << ", \"left\": \"" << pngDataUri(left) << "\", \"estimate\": \""
+    << pngDataUri(colourMapped(estimate, dmin, dmax, cv::COLORMAP_TURBO, est_invalid, colours.invalid)) << "\"";
+  if (!truth.empty()) {
+    const cv::Mat gt_invalid = truth < 0;
+    cv::Mat err;
+    cv::absdiff(estimate, truth, err);
+    cv::Mat err_colour = colourMapped(err, 0, error_max, cv::COLORMAP_INFERNO, gt_invalid, colours.not_evaluated);
+    err_colour.setTo(colours.no_estimate, est_invalid & ~gt_invalid);
+    e << ", \"truth\": \""
+      << pngDataUri(colourMapped(truth, dmin, dmax, cv::COLORMAP_TURBO, gt_invalid, colours.invalid))
+      << "\", \"error\": \"" << pngDataUri(err_colour) << "\"";
+  }
+  e << fields << "}";
+  return e.str();
+}
+
+std::string pointCloudJson(const cv::Mat& disparity, const cv::Mat& grey, double focal_px, double cx, double cy,
+                           double baseline_m, size_t max_points, double min_disparity_px, int64_t seq) {
+  const int valid = cv::countNonZero(disparity >= min_disparity_px);
+  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(valid / static_cast<double>(max_points)))));
+  std::vector<double> xyz, grey_values;
+  for (int r = stride / 2; r < disparity.rows; r += stride)
+    for (int c = stride / 2; c < disparity.cols; c += stride) {
+      const float d = disparity.at<float>(r, c);
+      if (d < min_disparity_px) continue;
+      const double z = focal_px * baseline_m / d;
+      xyz.push_back((c - cx) * z / focal_px);
+      xyz.push_back((r - cy) * z / focal_px);
+      xyz.push_back(z);
+      grey_values.push_back(grey.at<uchar>(r, c));
+    }
+  return "{\"seq\": " + std::to_string(seq) + ", \"points\": " + std::to_string(grey_values.size()) +
+         ", \"stride_px\": " + std::to_string(stride) + ", \"xyz\": " + jsonArray(xyz, 4) +
+         ", \"grey\": " + jsonArray(grey_values, 3) + "}";
+}
+
 void writePage(const std::string& template_path, const std::vector<PageScript>& scripts, const std::string& data_json,
                const std::string& out_path) {
   std::string page = readFile(template_path);

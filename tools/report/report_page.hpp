@@ -30,6 +30,30 @@ std::string cssColour(const cv::Scalar& bgr);
 // Evenly spaced indices into a series of n samples, at most `max_samples` of them, the last sample included.
 std::vector<size_t> subsample(size_t n, size_t max_samples);
 
+// The page's disparity pictures: maps on OpenCV's TURBO colour map, the error on INFERNO, and the colours of the
+// pixels they cannot show.
+struct DisparityColours {
+  cv::Scalar invalid{255, 255, 255};        // no disparity (estimate or ground truth)
+  cv::Scalar not_evaluated{160, 160, 160};  // error map: no ground truth
+  cv::Scalar no_estimate{255, 255, 0};      // error map: a ground truth but no estimate
+};
+// The colour tables and pixel colours above as the page's "colour_maps" JSON object.
+std::string colourMapsJson(const DisparityColours& colours = {});
+
+// One disparity example as the page's JSON object: the rectified left image (8-bit, the map's size), the
+// estimate and, if not empty, the ground truth at the map's scale (CV_32F [px], negative where there is none)
+// colour-mapped over [dmin, dmax], and the error |estimate - truth| over [0, error_max]. `fields` (JSON members,
+// each with a leading ", ") are added as they are.
+std::string disparityExampleJson(const cv::Mat& left, const cv::Mat& estimate, const cv::Mat& truth, double dmin,
+                                 double dmax, double error_max, const std::string& fields,
+                                 const DisparityColours& colours = {});
+
+// A disparity map (CV_32F [px], negative where none) triangulated in the rectified left camera's frame (x right,
+// y down, z forward [m]) with the grey value of the left image, on a regular pixel grid coarse enough for at most
+// `max_points`; disparities below `min_disparity_px` left out. The page's "cloud" JSON object.
+std::string pointCloudJson(const cv::Mat& disparity, const cv::Mat& grey, double focal_px, double cx, double cy,
+                           double baseline_m, size_t max_points, double min_disparity_px, int64_t seq);
+
 struct PageScript {
   std::string marker;  // the placeholder in the template, e.g. "/*@CHART_JS@*/"
   std::string path;    // the file whose text replaces it
