@@ -27,11 +27,11 @@
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/log.hpp"
-#include "ips/mapper/delta_chain.hpp"
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/pose_buffer.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/mapper/voxel_map.hpp"
+#include "ips/tracker/delta_chain.hpp"
 
 namespace {
 
@@ -229,25 +229,24 @@ int main(int argc, char** argv) {
             mapper.onPose(fromState(s));
           });
     } else if (source == "tracker") {
-      auto chain = std::make_shared<ips::mapper::DeltaChain>(calib.T_imu_cam0);
+      // The world is the body at the first image: the chain of camera 0 turned onto the body. No
+      // uncertainty is carried along the chain (the points' pose covariance is zero).
+      auto chain = std::make_shared<ips::tracker::DeltaChain>();
+      const Eigen::Isometry3d T_body_cam0 = calib.T_imu_cam0;
       node.subscribe<ips::tracker_delta_t>(
           args.has("--pose-channel") ? args.get("--pose-channel") : ips::channels::kTrackerDelta,
-          [&node, &mapper, chain](const ips::tracker_delta_t& d) {
+          [&node, &mapper, chain, T_body_cam0](const ips::tracker_delta_t& d) {
             const ips::fw::Verdict v = ips::fw::validate(d);
             if (!v.ok()) return node.health().bad(v.reason, v.detail);
-            Eigen::Isometry3d T_prev_now = Eigen::Isometry3d::Identity();
-            Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
-            if (d.valid) {
-              T_prev_now.linear() = Eigen::Quaterniond(d.rotation[0], d.rotation[1], d.rotation[2], d.rotation[3])
-                                        .normalized()
-                                        .toRotationMatrix();
-              T_prev_now.translation() = Eigen::Vector3d(d.translation[0], d.translation[1], d.translation[2]);
-              for (int i = 0; i < 36; ++i) cov(i / 6, i % 6) = d.covariance[i];
-            } else {
-              // No motion known between these pairs: the chain goes on as if the head stood still.
-              node.health().count("tracker_delta_invalid");
-            }
-            for (const auto& pose : chain->add(d.utime_prev, d.utime, T_prev_now, cov)) mapper.onPose(pose);
+            const int64_t invalid_before = chain->invalid();
+            chain->add(d.utime, d.utime_prev, d.valid,
+                       Eigen::Quaterniond(d.rotation[0], d.rotation[1], d.rotation[2], d.rotation[3]),
+                       Eigen::Vector3d(d.translation[0], d.translation[1], d.translation[2]));
+            if (chain->invalid() > invalid_before) node.health().count("tracker_motion_unknown");
+            ips::mapper::Pose pose;
+            pose.utime = chain->poses().back().utime;
+            pose.T_world_body = T_body_cam0 * chain->poses().back().T_world_cam0 * T_body_cam0.inverse();
+            mapper.onPose(pose);
           });
     } else {
       node.subscribe<ips::ground_truth_t>(

@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "ips/mapper/delta_chain.hpp"
 #include "ips/mapper/map_eval.hpp"
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/pose_buffer.hpp"
@@ -169,34 +168,6 @@ TEST(VoxelMap, FusesPerVoxelStaysWithinItsBoundAndRoundTrips) {
   EXPECT_THROW(map.save((dir / "missing" / "map.ply").string()), std::runtime_error);
   EXPECT_THROW(VoxelMap::load((dir / "none.ply").string()), std::runtime_error);
   std::filesystem::remove_all(dir);
-}
-
-TEST(DeltaChain, ChainsIncrementsFromTheFirstBodyPose) {
-  // Camera 0 looks along the body's x axis, 0.1 m in front of it.
-  Eigen::Isometry3d T_body_cam0 = Eigen::Isometry3d::Identity();
-  T_body_cam0.linear() << 0, 0, 1, -1, 0, 0, 0, -1, 0;
-  T_body_cam0.translation() = Eigen::Vector3d(0.1, 0, 0);
-  DeltaChain chain(T_body_cam0);
-  // Each increment: 1 m forward along the camera's z (the body's x) and 90 degrees about the camera's y.
-  Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-  step.translation() = Eigen::Vector3d(0, 0, 1);
-  step.linear() = Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Identity() * 1e-4;
-  auto first = chain.add(0, 100, step, cov);
-  ASSERT_EQ(first.size(), 2u) << "the start pose and the first step";
-  EXPECT_TRUE(first[0].T_world_body.isApprox(Eigen::Isometry3d::Identity(), 1e-12));
-  std::vector<Pose> all = first;
-  for (int k = 1; k < 4; ++k) {
-    auto next = chain.add(100 * k, 100 * (k + 1), step, cov);
-    ASSERT_EQ(next.size(), 1u);
-    all.push_back(next[0]);
-  }
-  // Four quarter turns and four metres: the camera is back where it started, so is the body.
-  EXPECT_TRUE(all.back().T_world_body.isApprox(Eigen::Isometry3d::Identity(), 1e-9));
-  // After one step the camera moved 1 m along its first z, i.e. the body's x.
-  EXPECT_TRUE((all[1].T_world_body * T_body_cam0).translation().isApprox(Eigen::Vector3d(1.1, 0, 0), 1e-12));
-  EXPECT_NEAR(all.back().covariance.trace(), 4 * 6e-4, 1e-12) << "covariances add up";
-  EXPECT_EQ(chain.add(999, 1000, step, cov).size(), 2u) << "a broken chain starts over";
 }
 
 TEST(MapEval, SelfConsistencyMeasuresADoubledWall) {

@@ -11,7 +11,7 @@
 
 #include "ips/args.hpp"
 #include "ips/calibration.hpp"
-#include "ips/dataset/delta_chain.hpp"
+#include "ips/tracker/delta_chain.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
@@ -48,7 +48,7 @@ int main(int argc, char** argv) {
     ips::fw::LogMessage event;
     std::ofstream gt_out;
     if (args.has("--gt-out")) gt_out.open(args.get("--gt-out"));
-    ips::dataset::DeltaChain chain;
+    ips::tracker::DeltaChain chain;
     int64_t pairs = 0, valid = 0;
     double total_ms = 0;
     ips::tracker::StageTimes stages;  // sums [ms]

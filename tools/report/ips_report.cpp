@@ -25,7 +25,7 @@
 #include <sstream>
 
 #include "ips/calibration.hpp"
-#include "ips/dataset/delta_chain.hpp"
+#include "ips/tracker/delta_chain.hpp"
 #include "ips/filter/trajectory_metrics.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
@@ -137,8 +137,11 @@ Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) {
 
 // The estimate expressed in the truth's frame by the start pose (position and heading; roll and pitch are
 // observable from gravity and are not aligned): how a dead-reckoning system is judged, the start being known.
-Trajectory alignStart(const Trajectory& est, const Trajectory& gt) {
-  if (est.empty() || gt.empty()) return est;
+// The transform that puts an estimate's first pose on the ground truth at that time, by heading and position
+// (roll and pitch are the estimator's own: gravity makes them observable).
+Eigen::Isometry3d startAlignment(const Trajectory& est, const Trajectory& gt) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  if (est.empty() || gt.empty()) return T;
   const TrajPoint& e0 = est.front();
   Eigen::Quaterniond qg = gt.front().q;
   for (const auto& g : gt)
@@ -151,11 +154,17 @@ Trajectory alignStart(const Trajectory& est, const Trajectory& gt) {
     const Eigen::Vector3d x = q * Eigen::Vector3d::UnitX();
     return std::atan2(x.y(), x.x());
   };
-  const Eigen::Matrix3d R = Eigen::AngleAxisd(yaw(qg) - yaw(e0.q), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.linear() = Eigen::AngleAxisd(yaw(qg) - yaw(e0.q), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = pg - T.linear() * e0.p;
+  return T;
+}
+
+Trajectory alignStart(const Trajectory& est, const Trajectory& gt) {
+  const Eigen::Isometry3d T = startAlignment(est, gt);
   Trajectory out = est;
   for (auto& p : out) {
-    p.p = R * (p.p - e0.p) + pg;
-    p.q = Eigen::Quaterniond(R) * p.q;
+    p.p = T * p.p;
+    p.q = Eigen::Quaterniond(T.linear()) * p.q;
   }
   return out;
 }
@@ -547,7 +556,7 @@ int main(int argc, char** argv) {
       if (!delta_msgs.empty()) {
         std::sort(delta_msgs.begin(), delta_msgs.end(),
                   [](const ips::tracker_delta_t& a, const ips::tracker_delta_t& b) { return a.utime < b.utime; });
-        ips::dataset::DeltaChain chain;
+        ips::tracker::DeltaChain chain;
         // The origin is the first pair; when the recording starts with a valid increment, its reference pair.
         if (delta_msgs.front().valid)
           chain.add(delta_msgs.front().utime_prev, 0, false, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());

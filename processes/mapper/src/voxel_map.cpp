@@ -106,10 +106,15 @@ void VoxelMap::save(const std::string& path) const {
     throw std::runtime_error("cannot write the map to " + path + " (folder missing, or not .ply/.pcd)");
 }
 
-std::vector<Eigen::Vector3d> VoxelMap::load(const std::string& path) {
+std::vector<Eigen::Vector3d> VoxelMap::load(const std::string& path, std::vector<uint8_t>* intensity) {
   if (!std::filesystem::exists(path)) throw std::runtime_error(path + ": no such map file");
   open3d::geometry::PointCloud c;
   if (!open3d::io::ReadPointCloud(path, c)) throw std::runtime_error(path + ": not a PLY/PCD point cloud");
+  if (intensity) {
+    intensity->assign(c.points_.size(), 0);
+    for (size_t i = 0; i < c.colors_.size() && i < c.points_.size(); ++i)
+      (*intensity)[i] = static_cast<uint8_t>(std::lround(std::clamp(c.colors_[i].x(), 0.0, 1.0) * 255));
+  }
   return c.points_;
 }
 

@@ -27,8 +27,9 @@ class VoxelMap {
   std::vector<uint8_t> intensity() const;
   // Writes the map; the format follows the extension (.ply, .pcd). Throws std::runtime_error on failure.
   void save(const std::string& path) const;
-  // Reads a map written by save() (or any PLY/PCD point cloud). Throws std::runtime_error naming the file.
-  static std::vector<Eigen::Vector3d> load(const std::string& path);
+  // Reads a map written by save() (or any PLY/PCD point cloud), with its grey values when asked (0 for a cloud
+  // without colours). Throws std::runtime_error naming the file.
+  static std::vector<Eigen::Vector3d> load(const std::string& path, std::vector<uint8_t>* intensity = nullptr);
 
  private:
   struct Impl;

@@ -9,7 +9,7 @@
 #include <map>
 #include <vector>
 
-namespace ips::dataset {
+namespace ips::tracker {
 
 class DeltaChain {
  public:
@@ -49,4 +49,4 @@ class DeltaChain {
   int64_t invalid_ = 0;
 };
 
-}  // namespace ips::dataset
+}  // namespace ips::tracker
