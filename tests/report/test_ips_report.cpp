@@ -1,6 +1,6 @@
-// ips_report on recordings that went wrong: a filter whose states stop before the input ends, a log truncated
-// or full of garbage, an empty log, a 0x0 disparity map. The report must say so (status "failed", the reason
-// under "failures", exit 4) instead of exiting 0 with figures over part of the run; nothing may crash.
+// ips_report on recordings that went wrong (and on the map figures): a filter whose states stop before the input ends,
+// a log truncated or full of garbage, an empty log, a 0x0 disparity map. The report must say so (status "failed", the
+// reason under "failures", exit 4) instead of exiting 0 with figures over part of the run; nothing may crash.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -11,6 +11,7 @@
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
 #include <ips/ground_truth_t.hpp>
+#include <ips/point_cloud_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <sstream>
 #include <string>
@@ -18,6 +19,9 @@
 
 #include "ips/calibration.hpp"
 #include "ips/framework/log_writer.hpp"
+#include "ips/mapper/voxel_map.hpp"
+#include "ips/sim/scenario.hpp"
+#include "ips/sim/world.hpp"
 
 namespace fs = std::filesystem;
 
@@ -199,3 +203,66 @@ TEST(IpsReport, EmptyDisparityMapIsCountedNotFatal) {
 }
 
 }  // namespace
+
+// The map figures: a map of points on the simulated world's surfaces (two thirds) and off them (a third, at
+// least 10 cm from any surface), the filter's first pose on the truth's (so no alignment moves it), and the
+// mapper's points of one wall seen early and again late 3 cm further: the report's keys say exactly that.
+TEST(IpsReport, ScoresTheMapAgainstTheSimulatedWorld) {
+  ips::sim::Scenario sc = ips::sim::Scenario::defaults();
+  sc.seed = 1;
+  const ips::sim::World world = ips::sim::World::build(sc.world, sc.seed);
+  std::vector<Eigen::Vector3d> on, off;
+  for (size_t q = 0; q < world.quads.size() && (on.size() < 100 || off.size() < 50); ++q) {
+    const ips::sim::Quad& quad = world.quads[q];
+    for (double f : {0.3, 0.6}) {
+      const Eigen::Vector3d p = quad.origin + f * quad.size_s * quad.axis_s + 0.5 * quad.size_t * quad.axis_t;
+      if (on.size() < 100) on.push_back(p);
+      const Eigen::Vector3d away = p + 0.3 * quad.normal();
+      if (off.size() < 50 && world.distanceToSurface(away) > 0.1) off.push_back(away);
+    }
+  }
+  ASSERT_EQ(on.size(), 100u);
+  ASSERT_EQ(off.size(), 50u);
+  std::vector<Eigen::Vector3d> all = on;
+  all.insert(all.end(), off.begin(), off.end());
+  ips::mapper::VoxelMap map(1e-4, 1000000);  // voxels far smaller than the points' spacing: nothing fused
+  map.insert(all, std::vector<uint8_t>(all.size(), 128), Eigen::Vector3d::Zero());
+  ASSERT_EQ(map.size(), 150u);
+  const std::string ply = (fs::path(testing::TempDir()) / (std::to_string(getpid()) + "_map.ply")).string();
+  map.save(ply);
+
+  const std::string log = tempLog("map");
+  {
+    Recording r(log);
+    for (int64_t t = 1'000'000; t <= 11'000'000; t += 100'000) {
+      const double x = (t - 1'000'000) * 1e-6;
+      r.add("GT_POSE", t, pose(t, x));
+      r.add("FILTER_STATE", t, state(t, x));
+    }
+    for (int64_t t : {2'000'000, 10'000'000}) {
+      ips::point_cloud_t pc{};
+      pc.utime = t;
+      pc.frame = "world";
+      for (int i = 0; i < 20; ++i)
+        for (int j = 0; j < 20; ++j) pc.points.push_back({0.05f * i, t < 5'000'000 ? 3.0f : 3.03f, 0.05f * j});
+      pc.num_points = static_cast<int32_t>(pc.points.size());
+      pc.intensity.assign(pc.points.size(), 100);
+      r.add("POINTS", t, pc);
+    }
+  }
+  const Result r = runReport(log, "map", "--map " + ply + " --map-gt-poses " + ply + " --world-seed 1");
+  ASSERT_EQ(r.exit_code, 0) << r.report;
+  auto number = [&](const std::string& key) {
+    const auto at = r.report.find("\"" + key + "\": ");
+    EXPECT_NE(at, std::string::npos) << key << " missing in " << r.report;
+    return at == std::string::npos ? NAN : std::stod(r.report.substr(at + key.size() + 4));
+  };
+  EXPECT_EQ(number("map_points"), 150);
+  for (const std::string sfx : {"", "_gt_poses"}) {
+    EXPECT_NEAR(number("map_median_surface_error_m" + sfx), 0.0, 1e-6) << sfx;
+    EXPECT_GT(number("map_p90_surface_error_m" + sfx), 0.1) << sfx;
+    EXPECT_NEAR(number("map_within_5cm_pct" + sfx), 100.0 * 100 / 150, 0.01) << sfx;
+  }
+  EXPECT_NEAR(number("map_consistency_median_m"), 0.03, 1e-4);
+  EXPECT_NEAR(number("map_consistency_overlap_pct"), 100.0, 1e-6);
+}

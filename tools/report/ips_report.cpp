@@ -15,6 +15,7 @@
 #include <ips/filter_state_t.hpp>
 #include <ips/ground_truth_t.hpp>
 #include <ips/health_t.hpp>
+#include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <lcm/lcm-cpp.hpp>
@@ -25,12 +26,15 @@
 #include <sstream>
 
 #include "ips/calibration.hpp"
-#include "ips/tracker/delta_chain.hpp"
 #include "ips/filter/trajectory_metrics.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
+#include "ips/mapper/map_eval.hpp"
+#include "ips/mapper/voxel_map.hpp"
+#include "ips/sim/scenario.hpp"
+#include "ips/tracker/delta_chain.hpp"
 #include "report_page.hpp"
 
 namespace {
@@ -70,6 +74,13 @@ constexpr size_t kMaxPageErrorSamples = 2000;
 // The 3D view's point cloud (one disparity map triangulated): enough to see the scene's surfaces, few enough
 // to rotate smoothly in a laptop's browser.
 constexpr size_t kMaxCloudPoints = 40000;
+// The map on the page: every voxel up to this many (a building's map of a few 100 000 voxels is thinned evenly).
+constexpr size_t kMaxMapPagePoints = 120000;
+// A map point "on" the surface: within the map's voxel size.
+constexpr double kMapWithinM = 0.05;
+// The later part of a run "sees the same surface" as the earlier one where their points are this close: a few
+// voxels, more than the drift of a good run, less than the distance between walls.
+constexpr double kMapOverlapM = 0.25;
 // Disparities below one pixel are not triangulated: there a quarter-pixel matching error moves the point by more
 // than a quarter of its depth.
 constexpr double kMinCloudDisparityPx = 1.0;
@@ -295,6 +306,11 @@ int main(int argc, char** argv) {
                 "the calibration the processes ran on, whose source the report names; default: --calib")
         .option("--filters", "CH[,CH]", "filter state channels and their names", "FILTER_STATE,FILTER_STATE_UKF")
         .option("--pictures", "N", "disparity maps shown as examples on the page", "3")
+        .option("--map", "FILE", "the mapper's map (PLY/PCD) placed with the filter's poses, shown and scored")
+        .option("--map-gt-poses", "FILE", "the same maps placed with the ground truth's poses (scored beside it)")
+        .option("--world-seed", "N",
+                "the simulated world the run saw (the sim's --seed): the maps' points are scored against its surfaces")
+        .option("--world-scenario", "FILE", "its scenario file (default: the built-in walk)")
         .option("--lengths", "M[,M]",
                 "sub-sequence lengths of the relative errors (KITTI devkit style); default 10,20,40 m when the "
                 "ground truth is longer than 40 m, else 1,2 m")
@@ -328,6 +344,12 @@ int main(int argc, char** argv) {
     std::map<std::string, ProcessFigures> procs;
     int64_t deltas = 0, deltas_valid = 0;
     std::vector<ips::tracker_delta_t> delta_msgs;
+    struct MapPoints {
+      int64_t utime = 0;
+      std::vector<Eigen::Vector3d> points;
+    };
+    std::vector<MapPoints> map_points;           // POINTS: the mapper's points of each disparity map
+    std::vector<MapPoints> map_points_gt_poses;  // POINTS_GT_POSES: the same placed with the true poses
     // What makes the run's figures untrustworthy: named in report.json ("failures") and on stderr, exit 4.
     std::vector<std::string> failures;
     std::map<std::string, int64_t> last_health_log_us;  // per process: logger time of its last health message
@@ -368,6 +390,19 @@ int main(int argc, char** argv) {
             return;
           }
           if (inOrder(ch, d.utime)) (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
+        } else if (ch == "POINTS" || ch == "POINTS_GT_POSES") {
+          ips::point_cloud_t pc;
+          if (!decode(m, &pc) || pc.num_points < 0) {
+            ++bad_messages;
+            return;
+          }
+          if (!inOrder(ch, pc.utime)) return;
+          MapPoints mp;
+          mp.utime = pc.utime;
+          for (const auto& q : pc.points)
+            if (std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]))
+              mp.points.emplace_back(q[0], q[1], q[2]);
+          (ch == "POINTS" ? map_points : map_points_gt_poses).push_back(std::move(mp));
         } else if (ch == "TRACKER_DELTA") {
           ips::tracker_delta_t d;
           if (!decode(m, &d) || !ips::fw::validate(d).ok()) {
@@ -643,6 +678,61 @@ int main(int argc, char** argv) {
     js << "  \"disparity_bad2_pct\": " << jsonNumber(evaluated ? bad2 / evaluated : NAN) << ",\n";
     js << "  \"disparity_density_pct\": " << jsonNumber(scores.empty() ? NAN : density / scores.size()) << ",\n";
 
+    // The map: its size, its points against the simulated world's surfaces (with the filter's poses, the map
+    // put on the truth by the filter's start alignment; and with the true poses, which leaves the stereo error
+    // alone), and where the later part of the run saw the surfaces of the earlier part, how far apart.
+    std::string page_map = "null";
+    if (args.has("--map")) {
+      std::vector<uint8_t> grey;
+      const std::vector<Eigen::Vector3d> map = ips::mapper::VoxelMap::load(args.get("--map"), &grey);
+      js << "  \"map_points\": " << map.size() << ",\n";
+      std::optional<ips::sim::World> world;
+      if (args.has("--world-seed")) {
+        ips::sim::Scenario sc = args.has("--world-scenario") ? ips::sim::Scenario::load(args.get("--world-scenario"))
+                                                             : ips::sim::Scenario::defaults();
+        sc.seed = static_cast<uint64_t>(args.getInt("--world-seed"));
+        world = ips::sim::World::build(sc.world, sc.seed);
+      }
+      Eigen::Isometry3d T_truth_map = Eigen::Isometry3d::Identity();
+      if (!runs.empty() && !runs.front().states.empty()) {
+        Trajectory est;
+        for (const auto& st : runs.front().states) est.push_back(toPoint(st.utime, st.position, st.orientation));
+        T_truth_map = startAlignment(est, gt);
+      }
+      auto surfaceKeys = [&](const std::vector<Eigen::Vector3d>& pts, const Eigen::Isometry3d& T,
+                             const std::string& sfx) {
+        const ips::mapper::SurfaceErrors e = ips::mapper::surfaceErrors(pts, *world, T, kMapWithinM);
+        js << "  \"map_median_surface_error_m" << sfx << "\": " << jsonNumber(e.median_m) << ",\n";
+        js << "  \"map_p90_surface_error_m" << sfx << "\": " << jsonNumber(e.p90_m) << ",\n";
+        js << "  \"map_within_5cm_pct" << sfx << "\": " << jsonNumber(e.within_pct) << ",\n";
+      };
+      if (world) surfaceKeys(map, T_truth_map, "");
+      if (args.has("--map-gt-poses")) {
+        const std::vector<Eigen::Vector3d> map_gt = ips::mapper::VoxelMap::load(args.get("--map-gt-poses"));
+        js << "  \"map_points_gt_poses\": " << map_gt.size() << ",\n";
+        if (world) surfaceKeys(map_gt, Eigen::Isometry3d::Identity(), "_gt_poses");
+      }
+      // The earlier and the later half of the run (by image time); with the true poses the gap is what the voxels
+      // and the stereo error leave, the rest of the filter's gap is navigation drift.
+      auto consistencyKeys = [&](const std::vector<MapPoints>& maps, const std::string& sfx) {
+        if (maps.size() < 2) return;
+        std::vector<Eigen::Vector3d> early, late;
+        const int64_t middle = (maps.front().utime + maps.back().utime) / 2;
+        for (const auto& mp : maps) {
+          auto& half = mp.utime < middle ? early : late;
+          half.insert(half.end(), mp.points.begin(), mp.points.end());
+        }
+        const ips::mapper::SelfConsistency c = ips::mapper::selfConsistency(early, late, kMapOverlapM);
+        js << "  \"map_consistency_median_m" << sfx << "\": " << jsonNumber(c.median_m) << ",\n";
+        js << "  \"map_consistency_p90_m" << sfx << "\": " << jsonNumber(c.p90_m) << ",\n";
+        js << "  \"map_consistency_overlap_pct" << sfx
+           << "\": " << jsonNumber(c.late_points ? 100.0 * c.overlapping / c.late_points : NAN) << ",\n";
+      };
+      consistencyKeys(map_points, "");
+      consistencyKeys(map_points_gt_poses, "_gt_poses");
+      page_map = ips::report::mapJson(map, grey, kMaxMapPagePoints);
+    }
+
     // Examples for the page: a few maps beside their rectified left images, the ground truth and the error map,
     // colour-mapped here (the page places them with colour bars drawn from the same colour tables); the middle
     // one triangulated into the 3D view's point cloud.
@@ -760,7 +850,7 @@ int main(int argc, char** argv) {
            << ", \"inter_matches\": " << ips::report::jsonArray(matches)
            << ", \"valid\": " << ips::report::jsonArray(valid) << "}, \"latency\": " << latency << "]"
            << ", \"disparity\": " << list(page_examples) << ", \"colour_maps\": " << ips::report::colourMapsJson()
-           << ", \"cloud\": " << page_cloud << "}";
+           << ", \"cloud\": " << page_cloud << ", \"map\": " << page_map << "}";
       const std::string js_dir = args.get("--js-dir");
       ips::report::writePage(args.get("--page-template"),
                              {{"/*@CHART_JS@*/", js_dir + "/chart.js/chart.min.js"},

@@ -171,6 +171,16 @@ std::string pointCloudJson(const cv::Mat& disparity, const cv::Mat& grey, double
          ", \"grey\": " + jsonArray(grey_values, 3) + "}";
 }
 
+std::string mapJson(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& grey, size_t max_points) {
+  std::vector<double> xyz, grey_values;
+  for (size_t i : subsample(points.size(), max_points)) {
+    for (int k = 0; k < 3; ++k) xyz.push_back(points[i][k]);
+    grey_values.push_back(i < grey.size() ? grey[i] : 0);
+  }
+  return "{\"points\": " + std::to_string(grey_values.size()) + ", \"voxels\": " + std::to_string(points.size()) +
+         ", \"xyz\": " + jsonArray(xyz, 5) + ", \"grey\": " + jsonArray(grey_values, 3) + "}";
+}
+
 void writePage(const std::string& template_path, const std::vector<PageScript>& scripts, const std::string& data_json,
                const std::string& out_path) {
   std::string page = readFile(template_path);

@@ -3,6 +3,7 @@
 // it shows, colour-mapped here so that the page only places them.
 #pragma once
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -61,6 +62,10 @@ struct PageScript {
 
 // Fills the template at `template_path`: every script's marker by that file's text and "/*@REPORT_DATA@*/" by
 // `data_json`, and writes the page to `out_path`. Throws naming the file that is missing or lacks its marker.
+// The mapper's map for the page's 3D views: world points (every k-th to stay within `max_points`) and their
+// grey values. The page's "map" JSON object.
+std::string mapJson(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& grey, size_t max_points);
+
 void writePage(const std::string& template_path, const std::vector<PageScript>& scripts, const std::string& data_json,
                const std::string& out_path);
 
