@@ -41,6 +41,8 @@ if [ -n "${IPS_DATASET:-}" ]; then
   ln -sf "$ROOT/config/$format.yaml" "$run/config/tracker.yaml"
   IPS_CONFIG=$run/config
   report_args=(--lengths "$lengths")
+  # KITTI's head has no IMU, so no filter runs: its map is placed by the tracker's increments.
+  [ "$format" = kitti ] && export IPS_MAPPER_POSES=tracker
 elif [ -n "${IPS_SIM_LOG:-}" ]; then
   say "1/4 using the simulated log $IPS_SIM_LOG"
   ln -sf "$(realpath "$IPS_SIM_LOG")" "$run/walk.lcmlog"
@@ -73,6 +75,7 @@ export IPS_RUN_DIR=$run IPS_REPLAY_SPEED=${IPS_REPLAY_SPEED:-1.0}
 # The live view: IPS_VIEWER_PORT, else a port free on this machine (a fixed one may be taken by another job).
 IPS_VIEWER_PORT=${IPS_VIEWER_PORT:-$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')}
 export IPS_VIEWER_PORT
+export IPS_MAPPER_POSES=${IPS_MAPPER_POSES:-filter}
 deputy_id=mainjob
 say "2/4 starting procman-deputy '$deputy_id' on $LCM_DEFAULT_URL"
 procman-deputy --id "$deputy_id" > "$run/deputy.log" 2>&1 &
@@ -107,6 +110,13 @@ results=$(ls "$run"/results.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
 # Evaluated against the truth when the processes ran on a perturbed calibration (sim with calibration_errors).
 eval_calib=$run/walk.lcmlog.calib.yaml
 [ ! -f "$run/walk.lcmlog.true.calib.yaml" ] || eval_calib=$run/walk.lcmlog.true.calib.yaml
+# The maps, and on the simulated walk the world they are scored against (the one the simulator rendered).
+[ -f "$run/map.ply" ] && report_args+=(--map "$run/map.ply")
+[ -f "$run/map_gt_poses.ply" ] && report_args+=(--map-gt-poses "$run/map_gt_poses.ply")
+if [ -z "${IPS_DATASET:-}" ] && [ -z "${IPS_SIM_LOG:-}" ]; then
+  report_args+=(--world-seed "${IPS_SEED:-1}")
+  [ -n "${IPS_SCENARIO:-}" ] && report_args+=(--world-scenario "$IPS_SCENARIO")
+fi
 ips_report --log "$results" --images "$run/walk.lcmlog" --calib "$eval_calib" \
   --process-calib "$run/walk.lcmlog.calib.yaml" --out "$run" "${report_args[@]}" > "$run/report.txt" || report_rc=$?
 if [ ! -s "$run/report.json" ]; then
@@ -122,6 +132,17 @@ print(f"  calibration the processes ran on: {r.get('calibration_source', 'unspec
 for f in [f for f in r['filters'] if f['states']]:
     print(f"  {f['filter']}: end error {f['end_error_m']} m ({f['end_error_pct']} % of the distance), ATE RMSE {f['ate_rmse_m']} m")
 print(f"  disparity: bad 2.0 {r['disparity_bad2_pct']} %, density {r['disparity_density_pct']} % ({r['disparity_maps_with_ground_truth']} maps with ground truth)")
+if 'map_points' in r:
+    line = f"  map: {r['map_points']} voxels (map.ply)"
+    if 'map_median_surface_error_m' in r:
+        line += f", to the true surfaces median {r['map_median_surface_error_m']:.3f} m, {r['map_within_5cm_pct']:.1f} % within 5 cm"
+    if 'map_median_surface_error_m_gt_poses' in r:
+        line += f" (true poses: {r['map_median_surface_error_m_gt_poses']:.3f} m, {r['map_within_5cm_pct_gt_poses']:.1f} %)"
+    if r.get('map_consistency_median_m') is not None:
+        line += f"; surfaces seen twice {r['map_consistency_median_m']:.3f} m apart (median)"
+        if r.get('map_consistency_median_m_gt_poses') is not None:
+            line += f", {r['map_consistency_median_m_gt_poses']:.3f} m with true poses"
+    print(line)
 for name, p in sorted(r['processes'].items()):
     print(f"  {name:12s} rate {p['rate_hz']:.2f} Hz, latency {p['latency_ms']:.1f} ms, dropped {p['dropped']}, bad {p['bad']}")
 PY
@@ -131,4 +152,8 @@ if [ "$report_rc" != 0 ]; then
   python3 -c 'import json,sys; [print("FAILED:", f) for f in json.load(open(sys.argv[1]))["failures"]]' "$run/report.json"
   say "FAILED: $run/report.json (status failed, exit $report_rc)"; exit 1
 fi
-say "done: $run/report.json and pictures (trajectory_top.png, error_over_time.png, disparity_*.png)"
+# The pictures are screenshots of the report page (the same drawing), by headless Chromium.
+if ! tools/report/render_pictures.sh "$run/report.html" > "$run/pictures.txt" 2> "$run/pictures.err"; then
+  say "FAILED: the report page's pictures (tools/report/render_pictures.sh):"; cat "$run/pictures.err"; exit 1
+fi
+say "done: $run/report.json, $run/report.html and $(wc -l < "$run/pictures.txt") pictures (trajectory_top.png, error_over_time.png, map_3d.png, ...)"
