@@ -39,10 +39,17 @@ if [ -n "${IPS_DATASET:-}" ]; then
   mkdir -p "$run/config"
   for f in "$ROOT"/config/*.yaml; do ln -sf "$f" "$run/config/"; done
   ln -sf "$ROOT/config/$format.yaml" "$run/config/tracker.yaml"
+  ln -sf "$ROOT/config/e3d_recording.yaml" "$run/config/e3d_sim.yaml"
   IPS_CONFIG=$run/config
   report_args=(--lengths "$lengths")
-  # KITTI's head has no IMU, so no filter runs: its map is placed by the tracker's increments.
-  [ "$format" = kitti ] && export IPS_MAPPER_POSES=tracker
+  # Without IMU no filter runs: the map is placed by the tracker's increments, in the body frame at the first
+  # image, which nothing levels. KITTI's body is camera 0 (x right, y down, z forward): up is -y; EuRoC's is its
+  # IMU, and its ground truth (gravity-aligned) says where up is.
+  if grep -q ", 0 IMU samples" "$run/dataset.txt"; then
+    export IPS_MAPPER_POSES=tracker
+    report_args+=(--map-poses tracker)
+    if [ "$format" = kitti ]; then report_args+=(--map-up 0,-1,0); else report_args+=(--map-up truth); fi
+  fi
 elif [ -n "${IPS_SIM_LOG:-}" ]; then
   say "1/4 using the simulated log $IPS_SIM_LOG"
   ln -sf "$(realpath "$IPS_SIM_LOG")" "$run/walk.lcmlog"

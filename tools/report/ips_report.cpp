@@ -308,9 +308,16 @@ int main(int argc, char** argv) {
         .option("--pictures", "N", "disparity maps shown as examples on the page", "3")
         .option("--map", "FILE", "the mapper's map (PLY/PCD) placed with the filter's poses, shown and scored")
         .option("--map-gt-poses", "FILE", "the same maps placed with the ground truth's poses (scored beside it)")
+        .option("--map-poses", "filter|tracker",
+                "what placed the --map: the filter's states or the tracker's increments", "filter")
         .option("--world-seed", "N",
                 "the simulated world the run saw (the sim's --seed): the maps' points are scored against its surfaces")
         .option("--world-scenario", "FILE", "its scenario file (default: the built-in walk)")
+        .option("--map-up", "X,Y,Z|truth",
+                "the map's up direction, for the top view, in a world not levelled by an IMU: e.g. 0,-1,0 for a "
+                "camera frame; truth: the map's world is the body at the first image and the ground truth's "
+                "attitude there says where up is",
+                "0,0,1")
         .option("--lengths", "M[,M]",
                 "sub-sequence lengths of the relative errors (KITTI devkit style); default 10,20,40 m when the "
                 "ground truth is longer than 40 m, else 1,2 m")
@@ -730,7 +737,24 @@ int main(int argc, char** argv) {
       };
       consistencyKeys(map_points, "");
       consistencyKeys(map_points_gt_poses, "_gt_poses");
-      page_map = ips::report::mapJson(map, grey, kMaxMapPagePoints);
+      std::vector<double> up;
+      if (args.get("--map-up") == "truth") {
+        if (gt.empty() || delta_msgs.empty())
+          throw ips::ArgError("--map-up truth needs the ground truth and the tracker's increments in the recording");
+        // The tracker's chain starts at its first increment's image: the body there is the map's world.
+        const Eigen::Vector3d u =
+            truthAttitudeAt(gt, delta_msgs.front().utime * 1e-6).conjugate() * Eigen::Vector3d::UnitZ();
+        up = {u.x(), u.y(), u.z()};
+      } else {
+        std::stringstream ss(args.get("--map-up"));
+        std::string item;
+        while (std::getline(ss, item, ',')) up.push_back(std::stod(item));
+      }
+      if (up.size() != 3 || !(std::hypot(up[0], up[1], up[2]) > 0))
+        throw ips::ArgError("--map-up takes three numbers, not all zero: '" + args.get("--map-up") + "'");
+      page_map = ips::report::mapJson(
+          map, grey, kMaxMapPagePoints, Eigen::Vector3d(up[0], up[1], up[2]).normalized(),
+          args.get("--map-poses") == "tracker" ? "the tracker\u2019s increments" : "the filter\u2019s states");
     }
 
     // Examples for the page: a few maps beside their rectified left images, the ground truth and the error map,

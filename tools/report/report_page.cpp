@@ -171,13 +171,15 @@ std::string pointCloudJson(const cv::Mat& disparity, const cv::Mat& grey, double
          ", \"grey\": " + jsonArray(grey_values, 3) + "}";
 }
 
-std::string mapJson(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& grey, size_t max_points) {
+std::string mapJson(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& grey, size_t max_points,
+                    const Eigen::Vector3d& up, const std::string& placed_by) {
   std::vector<double> xyz, grey_values;
   for (size_t i : subsample(points.size(), max_points)) {
     for (int k = 0; k < 3; ++k) xyz.push_back(points[i][k]);
     grey_values.push_back(i < grey.size() ? grey[i] : 0);
   }
   return "{\"points\": " + std::to_string(grey_values.size()) + ", \"voxels\": " + std::to_string(points.size()) +
+         ", \"up\": " + jsonArray({up.x(), up.y(), up.z()}) + ", \"placed_by\": " + jsonString(placed_by) +
          ", \"xyz\": " + jsonArray(xyz, 5) + ", \"grey\": " + jsonArray(grey_values, 3) + "}";
 }
 

@@ -62,9 +62,10 @@ struct PageScript {
 
 // Fills the template at `template_path`: every script's marker by that file's text and "/*@REPORT_DATA@*/" by
 // `data_json`, and writes the page to `out_path`. Throws naming the file that is missing or lacks its marker.
-// The mapper's map for the page's 3D views: world points (every k-th to stay within `max_points`) and their
-// grey values. The page's "map" JSON object.
-std::string mapJson(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& grey, size_t max_points);
+// The mapper's map for the page's 3D views: world points (every k-th to stay within `max_points`), their grey
+// values, the world's up direction and what placed it (words for the page). The page's "map" JSON object.
+std::string mapJson(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& grey, size_t max_points,
+                    const Eigen::Vector3d& up, const std::string& placed_by);
 
 void writePage(const std::string& template_path, const std::vector<PageScript>& scripts, const std::string& data_json,
                const std::string& out_path);
