@@ -11,7 +11,8 @@ struct MapperParams {
   // Depth error grows with the square of the range: sigma_z = z^2 sigma_d / (f b). A point is kept while
   // sigma_z stays below this [m], twice the voxel size, so that one voxel is not smeared over more than its
   // neighbours. The range this gives follows from the head: sqrt(max_depth_sigma_m f b / sigma_d), e.g.
-  // 12.4 m for KITTI's full-resolution f 718 px and b 0.54 m (the mapper logs it for its head at start).
+  // 12.3 m for KITTI (rectified f 707 px, b 0.54 m), 5.4 m for the simulated head at half resolution (f 359 px,
+  // b 0.2 m); the mapper logs it for its head when the first map arrives.
   double max_depth_sigma_m = 0.10;
   // Closer than this the head's own mounting and the operator show up in the images [m].
   double min_range_m = 0.3;
