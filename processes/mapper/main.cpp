@@ -63,14 +63,15 @@ class MapperProcess {
         params_(params),
         points_channel_(points_channel),
         poses_(params.max_pose_gap_s, 10.0),
-        map_(params.voxel_size_m, params.max_voxels) {
+        map_(params.voxel_size_m, params.max_voxels),
+        stereo_admission_(calib.cam0.width, calib.cam0.height) {
     head_.R_rect0_cam0 = ips::computeRectification(calib).R_rect0_cam0;
     head_.T_body_cam0 = calib.T_imu_cam0;
   }
 
   void onStereo(const ips::stereo_pair_t& m) {
-    const ips::fw::Verdict v = ips::fw::validate(m);
-    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
+    // The pairs only give the points their grey values; still, a forged one must not stay among them.
+    if (!stereo_admission_.admit(m, node_.health(), node_.arrivalUs())) return;
     lefts_[m.seq] = ips::fw::mono8Copy(ips::fw::leftImage(m));
     while (static_cast<int>(lefts_.size()) > params_.max_pending_images) lefts_.erase(lefts_.begin());
   }
@@ -79,6 +80,8 @@ class MapperProcess {
     node_.health().received(m.utime);
     const ips::fw::Verdict v = ips::fw::validate(m);
     if (!v.ok()) return node_.health().bad(v.reason, v.detail);
+    // Its seq is the pair's: E3D matches every n-th pair, so a jump in it is no loss (not counted as a gap).
+    if (!ips::fw::admitInOrder(disparity_order_, m.utime, 0, node_.health(), "disparity", node_.arrivalUs())) return;
     node_.health().accepted();
     pending_.push_back(m);
     if (static_cast<int>(pending_.size()) > params_.max_pending_maps) {
@@ -89,6 +92,8 @@ class MapperProcess {
   }
 
   void onPose(const ips::mapper::Pose& p) {
+    // A stamp off the pose stream's time line (forged, an hour ahead) would hold every map back: refused here.
+    if (!ips::fw::admitInOrder(pose_order_, p.utime, 0, node_.health(), "pose", node_.arrivalUs())) return;
     if (!poses_.add(p)) node_.health().count("pose_time_went_back");
     drain();
   }
@@ -186,6 +191,8 @@ class MapperProcess {
   std::optional<ips::StereoRectification> rect_;
   std::map<int64_t, cv::Mat> lefts_;  // by seq
   std::deque<ips::disparity_map_t> pending_;
+  ips::fw::StreamOrder disparity_order_, pose_order_;
+  ips::fw::StereoAdmission stereo_admission_;
   bool logged_range_ = false;
 };
 

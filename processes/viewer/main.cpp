@@ -9,6 +9,7 @@
 #include <ips/health_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <map>
 
 #include "ips/config.hpp"
 #include "ips/framework/channels.hpp"
@@ -96,10 +97,18 @@ int main(int argc, char** argv) {
     namespace ch = ips::channels;
     using ips::viewer::wallSeconds;
 
+    // Every stream's stamps checked as the processes check theirs: one forged stamp an hour ahead must not
+    // stretch a trajectory across the page or replace the picture.
+    std::map<std::string, ips::fw::StreamOrder> pose_order;
+    auto inOrder = [&](const std::string& stream, int64_t utime) {
+      return ips::fw::admitInOrder(pose_order[stream], utime, 0, node.health(), stream, node.arrivalUs());
+    };
+    ips::fw::StreamOrder stereo_order;
     node.subscribe<ips::stereo_pair_t>(ch::kStereo, [&](const ips::stereo_pair_t& m) {
       node.health().received(m.utime);
       const ips::fw::Verdict v = ips::fw::validate(m);
       if (!v.ok()) return node.health().bad(v.reason, v.detail);
+      if (!ips::fw::admitInOrder(stereo_order, m.utime, m.seq, node.health(), "stereo", node.arrivalUs())) return;
       node.health().accepted();
       view.onStereo(m.utime, m.seq, ips::fw::mono8Copy(ips::fw::leftImage(m)),
                     ips::fw::mono8Copy(ips::fw::rightImage(m)), wallSeconds());
@@ -113,10 +122,11 @@ int main(int argc, char** argv) {
     });
     // The a-posteriori states of every filter: FILTER_STATE (EKF) and FILTER_STATE_<NAME> (a second filter).
     node.subscribeWithChannel<ips::filter_state_t>(
-        std::string(ch::kFilterState) + "(_.*)?", [&](const ips::filter_state_t& m, const std::string&) {
+        std::string(ch::kFilterState) + "(_.*)?", [&](const ips::filter_state_t& m, const std::string& channel) {
           node.health().received(m.utime);
           const ips::fw::Verdict v = ips::fw::validate(m);
           if (!v.ok()) return node.health().bad(v.reason, v.detail);
+          if (!inOrder(channel, m.utime)) return;
           node.health().accepted();
           view.onPose(m.filter_type == ips::filter_state_t::FILTER_UKF ? "UKF" : "EKF", toPose(m));
         });
@@ -128,6 +138,7 @@ int main(int argc, char** argv) {
       p.orientation = Eigen::Quaterniond(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
       if (!p.position.allFinite() || !p.orientation.coeffs().allFinite() || p.orientation.norm() < 0.5)
         return node.health().bad("nan", "a ground-truth pose that is not finite or not a rotation");
+      if (!inOrder(ch::kGtPose, m.utime)) return;
       node.health().accepted();
       view.onPose(ips::viewer::LiveView::kTruth, p);
     });

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The running system attacked over LCM. A short simulated walk plays through tracker, filter and e3d (and a
-# second tracker started by mistake), while lcm_probe repeats every tracker delta twice and, mid-walk, sends on
+# The running system attacked over LCM. A short simulated walk plays through tracker, filter, e3d, mapper and
+# viewer (and a second tracker started by mistake), while lcm_probe repeats every tracker delta twice and, mid-walk, sends on
 # every channel the processes read: hostile lengths, a pair declaring 2 GB, stamps an hour ahead, NaN
 # covariances and biases, a sequence number near 2^63.
 # Every process must still run at the end, have counted what it refused (its health message, read by
@@ -21,7 +21,9 @@ start "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/track
 start "$BIN/filter" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/filter_sim.yaml" --log-level error
 start "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 8 \
   --log-level error
-names=(tracker tracker_2 filter e3d)
+start "$BIN/mapper" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/mapper.yaml" --log-level error
+start "$BIN/viewer" --lcm-url "$U" --config "$SRC/config/viewer.yaml" --port 0 --log-level error
+names=(tracker tracker_2 filter e3d mapper viewer)
 "$BIN/bus_monitor" --lcm-url "$U" --channels TRACKER_DELTA,FILTER_STATE,FILTER_PRIOR,DISPARITY \
   --log-level error > "$W/monitor.txt" &
 monitor=$!
@@ -71,12 +73,16 @@ expect_counted filter nan
 expect_counted filter duplicate
 expect_counted e3d decode_error
 expect_counted e3d time_jump time_ahead_of_host
+expect_counted mapper decode_error
+expect_counted mapper time_jump time_ahead_of_host
+expect_counted viewer decode_error
+expect_counted viewer time_jump time_ahead_of_host
 grep -qE "^bus_monitor decode_error=[1-9]" "$W/monitor.txt" || { echo "FAIL: bus_monitor counted no decode error"; fail=1; }
 grep -qE "^bus_monitor .* bad=[1-9]" "$W/monitor.txt" || { echo "FAIL: bus_monitor counted no bad message"; fail=1; }
 # The damaged health messages on HEALTH_PROBE are refused, not shown as processes.
 shown=$(grep -aE '^[^ ]+ +[^ ]+ +[0-9.]+ +[0-9.]+ +[0-9.]+ +[0-9]+ ' "$W/monitor.txt" | awk '{print $1}' | sort -u | tr '\n' ' ')
 for p in $shown; do
-  case $p in tracker|filter|e3d|bus_monitor) ;; *) echo "FAIL: bus_monitor shows a process that does not exist: $p"; fail=1 ;; esac
+  case $p in tracker|filter|e3d|mapper|viewer|bus_monitor) ;; *) echo "FAIL: bus_monitor shows a process that does not exist: $p"; fail=1 ;; esac
 done
 grep -q "tracker: WARNING: 2 processes publish this health channel" "$W/monitor.txt" ||
   { echo "FAIL: bus_monitor does not show the second tracker"; fail=1; }

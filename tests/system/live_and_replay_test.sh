@@ -18,7 +18,8 @@ run_once() {
   "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/tracker.yaml" --log-level warn & pids+=($!)
   "$BIN/filter" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/filter_sim.yaml" --log-level warn & pids+=($!)
   "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 4 --queue --log-level warn & pids+=($!)
-  "$BIN/mapper" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/mapper.yaml" --log-level warn & pids+=($!)
+  "$BIN/mapper" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/mapper.yaml" --log-level warn &
+  local mapper=$!
   lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|POINTS|HEALTH_.*' -f "$out" >/dev/null 2>&1 &
   local logger=$!
   sleep 2  # let every process subscribe (e3d builds its Vulkan pipeline)
@@ -32,6 +33,9 @@ run_once() {
   sleep 4  # the last pairs drain through tracker, filter and e3d
   kill -INT "${pids[@]}"
   wait "${pids[@]}" || true
+  # The mapper last: e3d publishes what it still holds while it stops, and the mapper places it.
+  sleep 1
+  kill -INT $mapper; wait $mapper || true
   sleep 0.5
   kill -INT $logger; wait $logger || true
 }
