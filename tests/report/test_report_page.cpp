@@ -118,8 +118,9 @@ void writeRun(const fs::path& dir) {
     toArrays(T, g.position, g.orientation);
     results.write("GT_POSE", t, g);
     // Both filters drift along x, with a covariance that claims 10 cm (position) and 1 deg (attitude) sigma.
-    for (const auto& [channel, type] : {std::pair<std::string, int8_t>{"FILTER_STATE", ips::filter_state_t::FILTER_EKF},
-                                        {"FILTER_STATE_UKF", ips::filter_state_t::FILTER_UKF}}) {
+    for (const auto& [channel, type] :
+         {std::pair<std::string, int8_t>{"FILTER_STATE", int8_t{ips::filter_state_t::FILTER_EKF}},
+          {"FILTER_STATE_UKF", int8_t{ips::filter_state_t::FILTER_UKF}}}) {
       ips::filter_state_t s{};
       s.utime = t;
       s.filter_type = type;
