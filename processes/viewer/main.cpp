@@ -13,8 +13,8 @@
 
 #include "ips/config.hpp"
 #include "ips/framework/channels.hpp"
-#include "ips/framework/filter_state_layout.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/message_poses.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
@@ -31,12 +31,7 @@ ips::viewer::DisparityFrame toFrame(const ips::disparity_map_t& m) {
   ips::viewer::DisparityFrame f;
   f.utime = m.utime;
   f.seq = m.seq;
-  f.disparity.create(m.height, m.width, CV_32FC1);
-  for (int r = 0; r < m.height; ++r)
-    for (int c = 0; c < m.width; ++c) {
-      const int16_t v = m.data[r][c];
-      f.disparity.at<float>(r, c) = v == m.invalid_value ? NAN : static_cast<float>(v) / m.subpixel_scale;
-    }
+  f.disparity = ips::fw::disparityImage(m);
   f.min_disparity = m.min_disparity;
   f.max_disparity = m.min_disparity + m.num_disparities;
   f.focal_px = m.focal_px;
@@ -46,15 +41,12 @@ ips::viewer::DisparityFrame toFrame(const ips::disparity_map_t& m) {
   return f;
 }
 
-ips::viewer::PoseSample toPose(const ips::filter_state_t& s) {
-  namespace layout = ips::fw::filter_state_layout;
+ips::viewer::PoseSample toPose(int64_t utime, const ips::fw::BodyPose& b) {
   ips::viewer::PoseSample p;
-  p.utime = s.utime;
-  p.position = Eigen::Vector3d(s.position[0], s.position[1], s.position[2]);
-  p.orientation = Eigen::Quaterniond(s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3]);
-  if (s.cov_dim >= layout::kPosition + 3)
-    for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) p.position_cov(r, c) = s.covariance[layout::kPosition + r][layout::kPosition + c];
+  p.utime = utime;
+  p.position = b.T_world_body.translation();
+  p.orientation = Eigen::Quaterniond(b.T_world_body.linear());
+  p.position_cov = b.covariance.topLeftCorner<3, 3>();
   return p;
 }
 
@@ -128,19 +120,17 @@ int main(int argc, char** argv) {
           if (!v.ok()) return node.health().bad(v.reason, v.detail);
           if (!inOrder(channel, m.utime)) return;
           node.health().accepted();
-          view.onPose(m.filter_type == ips::filter_state_t::FILTER_UKF ? "UKF" : "EKF", toPose(m));
+          view.onPose(m.filter_type == ips::filter_state_t::FILTER_UKF ? "UKF" : "EKF",
+                      toPose(m.utime, ips::fw::bodyPose(m)));
         });
     node.subscribe<ips::ground_truth_t>(ch::kGtPose, [&](const ips::ground_truth_t& m) {
       node.health().received(m.utime);
-      ips::viewer::PoseSample p;
-      p.utime = m.utime;
-      p.position = Eigen::Vector3d(m.position[0], m.position[1], m.position[2]);
-      p.orientation = Eigen::Quaterniond(m.orientation[0], m.orientation[1], m.orientation[2], m.orientation[3]);
-      if (!p.position.allFinite() || !p.orientation.coeffs().allFinite() || p.orientation.norm() < 0.5)
+      ips::fw::BodyPose b;
+      if (!ips::fw::bodyPose(m, &b))
         return node.health().bad("nan", "a ground-truth pose that is not finite or not a rotation");
       if (!inOrder(ch::kGtPose, m.utime)) return;
       node.health().accepted();
-      view.onPose(ips::viewer::LiveView::kTruth, p);
+      view.onPose(ips::viewer::LiveView::kTruth, toPose(m.utime, b));
     });
     node.subscribe<ips::point_cloud_t>(ch::kPoints, [&](const ips::point_cloud_t& m) {
       node.health().received(m.utime);

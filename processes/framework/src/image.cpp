@@ -1,5 +1,6 @@
 #include "ips/framework/image.hpp"
 
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 
@@ -48,6 +49,16 @@ ips::stereo_pair_t makeStereoPair(int64_t utime, int64_t seq, const cv::Mat& lef
   copyInto(right, m.right);
   m.data_size = static_cast<int32_t>(m.left.size());
   return m;
+}
+
+cv::Mat disparityImage(const ips::disparity_map_t& m) {
+  cv::Mat d(m.height, m.width, CV_32FC1);
+  for (int r = 0; r < m.height; ++r)
+    for (int c = 0; c < m.width; ++c) {
+      const int16_t v = m.data[r][c];
+      d.at<float>(r, c) = v == m.invalid_value ? NAN : static_cast<float>(v) / m.subpixel_scale;
+    }
+  return d;
 }
 
 }  // namespace ips::fw

@@ -1,5 +1,6 @@
 #pragma once
 // Between ips::stereo_pair_t and OpenCV images.
+#include <ips/disparity_map_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <opencv2/core.hpp>
 #include <string>
@@ -16,5 +17,9 @@ cv::Mat mono8Copy(const cv::Mat& image);
 // A message holding copies of two mono8 or mono16 images of one size.
 ips::stereo_pair_t makeStereoPair(int64_t utime, int64_t seq, const cv::Mat& left, const cv::Mat& right,
                                   const std::string& serial_left = "", const std::string& serial_right = "");
+
+// The disparity [px] of a map as CV_32FC1, NaN where it holds the invalid value. The message must have passed
+// validate().
+cv::Mat disparityImage(const ips::disparity_map_t& m);
 
 }  // namespace ips::fw
