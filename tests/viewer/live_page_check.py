@@ -3,7 +3,7 @@
 and checks what the page shows, in three phases the test script steps through with marker files:
   1. two tabs load the page (two browsers at once);
   2. once the walk plays: the left image changes, a disparity map with its colour scale is shown, every
-     trajectory source has points, the 3D view has points, the health table lists every expected process and
+     trajectory source has points, the 3D view has points and then the mapper's map, the health table lists every expected process and
      none is stopped; screenshots of the page;
   3. after the script stopped one process: its row turns stale (red) while the others stay live.
 No console error may appear. Waits are "until true or a generous deadline", never a measured rate."""
@@ -86,7 +86,9 @@ try:
     wait(first, 'a disparity map is shown', lambda s: s['disparityUpdates'] >= 1)
     wait(first, 'every trajectory source has points: ' + a.sources,
          lambda s: all(s['trajectoryPoints'].get(n, 0) >= 10 for n in sources))
-    wait(first, 'the 3D view holds the points of a disparity map', lambda s: s['cloudPoints'] > 1000)
+    wait(first, 'the 3D view holds the points of a disparity map or of the map',
+         lambda s: s['cloudPoints'] > 1000 or s['mapPoints'] > 1000)
+    wait(first, "the mapper's georeferenced points reach the 3D view", lambda s: s['mapPoints'] > 1000)
     wait(first, 'the health table lists every process live: ' + a.processes,
          lambda s: set(processes) <= {r['process'] for r in s['healthRows'] if not r['stale']})
     # The second tab (a second browser on the same viewer) gets the same stream.

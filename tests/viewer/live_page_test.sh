@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The live page in a real browser: a short simulated walk plays (lcm-logplayer) through the real tracker,
-# filter and e3d while the viewer serves the page to headless Chromium (live_page_check.py checks what the
+# filter, e3d and mapper while the viewer serves the page to headless Chromium (live_page_check.py checks what the
 # page shows); then the tracker is stopped and its row must turn red. Runs in its own network namespace.
 set -euo pipefail
 BIN=$1; SRC=$2; WORK=${3:-$(mktemp -d)}
@@ -15,12 +15,13 @@ trap cleanup EXIT
 "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/tracker.yaml" --log-level warn & tracker=$!; pids+=($tracker)
 "$BIN/filter" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/filter_sim.yaml" --log-level warn & pids+=($!)
 "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 2 --log-level warn & pids+=($!)
+"$BIN/mapper" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/mapper.yaml" --log-level warn & pids+=($!)
 "$BIN/viewer" --lcm-url "$U" --config "$SRC/config/viewer.yaml" --port 0 > "$WORK/viewer.txt" 2> "$WORK/viewer.err" & pids+=($!)
 for _ in $(seq 100); do grep -q "serving http" "$WORK/viewer.txt" && break; sleep 0.1; done
 url=$(grep -o 'http://[^ ]*' "$WORK/viewer.txt") || { echo "FAIL: the viewer printed no address"; cat "$WORK/viewer.err"; exit 1; }
 echo "viewer at $url"
 /usr/bin/python3 "$SRC/tests/viewer/live_page_check.py" --url "$url" --work "$WORK" \
-  --processes tracker,filter,e3d,viewer --sources truth,EKF --stopped tracker & check=$!
+  --processes tracker,filter,e3d,mapper,viewer --sources truth,EKF --stopped tracker & check=$!
 for _ in $(seq 600); do [ -f "$WORK/browsers_ready" ] || ! kill -0 $check 2>/dev/null && break; sleep 0.2; done
 lcm-logplayer --lcm-url="$U" "$WORK/walk.lcmlog" & player=$!; pids+=($player)
 for _ in $(seq 1800); do [ -f "$WORK/live_checked" ] || ! kill -0 $check 2>/dev/null && break; sleep 0.1; done
