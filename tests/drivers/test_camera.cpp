@@ -83,11 +83,21 @@ StereoCameraSettings settings(bool resend) {
   return s;
 }
 
+// The fake cameras' threads and the driver's poll run late on a loaded machine (the suite runs two tests at
+// a time, under the sanitizers too): the tests wait for a number of pairs or an event with a generous deadline,
+// never for a rate, and bound the stamps by what the host itself saw of the frames.
+constexpr double kDeadlineS = 30.0;
+// Pairs before the stamps' offset is measured: the clock mapping's drift fit takes its first 20 pairs.
+constexpr int kPairsBeforeOffset = 25;
+
 struct Check {
   int pairs = 0, wrong_images = 0, unsynchronised = 0, bad_stamps = 0, seq_not_increasing = 0, off_tick = 0;
   int64_t first_utime = 0, last_utime = 0, last_seq = -1;
-  double min_offset = 1e18, max_offset = -1e18;  // utime - camera stamps: constant if stamps follow exposures
-  std::vector<double> steps_ms;                  // between consecutive pairs
+  double last_tick = 0;
+  // utime - camera stamps: constant if stamps follow exposures. Receipt (host clock when poll returned the pair)
+  // - camera stamps: what stamps taken on arrival would carry, all the scheduling jitter of this run.
+  double min_offset = 1e18, max_offset = -1e18, min_receipt = 1e18, max_receipt = -1e18;
+  std::vector<double> period_ms;  // utime step per frame period between consecutive pairs on the frame grid
   std::vector<int64_t> seq_steps;
 };
 
@@ -112,10 +122,13 @@ bool waitConnected(StereoCamera& stereo) {
   return stereo.connected();
 }
 
-void runFor(StereoCamera& stereo, double seconds, Check* c) {
-  const int64_t end = commonClockNowUs() + static_cast<int64_t>(seconds * 1e6);
-  while (commonClockNowUs() < end) {
+// Polls until done(check) holds or the deadline passes.
+template <typename Done>
+void runUntil(StereoCamera& stereo, Check* c, Done done, double deadline_s = kDeadlineS) {
+  const int64_t end = commonClockNowUs() + static_cast<int64_t>(deadline_s * 1e6);
+  while (commonClockNowUs() < end && !done(*c)) {
     for (const auto& p : stereo.poll(50)) {
+      const double receipt = static_cast<double>(commonClockNowUs());
       ++c->pairs;
       if (!imageIsKnown(0, p.left) || !imageIsKnown(1, p.right)) ++c->wrong_images;
       const double sl = static_cast<double>(stampOf(p.left)), sr = static_cast<double>(stampOf(p.right));
@@ -123,7 +136,8 @@ void runFor(StereoCamera& stereo, double seconds, Check* c) {
       // (Late wake-ups of the fakes' threads under load and the first frame after the start of acquisition
       // come off that grid; they are counted for information.)
       auto offTick = [](double t) { return std::fabs(t - kPeriodUs * std::round(t / kPeriodUs)) > 2000; };
-      if (offTick(sl) || offTick(sr)) {
+      const bool on_grid = !offTick(sl) && !offTick(sr);
+      if (!on_grid) {
         // Off the grid (the immediate first frame, or a late wake-up): free-running cameras have no common
         // exposure then, and the driver pairs within its tolerance (5 ms) on stamps mapped to the host clock;
         // the raw stamps may differ by that plus both mappings' error (the 3 ms bound on the mapping spread
@@ -133,25 +147,37 @@ void runFor(StereoCamera& stereo, double seconds, Check* c) {
       } else if (std::llround(sl / kPeriodUs) != std::llround(sr / kPeriodUs)) {
         ++c->unsynchronised;
       }
-      // utime: the camera stamp (the fake's clock is the host's) plus half the exposure, within the latency.
-      const double earliest = std::min(sl, sr) + 1000, latest = std::max(sl, sr) + 1000;  // exposure 2 ms
-      if (p.utime < earliest - 500 || p.utime > latest + 20000) ++c->bad_stamps;
+      // utime: the camera stamp (the fake's clock is the host's) mapped with the fastest arrival seen, plus half
+      // the exposure (2 ms): never before the exposure's middle, never later than that after the host had it.
+      const double earliest = std::min(sl, sr) + 1000;
+      if (p.utime < earliest - 500 || p.utime > receipt + 1000) ++c->bad_stamps;
       if (c->last_seq >= 0) {
         if (p.seq <= c->last_seq) ++c->seq_not_increasing;
         c->seq_steps.push_back(p.seq - c->last_seq);
       }
       c->last_seq = p.seq;
-      // The period is measured from the second pair: a fake camera sends its first frame at once when
-      // acquisition starts, off the frame grid (a few ms before the next one).
-      if (c->pairs > 5) {  // after the clock fit has a few frames
-        c->min_offset = std::min(c->min_offset, p.utime - (sl + sr) / 2);
-        c->max_offset = std::max(c->max_offset, p.utime - (sl + sr) / 2);
+      if (c->pairs > kPairsBeforeOffset) {
+        const double mid = (sl + sr) / 2;
+        c->min_offset = std::min(c->min_offset, p.utime - mid);
+        c->max_offset = std::max(c->max_offset, p.utime - mid);
+        c->min_receipt = std::min(c->min_receipt, receipt - mid);
+        c->max_receipt = std::max(c->max_receipt, receipt - mid);
       }
-      if (c->pairs > 2) c->steps_ms.push_back((p.utime - c->last_utime) / 1000.0);
+      // The period from consecutive pairs on the grid, per frame period between them (frames lost under load
+      // make a step of several periods). The first pair is off the grid: a fake camera sends its first frame
+      // at once when acquisition starts.
+      const double tick = std::round(sl / kPeriodUs);
+      if (on_grid && c->last_tick > 0 && tick > c->last_tick)
+        c->period_ms.push_back((p.utime - c->last_utime) / 1000.0 / (tick - c->last_tick));
+      c->last_tick = on_grid ? tick : 0;
       if (!c->first_utime) c->first_utime = p.utime;
       c->last_utime = p.utime;
     }
   }
+}
+
+void runForPairs(StereoCamera& stereo, int pairs, Check* c) {
+  runUntil(stereo, c, [pairs](const Check& k) { return k.pairs >= pairs; });
 }
 
 int64_t sumPrefixed(const std::map<std::string, int64_t>& m, const std::string& prefix) {
@@ -177,20 +203,24 @@ TEST_F(GigeStereo, PairsKnownImagesWithStampsAtTheFrameRate) {
   StereoCamera stereo(settings(true));
   ASSERT_TRUE(waitConnected(stereo));
   Check c;
-  runFor(stereo, 2.0, &c);
+  runForPairs(stereo, 2 * kPairsBeforeOffset, &c);
   const auto counters = stereo.counters();
-  EXPECT_GE(c.pairs, 32) << "20 Hz for 2 s (a few may go unpaired when a fake's thread wakes late)";
+  ASSERT_GE(c.pairs, 2 * kPairsBeforeOffset) << "within " << kDeadlineS << " s";
   EXPECT_EQ(c.wrong_images, 0);
   EXPECT_EQ(c.unsynchronised, 0);
   EXPECT_EQ(c.bad_stamps, 0);
   EXPECT_EQ(c.seq_not_increasing, 0);
-  ASSERT_GT(c.pairs, 1);
-  // Stamps follow the cameras' exposure times (to within the mapping error), and the median step is the period.
-  std::printf("utime - camera stamps: spread %.0f us\n", c.max_offset - c.min_offset);
-  EXPECT_LT(c.max_offset - c.min_offset, 3000.0);
-  ASSERT_GT(c.steps_ms.size(), 10u);
-  std::nth_element(c.steps_ms.begin(), c.steps_ms.begin() + c.steps_ms.size() / 2, c.steps_ms.end());
-  EXPECT_NEAR(c.steps_ms[c.steps_ms.size() / 2], 50.0, 0.5);
+  // Stamps follow the cameras' exposure times: their offset from the exposures stays within 3 ms (the
+  // mapping's error on a quiet machine, where arrival jitter is a few hundred us) and within half the jitter
+  // of the arrivals themselves (a loaded machine delays arrivals by many ms; the lower envelope of the
+  // mapping keeps only the fastest).
+  const double spread = c.max_offset - c.min_offset, receipt_spread = c.max_receipt - c.min_receipt;
+  std::printf("utime - camera stamps: spread %.0f us (receipt - camera stamps: %.0f us)\n", spread, receipt_spread);
+  EXPECT_LT(spread, std::max(3000.0, 0.5 * receipt_spread));
+  // The time between pairs is the frame period.
+  ASSERT_GT(c.period_ms.size(), 10u);
+  std::nth_element(c.period_ms.begin(), c.period_ms.begin() + c.period_ms.size() / 2, c.period_ms.end());
+  EXPECT_NEAR(c.period_ms[c.period_ms.size() / 2], 50.0, 0.5);
   EXPECT_EQ(counters.at("left_reconnects") + counters.at("right_reconnects"), 0);
   EXPECT_EQ(stereo.camera(0).serial(), kSerial[0]);
   EXPECT_EQ(stereo.camera(1).serial(), kSerial[1]);
@@ -203,7 +233,10 @@ TEST_F(GigeStereo, LostPacketsWithoutResendGiveIncompleteFramesThatAreNeverPubli
   StereoCamera stereo(settings(false));
   ASSERT_TRUE(waitConnected(stereo));
   Check c;
-  runFor(stereo, 2.0, &c);
+  runUntil(stereo, &c, [&stereo](const Check& k) {
+    const auto n = stereo.counters();
+    return k.pairs > 5 && sumPrefixed(n, "right_incomplete_") > 5 && n.at("unpaired_left") > 5;
+  });
   const auto counters = stereo.counters();
   EXPECT_GT(sumPrefixed(counters, "right_incomplete_"), 5);
   EXPECT_EQ(sumPrefixed(counters, "left_incomplete_"), 0);
@@ -224,7 +257,9 @@ TEST_F(GigeStereo, LostPacketsWithResendRequested) {
   StereoCamera stereo(settings(true));
   ASSERT_TRUE(waitConnected(stereo));
   Check c;
-  runFor(stereo, 2.0, &c);
+  runUntil(stereo, &c, [&stereo](const Check& k) {
+    return k.pairs >= 10 && sumPrefixed(stereo.counters(), "right_incomplete_") > 0;
+  });
   const auto counters = stereo.counters();
   // Aravis 0.8's fake camera does not answer resend requests: the requests are made (missing packets counted),
   // the frames stay incomplete, and none of them is published.
@@ -242,17 +277,17 @@ TEST_F(GigeStereo, CameraStoppedAndRestartedIsReconnected) {
   StereoCamera stereo(settings(true));
   ASSERT_TRUE(waitConnected(stereo));
   Check before;
-  runFor(stereo, 1.5, &before);
+  runForPairs(stereo, 11, &before);
   ASSERT_GT(before.pairs, 10);
   head.stop(1);  // the right camera loses power
   Check during;
-  runFor(stereo, 1.5, &during);
+  runUntil(stereo, &during, [&stereo](const Check&) { return !stereo.camera(1).connected(); });
   EXPECT_LE(during.pairs, 2);
-  EXPECT_FALSE(stereo.camera(1).connected());
+  ASSERT_FALSE(stereo.camera(1).connected());
   head.start(1);  // and comes back
   Check after;
   after.last_seq = before.last_seq;
-  runFor(stereo, 3.0, &after);
+  runForPairs(stereo, 20, &after);
   const auto counters = stereo.counters();
   EXPECT_GE(counters.at("right_reconnects"), 1);
   EXPECT_GE(counters.at("right_lost"), 1);
