@@ -23,14 +23,19 @@ enum class SimPrior { None, ConstantVelocity, Imu };
 struct SimFrameError {
   int64_t frame = 0;
   TrackResult result;
-  double step_m = 0, step_deg = 0;          // true motion of camera 0 since the previous pair
-  double rot_err_deg = 0, trans_err_m = 0;  // of the estimate against it
+  double step_m = 0, step_deg = 0;                          // true motion of camera 0 since the previous pair
+  double rot_err_deg = 0, trans_err_m = 0;                  // of the estimate against it
+  Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();  // that true motion (camera 0 now in camera 0 before)
 };
+
+// A disparity map of a rendered pair for the tracker's intra-matching (nullptr: the tracker's own search).
+using SimGuide = std::function<const DisparityGuide*(const StereoTracker&, const sim::StereoFrame&)>;
 
 // Frames 0 .. floor(duration * rate); `each` sees every frame after the first.
 inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scenario_path, double duration_s,
                                                          const TrackerParams& params, SimPrior prior_mode,
-                                                         const std::function<void(const SimFrameError&)>& each = {}) {
+                                                         const std::function<void(const SimFrameError&)>& each = {},
+                                                         const SimGuide& guide = {}) {
   const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
   const sim::World world = sim::World::build(sc.world, sc.seed);
   const sim::SensorHead head = sim::SensorHead::make(sc);
@@ -66,12 +71,14 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
     } else if (prior_mode == SimPrior::None) {
       prior_ptr = &prior;  // source None: widest windows every time
     }
-    const TrackResult r = tracker.process(f.utime_stamp, f.left, f.right, prior_ptr);
+    const TrackResult r =
+        tracker.process(f.utime_stamp, f.left, f.right, prior_ptr, guide ? guide(tracker, f) : nullptr);
     if (k > 0) {
       SimFrameError e;
       e.frame = k;
       e.result = r;
       const Eigen::Isometry3d truth = prev_cam.inverse() * cam;
+      e.truth = truth;
       e.step_m = truth.translation().norm();
       e.step_deg = logSO3(truth.linear()).norm() * 180.0 / M_PI;
       if (r.valid) {

@@ -1,13 +1,16 @@
 // Relative pose error per frame of the tracker on a simulated scenario (default config/sim_walk.yaml's
 // built-in defaults: the paper's walk through a building, 1360x1024 at 8 Hz).
 //   tracker_sim_eval [--scenario config/sim_walk.yaml] [--duration SECONDS (10)] [--params config/tracker.yaml]
-//                    [--prior cv|imu|none (cv)] [--quiet 1]
+//                    [--prior cv|imu|none (cv)] [--quiet 1] [--e3d-config config/e3d_sim.yaml]
+// --e3d-config: E3D (Vulkan) matches every pair in the same run and the tracker takes its intra-matches from the
+// map (the tracker's own search for corners without a disparity); the summary gives both ways' intra figures.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 
 #include "common.hpp"
+#include "e3d_guide.hpp"
 #include "sim_eval.hpp"
 
 using namespace ips::tracker;
@@ -17,7 +20,7 @@ int main(int argc, char** argv) {
     auto opts = tools::parseOptions(argc, argv, 1);
     if (opts.count("help")) {
       std::cout << "usage: tracker_sim_eval [--scenario FILE.yaml] [--duration S (10)] [--params P]"
-                   " [--prior cv|imu|none] [--quiet 1]\n";
+                   " [--prior cv|imu|none] [--quiet 1] [--e3d-config E3D.yaml]\n";
       return 0;
     }
     const double duration = opts.count("duration") ? std::stod(opts["duration"]) : 10.0;
@@ -33,14 +36,24 @@ int main(int argc, char** argv) {
     const bool quiet = opts.count("quiet") && opts["quiet"] != "0";
     if (!quiet)
       std::printf("frame valid step_m step_deg rot_err_deg trans_err_m trans_err_pct inliers prior_ok total_ms\n");
+    std::unique_ptr<tools::E3dGuide> e3d;
+    tools::SimGuide guide;
+    if (opts.count("e3d-config"))
+      guide = [&](const StereoTracker& tracker, const ips::sim::StereoFrame& f) {
+        if (!e3d)
+          e3d = std::make_unique<tools::E3dGuide>(tracker.calibration(), opts["e3d-config"], tracker.rectification());
+        return &e3d->match(f.left, f.right);
+      };
     const auto errors = tools::runTrackerOnSimulation(
-        opts.count("scenario") ? opts["scenario"] : "", duration, params, prior, [&](const tools::SimFrameError& e) {
+        opts.count("scenario") ? opts["scenario"] : "", duration, params, prior,
+        [&](const tools::SimFrameError& e) {
           if (quiet) return;
           std::printf("%5lld %d %.4f %.3f %.4f %.4f %.2f %d %d %.1f\n", (long long)e.frame, int(e.result.valid),
                       e.step_m, e.step_deg, e.rot_err_deg, e.trans_err_m,
                       e.step_m > 0 ? 100 * e.trans_err_m / e.step_m : 0.0, e.result.num_inliers, int(e.result.prior_ok),
                       e.result.times.total);
-        });
+        },
+        guide);
     std::vector<double> rot, tr, pct;
     int valid = 0;
     double path = 0, sum_t = 0;
@@ -67,6 +80,33 @@ int main(int argc, char** argv) {
     stat(tr, "translation error", "m");
     stat(pct, "translation error (%)", "% of step (steps > 2 cm)");
     std::printf("sum of translation errors / path: %.2f %%\n", path > 0 ? 100 * sum_t / path : 0.0);
+    // The increments chained (an invalid one counts as no motion), against the true increments chained.
+    Eigen::Isometry3d chain = Eigen::Isometry3d::Identity(), truth = Eigen::Isometry3d::Identity();
+    std::vector<double> intra_ms;
+    double intra = 0, from_map = 0, inliers = 0, inter = 0;
+    for (const auto& e : errors) {
+      truth = truth * e.truth;
+      if (e.result.valid) {
+        Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+        d.linear() = e.result.rotation.toRotationMatrix();
+        d.translation() = e.result.translation;
+        chain = chain * d;
+        inliers += e.result.num_inliers;
+        inter += e.result.num_inter_matches;
+      }
+      intra_ms.push_back(e.result.times.intra);
+      intra += e.result.num_intra_matches;
+      from_map += e.result.guided_intra.from_map;
+    }
+    std::sort(intra_ms.begin(), intra_ms.end());
+    if (!errors.empty())
+      std::printf(
+          "intra-matching (%s): median %.2f ms per pair, %.0f matches per pair (%.0f %% from the map), inliers %.1f %% "
+          "of the inter-matches, end error %.3f m = %.2f %% of %.2f m\n",
+          guide ? "E3D's map" : "own search", intra_ms[intra_ms.size() / 2], intra / errors.size(),
+          intra > 0 ? 100 * from_map / intra : 0.0, inter > 0 ? 100 * inliers / inter : 0.0,
+          (chain.translation() - truth.translation()).norm(),
+          path > 0 ? 100 * (chain.translation() - truth.translation()).norm() / path : 0.0, path);
     return 0;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tracker_sim_eval: %s\n", e.what());

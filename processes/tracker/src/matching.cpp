@@ -163,6 +163,103 @@ StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const
   return out;
 }
 
+std::optional<double> guideScale(const StereoRectification& stereo, double focal_px, double cx, double cy,
+                                 double baseline_m, cv::Size map_size) {
+  const cv::Size size = stereo.size;
+  if (size.width < 1 || map_size.width < 1 || !(stereo.f > 0) || !(focal_px > 0)) return std::nullopt;
+  const double scale = focal_px / stereo.f;
+  if (!(scale > 0) || scale > 1.0 + 1e-9) return std::nullopt;
+  const double tol_px = 1e-3;
+  const bool same = std::abs(map_size.width - std::round(size.width * scale)) <= 1 &&
+                    std::abs(map_size.height - std::round(size.height * scale)) <= 1 &&
+                    std::abs(cx - ((stereo.cx + 0.5) * scale - 0.5)) <= tol_px &&
+                    std::abs(cy - ((stereo.cy + 0.5) * scale - 0.5)) <= tol_px &&
+                    std::abs(baseline_m - stereo.baseline) <= 1e-6 * stereo.baseline;
+  if (!same) return std::nullopt;
+  return scale;
+}
+
+void appendFeatures(StereoFeatures& a, const StereoFeatures& b) {
+  if (b.size() == 0) return;
+  if (a.size() == 0) a.half = b.half;
+  if (a.half != b.half) throw std::invalid_argument("appendFeatures: template sizes differ");
+  a.xl.insert(a.xl.end(), b.xl.begin(), b.xl.end());
+  a.y.insert(a.y.end(), b.y.begin(), b.y.end());
+  a.xr.insert(a.xr.end(), b.xr.begin(), b.xr.end());
+  a.xr_int.insert(a.xr_int.end(), b.xr_int.begin(), b.xr_int.end());
+  a.ncc.insert(a.ncc.end(), b.ncc.begin(), b.ncc.end());
+  a.left_patch.insert(a.left_patch.end(), b.left_patch.begin(), b.left_patch.end());
+  a.right_patch.insert(a.right_patch.end(), b.right_patch.begin(), b.right_patch.end());
+}
+
+StereoFeatures matchWithDisparity(const cv::Mat& left8, const cv::Mat& right8, const std::vector<Corner>& corners,
+                                  const DisparityGuide& g, const MatcherParams& p, std::vector<Corner>* unguided,
+                                  GuidedIntraCounts* counts) {
+  checkPair(left8, right8, "matchWithDisparity");
+  if (g.disparity.type() != CV_16SC1 || g.disparity.empty() || !(g.scale > 0) || g.scale > 1.0 || g.subpixel_scale < 1)
+    throw std::invalid_argument(
+        "matchWithDisparity: the guide needs a 16-bit map, a scale in (0, 1] and a subpixel scale");
+  if (p.ncc_half_window < 1 || !(p.guide_search_map_px >= 0))
+    throw std::invalid_argument("matchWithDisparity: bad window or search range");
+  StereoFeatures out;
+  GuidedIntraCounts n_local;
+  GuidedIntraCounts& n = counts ? *counts : n_local;
+  const int h = p.ncc_half_window, patch = (2 * h + 1) * (2 * h + 1);
+  out.half = h;
+  const int w = right8.cols;
+  // Search radius in tracker pixels: the map's tolerance at its resolution, plus one column either side so
+  // that a peak at the tolerance's edge is still an interior maximum of the parabola.
+  const int radius = int(std::ceil(p.guide_search_map_px / g.scale));
+  std::vector<float> tmpl(patch), right_patch(patch), ncc;
+  RowScratch scratch;
+  for (const Corner& c : corners) {
+    const int xl = c.xi, y = c.yi;
+    const int u = int(std::lround((xl + 0.5) * g.scale - 0.5)), v = int(std::lround((y + 0.5) * g.scale - 0.5));
+    const int16_t raw = (u >= 0 && v >= 0 && u < g.disparity.cols && v < g.disparity.rows)
+                            ? g.disparity.at<int16_t>(v, u)
+                            : int16_t(g.invalid_value);
+    if (raw == g.invalid_value || raw < 0) {
+      ++n.map_invalid;
+      if (unguided) unguided->push_back(c);
+      continue;
+    }
+    if (!normalizedPatch(left8, xl, y, h, p.min_patch_std, tmpl.data())) continue;
+    const double disparity = double(raw) / g.subpixel_scale / g.scale;
+    const int xc = int(std::lround(xl - disparity));
+    const int x_lo = std::max(h, xc - radius - 1), x_hi = std::min(w - 1 - h, xc + radius + 1);
+    const int nc = x_hi - x_lo + 1;
+    if (nc < 3) {
+      ++n.check_failed;
+      continue;
+    }
+    rowCorrelation(right8, y, x_lo, nc, h, tmpl.data(), scratch, ncc);
+    const int best = argmax(ncc);
+    if (ncc[best] < p.intra_min_ncc || best == 0 || best == nc - 1) {
+      ++n.check_failed;
+      continue;
+    }
+    const int xr_int = x_lo + best;
+    if (!normalizedPatch(right8, xr_int, y, h, p.min_patch_std, right_patch.data())) {
+      ++n.check_failed;
+      continue;
+    }
+    const float xr = xr_int + parabolaPeak(ncc[best - 1], ncc[best], ncc[best + 1]);
+    if (xl - xr < p.min_disparity || xl - xr > p.max_disparity) {
+      ++n.check_failed;
+      continue;
+    }
+    ++n.from_map;
+    out.xl.push_back(xl);
+    out.y.push_back(y);
+    out.xr.push_back(xr);
+    out.xr_int.push_back(xr_int);
+    out.ncc.push_back(ncc[best]);
+    out.left_patch.insert(out.left_patch.end(), tmpl.begin(), tmpl.end());
+    out.right_patch.insert(out.right_patch.end(), right_patch.begin(), right_patch.end());
+  }
+  return out;
+}
+
 namespace {
 
 // Subpixel offset (dx, dy) of the best position (x, y) of template t in img, from the correlation with

@@ -58,6 +58,7 @@ TrackerParams loadTrackerParams(const Config& c) {
   readInt(c, "matcher/guided_window_px", m.guided_window_px, 1);
   readDouble(c, "matcher/prior_ok_px", m.prior_ok_px, 0.0);
   readDouble(c, "matcher/prior_ok_fraction", m.prior_ok_fraction, 0.0);
+  readDouble(c, "matcher/guide_search_map_px", m.guide_search_map_px, 0.0);
 
   MotionParams& mo = p.motion;
   readInt(c, "motion/ransac_iterations", mo.ransac_iterations, 1);

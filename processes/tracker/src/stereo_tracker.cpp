@@ -144,7 +144,7 @@ std::vector<Correspondence> StereoTracker::correspondences(const std::vector<Int
 }
 
 TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const cv::Mat& right_raw,
-                                   const MotionPrior* prior) {
+                                   const MotionPrior* prior, const DisparityGuide* guide) {
   const auto t_start = Clock::now();
   const cv::Size size(calib_.cam0.width, calib_.cam0.height);
   const cv::Mat left = toGray(left_raw, size, "left"), right = toGray(right_raw, size, "right");
@@ -165,7 +165,15 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   res.times.detect = msSince(t0);
 
   t0 = Clock::now();
-  cur_->features = matchAlongRows(cur_->left, cur_->right, corners, params_.matcher);
+  if (guide) {
+    std::vector<Corner> unguided;
+    cur_->features =
+        matchWithDisparity(cur_->left, cur_->right, corners, *guide, params_.matcher, &unguided, &res.guided_intra);
+    appendFeatures(cur_->features, matchAlongRows(cur_->left, cur_->right, unguided, params_.matcher));
+    res.intra_guided = true;
+  } else {
+    cur_->features = matchAlongRows(cur_->left, cur_->right, corners, params_.matcher);
+  }
   cur_->points.resize(cur_->features.size());
   for (size_t i = 0; i < cur_->features.size(); ++i)
     cur_->points[i] = stereo_.triangulate(cur_->features.xl[i], cur_->features.y[i], cur_->features.xr[i]);

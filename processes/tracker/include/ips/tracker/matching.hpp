@@ -8,8 +8,10 @@
 // Templates are centred on integer pixels (no interpolation); the correlation peak gives the subpixel part.
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
+#include "ips/calibration.hpp"
 #include "ips/tracker/corners.hpp"
 #include "ips/tracker/motion.hpp"
 #include "ips/tracker/params.hpp"
@@ -38,6 +40,40 @@ struct StereoFeatures {
 // Intra-matching of the corners of the rectified left image along their rows of the rectified right image.
 StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const std::vector<Corner>& corners,
                               const MatcherParams& params);
+
+// A dense disparity map of the same rectified pair (E3D's DISPARITY message), possibly at a reduced resolution:
+// map pixel (u, v) samples where the tracker's rectified pixel ((u + 0.5) / scale - 0.5, (v + 0.5) / scale - 0.5)
+// does (ips::scaledRectification), and its disparity in map pixels is data / subpixel_scale.
+struct DisparityGuide {
+  cv::Mat disparity;  // CV_16SC1
+  int subpixel_scale = 16;
+  int invalid_value = -1;
+  double scale = 1.0;  // map width / tracker's rectified width
+};
+
+// The guide's scale when a map with this rectified pinhole and size belongs to the tracker's rectification:
+// same baseline, f and principal point scaled alike to within 1e-3 px, the size scaled alike. Anything else
+// (another calibration, another alpha) gives nothing.
+std::optional<double> guideScale(const StereoRectification& rect, double focal_px, double cx, double cy,
+                                 double baseline_m, cv::Size map_size);
+
+// What the guided intra-matching did with the corners.
+struct GuidedIntraCounts {
+  int from_map = 0;      // matched at the map's disparity
+  int map_invalid = 0;   // no disparity there: left to the row search
+  int check_failed = 0;  // the correlation disagreed with the map (peak on the range's edge or below min NCC)
+};
+
+// Intra-matching guided by a disparity map: each corner's right column is the map's disparity checked by NCC
+// along the row within guide_search_map_px / scale (+1 for the parabola), and refined at the correlation peak.
+// Corners where the map has no disparity are appended to `unguided` (for matchAlongRows); corners whose check
+// fails are dropped: the map and the image disagree there, and neither is trusted.
+StereoFeatures matchWithDisparity(const cv::Mat& left8, const cv::Mat& right8, const std::vector<Corner>& corners,
+                                  const DisparityGuide& guide, const MatcherParams& params,
+                                  std::vector<Corner>* unguided, GuidedIntraCounts* counts);
+
+// Appends b's features to a (same template size).
+void appendFeatures(StereoFeatures& a, const StereoFeatures& b);
 
 // Where a feature of the older pair is expected in the newer pair, and how far to search [px].
 struct Prediction {

@@ -42,6 +42,11 @@ struct MatcherParams {
   int guided_window_px = 6;            // second, guided matching pass around the first estimate
   double prior_ok_px = 3.0;            // a prediction is "right" when the match is this close to it
   double prior_ok_fraction = 0.5;      // prior_ok when at least this share of inter-matches were right
+  // Intra-matching from E3D's disparity map of the same pair (StereoTracker::process with a DisparityGuide):
+  // each corner's right position is read from the map and checked by NCC within this many of the map's pixels
+  // either side (SGM's valid disparities are within one pixel where they are right; its subpixel step and the
+  // map's reduced resolution are inside that), then refined to subpixel by the correlation peak.
+  double guide_search_map_px = 1.0;
 };
 
 struct MotionParams {

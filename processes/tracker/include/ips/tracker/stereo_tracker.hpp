@@ -62,6 +62,8 @@ struct TrackResult {
   double prediction_ok_ratio = 0;  // ... as a share of the inliers; prior_ok = ratio >= prior_ok_fraction
   bool wide_retry = false;         // the prior's windows failed; matched again with the widest windows
   bool guided_pass = false;        // a second matching pass around the first estimate was run
+  bool intra_guided = false;       // intra-matching took E3D's disparity map of this pair
+  GuidedIntraCounts guided_intra;  // ... and what it did with the corners
   StageTimes times;
 
   Eigen::Vector3d rotationVector() const;
@@ -82,15 +84,18 @@ class StereoTracker {
 
   // Raw (distorted, unrectified) 8-bit grey pair of the calibration's size (3-channel images are converted).
   // prior == nullptr: constant velocity from the last valid delta when there is one, else no prior.
+  // guide: a disparity map of this pair (E3D) that places each corner's right position (matchWithDisparity);
+  // corners without a disparity in it are matched along their rows as without one.
   // The first pair, a time that does not increase, or too few inliers give valid == false; the new pair is
   // then the reference for the next one, unless it has too few stereo features to be one (then the old
   // reference stays and utime_prev of the next result names it). Throws std::invalid_argument on empty or wrongly sized
   // images.
   TrackResult process(int64_t utime, const cv::Mat& left_raw, const cv::Mat& right_raw,
-                      const MotionPrior* prior = nullptr);
+                      const MotionPrior* prior = nullptr, const DisparityGuide* guide = nullptr);
 
   void reset();  // forget the reference pair and the constant-velocity state
   const StereoRectification& rectification() const { return rect_; }
+  const StereoCalibration& calibration() const { return calib_; }
   const RectifiedStereo& rectifiedStereo() const { return stereo_; }
   const PredictionStats& predictionStats() const { return stats_; }
   const TrackerParams& params() const { return params_; }
