@@ -1,6 +1,9 @@
 // track_log: the stereo tracker alone over the STEREO pairs of an LCM log (as dataset_to_lcm writes them), on one
 // thread, its increments chained into the trajectory of camera 0; writes it and the ground truth of camera 0
 // (GT_POSE of the body times T_imu_cam0) as TUM files for traj_eval, and prints the time per pair.
+// --e3d-config E3D.yaml: E3D (the e3d process's matcher, Vulkan) matches every pair first, in the same run, and the
+// tracker takes its intra-matches from that map (its own search where the map has no disparity); E3D's own time
+// is printed apart and not counted in ms_per_pair (it runs anyway, as its own process).
 // Last line: "pairs=N valid=V ms_per_pair=X".
 #include <chrono>
 #include <fstream>
@@ -9,13 +12,14 @@
 #include <ips/stereo_pair_t.hpp>
 #include <opencv2/core.hpp>
 
+#include "../tracker/e3d_guide.hpp"
 #include "ips/args.hpp"
 #include "ips/calibration.hpp"
-#include "ips/tracker/delta_chain.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
+#include "ips/tracker/delta_chain.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
 namespace {
@@ -36,7 +40,8 @@ int main(int argc, char** argv) {
         .option("--calib", "FILE", "calibration (default: FILE.lcmlog.calib.yaml)")
         .required("--config", "FILE", "tracker parameters (config/euroc.yaml, config/kitti.yaml, ...)")
         .required("--out", "FILE.tum", "trajectory of camera 0 (first pair = origin)")
-        .option("--gt-out", "FILE.tum", "ground truth of camera 0 in the ground truth's world frame");
+        .option("--gt-out", "FILE.tum", "ground truth of camera 0 in the ground truth's world frame")
+        .option("--e3d-config", "E3D.yaml", "intra-matches from E3D's disparity map of each pair (E3D in this run)");
     if (!args.parse()) return 0;
     cv::setNumThreads(1);  // one thread, as the time per pair is compared
     const std::string log_path = args.get("--log");
@@ -44,6 +49,11 @@ int main(int argc, char** argv) {
         ips::loadCalibration(args.has("--calib") ? args.get("--calib") : log_path + ".calib.yaml");
     ips::tracker::StereoTracker tracker(calib, ips::tracker::loadTrackerParams(args.get("--config")));
 
+    std::unique_ptr<ips::tracker::tools::E3dGuide> e3d;
+    if (args.has("--e3d-config"))
+      e3d = std::make_unique<ips::tracker::tools::E3dGuide>(calib, args.get("--e3d-config"), tracker.rectification());
+    double e3d_ms = 0;
+    int64_t intra = 0, from_map = 0, inliers = 0, inter = 0;
     ips::fw::LogReader log(log_path);  // a damaged log is an error naming the byte, not a short run
     ips::fw::LogMessage event;
     std::ofstream gt_out;
@@ -70,8 +80,15 @@ int main(int argc, char** argv) {
         const auto check = ips::fw::validate(m);
         if (!check.ok()) throw std::runtime_error("bad stereo pair " + std::to_string(m.seq) + ": " + check.detail);
         // Timed as the process would see it: from the decoded message's images to the increment.
+        const ips::tracker::DisparityGuide* guide = nullptr;
+        if (e3d) {
+          double ms = 0;
+          guide = &e3d->match(ips::fw::leftImage(m), ips::fw::rightImage(m), &ms);
+          e3d_ms += ms;
+        }
         const auto t0 = std::chrono::steady_clock::now();
-        const ips::tracker::TrackResult r = tracker.process(m.utime, ips::fw::leftImage(m), ips::fw::rightImage(m));
+        const ips::tracker::TrackResult r =
+            tracker.process(m.utime, ips::fw::leftImage(m), ips::fw::rightImage(m), nullptr, guide);
         total_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
         stages.rectify += r.times.rectify, stages.detect += r.times.detect, stages.intra += r.times.intra;
         stages.inter += r.times.inter, stages.motion += r.times.motion;
@@ -79,6 +96,8 @@ int main(int argc, char** argv) {
         chain.add(r.utime, r.utime_prev, r.valid, r.rotation, r.translation);
         ++pairs;
         valid += r.valid ? 1 : 0;
+        intra += r.num_intra_matches, from_map += r.guided_intra.from_map;
+        if (r.valid) inliers += r.num_inliers, inter += r.num_inter_matches;
       }
     }
     std::ofstream out(args.get("--out"));
@@ -89,6 +108,12 @@ int main(int argc, char** argv) {
         "wide retries %lld\n",
         stages.rectify / n, stages.detect / n, stages.intra / n, stages.inter / n, stages.motion / n,
         static_cast<long long>(guided), static_cast<long long>(wide));
+    std::printf(
+        "intra-matching (%s): %.0f matches per pair, %.1f %% from the map; inliers %.1f %% of the inter-matches",
+        e3d ? "E3D's map" : "own search", intra / n, intra ? 100.0 * from_map / intra : 0.0,
+        inter ? 100.0 * inliers / inter : 0.0);
+    if (e3d) std::printf("; E3D %.1f ms per pair", e3d_ms / n);
+    std::printf("\n");
     std::printf("pairs=%lld valid=%lld ms_per_pair=%.2f\n", static_cast<long long>(pairs),
                 static_cast<long long>(valid), pairs ? total_ms / pairs : 0.0);
     return 0;
