@@ -3,6 +3,10 @@
 // a-priori state at the new image time (FILTER_PRIOR) when a filter runs, else the gyro (IMU), else constant
 // velocity. When a filter has been seen, a pair waits for its prior (the filter publishes one for every image
 // time), else for the IMU to cover its time, so that a replayed log gives the same deltas as the live run.
+// With process/intra_from_disparity, a pair E3D matches (seq % disparity_every_nth == 0) also waits for its
+// DISPARITY map and takes its intra-matches from it: live until disparity_wait_pairs newer pairs are pending,
+// with --queue-disparity (replay) until the map or a later one arrives, so that the replay repeats itself.
+#include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
@@ -64,15 +68,49 @@ ips::tracker::PriorBuilderParams priorBuilderParams(const ips::Config& cfg) {
   return p;
 }
 
+// Intra-matching from E3D's maps: which pairs wait for one, and how long.
+struct DisparityWait {
+  bool enabled = false;
+  int every_nth = 1;     // E3D's process/every_nth: the pairs it matches
+  int wait_pairs = 2;    // live: newer pairs pending before a pair goes on without its map
+  bool queue = false;    // replay: wait until the map (or a later one) arrives
+  int max_pending = 64;  // the bound on pairs held in either mode (two images each)
+};
+
+DisparityWait disparityWait(const ips::Config& cfg, bool queue) {
+  DisparityWait w;
+  w.enabled = cfg.getBool("process/intra_from_disparity", w.enabled);
+  w.every_nth = cfg.getInt("process/disparity_every_nth", w.every_nth);
+  w.wait_pairs = cfg.getInt("process/disparity_wait_pairs", w.wait_pairs);
+  w.max_pending = cfg.getInt("process/disparity_max_pending", w.max_pending);
+  w.queue = queue;
+  if (w.every_nth < 1 || w.wait_pairs < 0 || w.max_pending < 2)
+    throw ips::ConfigError(
+        cfg.path() +
+        ": process/ disparity keys out of range (disparity_every_nth >= 1, disparity_wait_pairs >= 0, "
+        "disparity_max_pending >= 2)");
+  return w;
+}
+
+// A DISPARITY message as the tracker's guide (the map of the pair with this seq and stamp).
+struct StoredMap {
+  int64_t seq = 0;
+  ips::tracker::DisparityGuide guide;
+};
+
 class TrackerProcess {
  public:
   TrackerProcess(ips::fw::Node& node, const ips::StereoCalibration& calib, const ips::tracker::TrackerParams& params,
-                 const ips::Config& cfg)
+                 const ips::Config& cfg, const DisparityWait& wait)
       : node_(node),
         tracker_(calib, params),
         priors_(calib.T_imu_cam0, priorBuilderParams(cfg), params.prior),
-        admission_(calib.cam0.width, calib.cam0.height) {
+        admission_(calib.cam0.width, calib.cam0.height),
+        wait_(wait) {
     node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
+    if (wait_.enabled)
+      node_.subscribe<ips::disparity_map_t>(ips::channels::kDisparity,
+                                            [this](const ips::disparity_map_t& m) { onDisparity(m); });
     node_.subscribe<ips::filter_state_t>(ips::channels::kFilterPrior,
                                          [this](const ips::filter_state_t& m) { onPrior(m); });
     node_.subscribe<ips::imu_sample_t>(ips::channels::kImu, [this](const ips::imu_sample_t& m) { onImu(m); });
@@ -101,6 +139,41 @@ class TrackerProcess {
     drain();
   }
 
+  void onDisparity(const ips::disparity_map_t& m) {
+    const ips::fw::Verdict v = ips::fw::validate(m);
+    if (!v.ok()) return node_.health().bad(v.reason, "disparity: " + v.detail);
+    const auto scale = ips::tracker::guideScale(tracker_.rectification(), m.focal_px, m.cx, m.cy, m.baseline_m,
+                                                cv::Size(m.width, m.height));
+    if (!scale)
+      return node_.health().bad("disparity_geometry", "a DISPARITY map of another rectification (f " +
+                                                          std::to_string(m.focal_px) + ", cx " + std::to_string(m.cx) +
+                                                          "): E3D must run on the tracker's calibration, alpha 0");
+    // Stamps checked against the stream's rhythm: a forged stamp far ahead would end every pair's wait.
+    if (!ips::fw::admitInOrder(disparity_order_, m.utime, 0, node_.health(), "disparity", node_.arrivalUs())) return;
+    // Maps of pairs already tracked, or far ahead of what the tracker holds, are of no use.
+    if (m.utime <= last_utime_ || maps_.size() >= static_cast<size_t>(wait_.max_pending)) {
+      node_.health().count("disparity_unused");
+      return;
+    }
+    StoredMap stored;
+    stored.seq = m.seq;
+    stored.guide.scale = *scale;
+    stored.guide.subpixel_scale = m.subpixel_scale;
+    stored.guide.invalid_value = m.invalid_value;
+    stored.guide.disparity.create(m.height, m.width, CV_16SC1);
+    for (int r = 0; r < m.height; ++r)
+      std::copy(m.data[r].begin(), m.data[r].end(), stored.guide.disparity.ptr<int16_t>(r));
+    newest_map_utime_ = std::max(newest_map_utime_, m.utime);
+    maps_[m.utime] = std::move(stored);
+    drain();
+  }
+
+  // Whether the oldest pending pair waits for a map that may still come.
+  bool waitsForMap(const Pending& p) const {
+    if (!wait_.enabled || p.seq % wait_.every_nth != 0) return false;
+    return maps_.count(p.utime) == 0 && newest_map_utime_ < p.utime;  // a later map: E3D skipped this pair
+  }
+
   void onImu(const ips::imu_sample_t& m) {
     if (!ips::fw::validate(m).ok()) return;  // the filter counts bad IMU input; here it only places windows
     priors_.addGyro(m.utime, Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2]));
@@ -116,7 +189,9 @@ class TrackerProcess {
       // run. Never hold more than one pair back.
       const bool prior_ready =
           priors_.filterSeen() ? priors_.hasFilterState(t) : !priors_.gyroSeen() || priors_.gyroCovers(t);
-      if (prior_ready || pending_.size() > 1)
+      const bool map_wait = waitsForMap(pending_.begin()->second);
+      const size_t hold = !map_wait ? 1 : wait_.queue ? wait_.max_pending : 1 + wait_.wait_pairs;
+      if ((prior_ready && !map_wait) || pending_.size() > hold)
         processOldest();
       else
         break;
@@ -138,15 +213,29 @@ class TrackerProcess {
         node_.health().count("prior_constant_velocity");
       }
     }
+    // E3D's map of this pair, if it came (same seq and stamp); older maps are of no further use.
+    const ips::tracker::DisparityGuide* guide = nullptr;
+    auto map = maps_.find(p.utime);
+    if (map != maps_.end() && map->second.seq == p.seq) {
+      guide = &map->second.guide;
+      node_.health().count("intra_from_disparity");
+    } else if (wait_.enabled && p.seq % wait_.every_nth == 0) {
+      node_.health().count("intra_without_disparity");
+    }
     ips::tracker::TrackResult r;
     try {
-      r = tracker_.process(p.utime, p.left, p.right, prior ? &*prior : nullptr);
+      r = tracker_.process(p.utime, p.left, p.right, prior ? &*prior : nullptr, guide);
     } catch (const std::exception& e) {
       node_.health().bad("tracker_error", e.what());
       return;
     }
+    maps_.erase(maps_.begin(), maps_.upper_bound(p.utime));
     node_.health().latency(r.times.total);
     last_utime_ = p.utime;
+    if (r.intra_guided) {
+      node_.health().count("intra_matches_from_disparity", r.guided_intra.from_map);
+      node_.health().count("intra_disparity_check_failed", r.guided_intra.check_failed);
+    }
     if (r.utime_prev == 0) return;  // the first pair only becomes the reference
     ips::tracker_delta_t d{};
     d.utime = r.utime;
@@ -180,6 +269,10 @@ class TrackerProcess {
   ips::fw::StereoAdmission admission_;
   std::map<int64_t, Pending> pending_;
   int64_t last_utime_ = 0;
+  DisparityWait wait_;
+  std::map<int64_t, StoredMap> maps_;  // by the pair's stamp
+  int64_t newest_map_utime_ = INT64_MIN;
+  ips::fw::StreamOrder disparity_order_;
 };
 
 }  // namespace
@@ -187,7 +280,9 @@ class TrackerProcess {
 int main(int argc, char** argv) {
   return ips::fw::guardedMain("tracker", [&]() {
     ips::Args args(argc, argv, "IPS stereo tracker: STEREO pairs in, TRACKER_DELTA (relative motion) out");
-    args.required("--calib", "FILE", "calibration of the stereo head (project format)");
+    args.required("--calib", "FILE", "calibration of the stereo head (project format)")
+        .flag("--queue-disparity",
+              "with process/intra_from_disparity: a pair waits for its DISPARITY map however late (replay)");
     ips::fw::addCommonOptions(args, "config/tracker.yaml");
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
@@ -195,7 +290,7 @@ int main(int argc, char** argv) {
     const ips::Config cfg(args.get("--config"));
     const ips::tracker::TrackerParams params = ips::tracker::loadTrackerParams(cfg);
     ips::fw::Node node("tracker", args.get("--lcm-url"));
-    TrackerProcess process(node, calib, params, cfg);
+    TrackerProcess process(node, calib, params, cfg, disparityWait(cfg, args.getFlag("--queue-disparity")));
     IPS_INFO("tracking " << calib.cam0.width << "x" << calib.cam0.height << " pairs");
     const int rc = node.run();
     process.flush();
