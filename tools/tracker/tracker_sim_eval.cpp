@@ -101,7 +101,7 @@ int main(int argc, char** argv) {
     std::sort(intra_ms.begin(), intra_ms.end());
     if (!errors.empty())
       std::printf(
-          "intra-matching (%s): median %.2f ms per pair, %.0f matches per pair (%.0f %% from the map), inliers %.1f %% "
+          "intra-matching (%s): median %.2f ms per pair, %.0f matches per pair (%.1f %% from the map), inliers %.1f %% "
           "of the inter-matches, end error %.3f m = %.2f %% of %.2f m\n",
           guide ? "E3D's map" : "own search", intra_ms[intra_ms.size() / 2], intra / errors.size(),
           intra > 0 ? 100 * from_map / intra : 0.0, inter > 0 ? 100 * inliers / inter : 0.0,
