@@ -152,13 +152,7 @@ StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const
     }
     const float xr = xr_int + parabolaPeak(ncc[best - 1], ncc[best], ncc[best + 1]);
     if (xl - xr < p.min_disparity) continue;
-    out.xl.push_back(xl);
-    out.y.push_back(y);
-    out.xr.push_back(xr);
-    out.xr_int.push_back(xr_int);
-    out.ncc.push_back(ncc[best]);
-    out.left_patch.insert(out.left_patch.end(), tmpl.begin(), tmpl.end());
-    out.right_patch.insert(out.right_patch.end(), right_patch.begin(), right_patch.end());
+    out.push(xl, y, xr, xr_int, ncc[best], tmpl.data(), right_patch.data());
   }
   return out;
 }
@@ -249,13 +243,7 @@ StereoFeatures matchWithDisparity(const cv::Mat& left8, const cv::Mat& right8, c
       continue;
     }
     ++n.from_map;
-    out.xl.push_back(xl);
-    out.y.push_back(y);
-    out.xr.push_back(xr);
-    out.xr_int.push_back(xr_int);
-    out.ncc.push_back(ncc[best]);
-    out.left_patch.insert(out.left_patch.end(), tmpl.begin(), tmpl.end());
-    out.right_patch.insert(out.right_patch.end(), right_patch.begin(), right_patch.end());
+    out.push(xl, y, xr, xr_int, ncc[best], tmpl.data(), right_patch.data());
   }
   return out;
 }

@@ -35,6 +35,17 @@ struct StereoFeatures {
   int patchSize() const { return (2 * half + 1) * (2 * half + 1); }
   const float* leftPatch(size_t i) const { return left_patch.data() + i * patchSize(); }
   const float* rightPatch(size_t i) const { return right_patch.data() + i * patchSize(); }
+  // Appends one correspondence with its two normalised templates (patchSize() floats each).
+  void push(int x_left, int row, float x_right, int x_right_int, float correlation, const float* left,
+            const float* right) {
+    xl.push_back(x_left);
+    y.push_back(row);
+    xr.push_back(x_right);
+    xr_int.push_back(x_right_int);
+    ncc.push_back(correlation);
+    left_patch.insert(left_patch.end(), left, left + patchSize());
+    right_patch.insert(right_patch.end(), right, right + patchSize());
+  }
 };
 
 // Intra-matching of the corners of the rectified left image along their rows of the rectified right image.
