@@ -170,6 +170,15 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "world/poster_spacing_m", w.poster_spacing_m);
   get(c, "world/object_spacing_m", w.object_spacing_m);
   get(c, "world/texel_m", w.texel_m);
+  get(c, "world/type", w.type);
+  get(c, "world/street_half_width_m", w.street_half_width_m);
+  get(c, "world/street_facade_height_m", w.street_facade_height_m);
+  get(c, "world/street_gap_share", w.street_gap_share);
+  get(c, "world/far_buildings", w.far_buildings);
+  get(c, "world/far_distance_m", w.far_distance_m);
+  get(c, "world/far_height_m", w.far_height_m);
+  get(c, "world/sky_distance_m", w.sky_distance_m);
+  if (w.type == "street") w.route = tr.waypoints;
 
   try {
     s.validate();
@@ -211,6 +220,23 @@ void Scenario::validate() const {
               world.building_size_m.y() > 2 * world.corridor_width_m + 1,
           "world/building_size_m must leave room for the inner block");
   require(world.texel_m > 0, "world/texel_m must be positive");
+  require(world.type == "building" || world.type == "street", "world/type must be building or street");
+  if (world.type == "street") {
+    require(world.route.size() >= 2, "world/type street needs at least two trajectory/waypoints (the streets)");
+    require(world.street_half_width_m > 2, "world/street_half_width_m must exceed 2 m");
+    require(
+        world.street_facade_height_m.x() > 0 && world.street_facade_height_m.y() >= world.street_facade_height_m.x(),
+        "world/street_facade_height_m must be [low, high] with 0 < low <= high");
+    require(world.street_gap_share >= 0 && world.street_gap_share < 1, "world/street_gap_share must be in [0, 1)");
+    require(world.far_buildings >= 0 && world.far_buildings <= 1000, "world/far_buildings must be in 0..1000");
+    require(
+        world.far_distance_m.x() > world.street_half_width_m && world.far_distance_m.y() >= world.far_distance_m.x(),
+        "world/far_distance_m must be [near, far] beyond the street");
+    require(world.far_height_m.x() > 0 && world.far_height_m.y() >= world.far_height_m.x(),
+            "world/far_height_m must be [low, high] with 0 < low <= high");
+    require(world.sky_distance_m > 2 * world.far_distance_m.y(),
+            "world/sky_distance_m must be beyond the far buildings");
+  }
   require(world.poster_spacing_m > 0 && world.object_spacing_m > 0,
           "world/poster_spacing_m, object_spacing_m must be positive");
 }

@@ -215,8 +215,124 @@ cv::Mat makeSpeckleTexture(int size, uint64_t seed) {
   return toGrey8(acc, 110, 40);
 }
 
+namespace {
+
+double distanceToRoute(const Eigen::Vector2d& p, const std::vector<Eigen::Vector2d>& route) {
+  double best = INFINITY;
+  for (size_t i = 0; i + 1 < route.size(); ++i) {
+    const Eigen::Vector2d a = route[i], ab = route[i + 1] - a;
+    const double u = std::clamp((p - a).dot(ab) / std::max(1e-12, ab.squaredNorm()), 0.0, 1.0);
+    best = std::min(best, (p - (a + u * ab)).norm());
+  }
+  return best;
+}
+
+// Outdoors: a ground plane, facades along both sides of every street (the segments of cfg.route) with gaps,
+// buildings far from the streets (the far structure whose disparity the baseline cannot resolve) and a sky box
+// of faint clouds. Deterministic per seed.
+void buildStreet(World& world, const WorldConfig& cfg, uint64_t seed) {
+  Rng rng(streamSeed(seed, kStreamWorld));
+  const uint64_t ts = streamSeed(seed, kStreamWorld, 1);
+  // Window grids: 8 tiles of 128 texels across the texture; the texel sizes below make a tile ~2.5-3 m (a storey).
+  const int facade = world.addTexture("facade", makeTileTexture(1024, 8, ts + 1));
+  const int brick = world.addTexture("brick", makeRoughTexture(1024, ts + 2, 40));
+  const int ground = world.addTexture("asphalt", makeSpeckleTexture(1024, ts + 3));
+  const int clouds = world.addTexture("clouds", makeRoughTexture(512, ts + 4, 10));
+  auto add = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& s, const Eigen::Vector3d& t, double ss, double st,
+                 int tex, double texel, double brightness) -> Quad& {
+    Quad q;
+    q.origin = o;
+    q.axis_s = s.normalized();
+    q.axis_t = t.normalized();
+    q.size_s = ss;
+    q.size_t = st;
+    q.texture = tex;
+    q.texel_s = q.texel_t = texel;
+    q.texture_offset = {rng.uniform() * 4096, rng.uniform() * 4096};
+    q.brightness = static_cast<float>(brightness);
+    world.quads.push_back(q);
+    return world.quads.back();
+  };
+  const std::vector<Eigen::Vector2d>& route = cfg.route;
+  Eigen::Vector2d lo = route.front(), hi = route.front();
+  for (const Eigen::Vector2d& p : route) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Eigen::Vector2d centre = 0.5 * (lo + hi);
+  const Eigen::Vector3d up(0, 0, 1);
+
+  // Ground out to beyond the farthest building.
+  const double reach = cfg.far_distance_m.y() + 100.0;
+  add({lo.x() - reach, lo.y() - reach, 0}, {1, 0, 0}, {0, 1, 0}, hi.x() - lo.x() + 2 * reach,
+      hi.y() - lo.y() + 2 * reach, ground, 0.012, 0.9);
+
+  // Facades: lots of 8-25 m along each side of each street, some left open. Near an inner waypoint (a junction)
+  // the frontage stops a street's width short so the facades do not cross the next street.
+  const double W = cfg.street_half_width_m;
+  for (size_t i = 0; i + 1 < route.size(); ++i) {
+    const Eigen::Vector2d a = route[i], b = route[i + 1];
+    const double len = (b - a).norm();
+    if (len < 1e-6) continue;
+    const Eigen::Vector2d dir = (b - a) / len, left(-dir.y(), dir.x());
+    const double from = i == 0 ? -30.0 : W + 3.0;
+    const double to = i + 2 == route.size() ? len + 30.0 : len - W - 3.0;
+    for (int side : {-1, 1}) {
+      for (double pos = from; pos < to;) {
+        const double lot = std::min(8.0 + 17.0 * rng.uniform(), to - pos);
+        const bool open = rng.uniform() < cfg.street_gap_share;
+        if (!open && lot > 3.0) {
+          const double h = cfg.street_facade_height_m.x() +
+                           rng.uniform() * (cfg.street_facade_height_m.y() - cfg.street_facade_height_m.x());
+          const Eigen::Vector2d p0 = a + pos * dir + side * W * left;
+          const bool windows = rng.uniform() < 0.6;
+          add({p0.x(), p0.y(), 0}, {dir.x(), dir.y(), 0}, up, lot, h, windows ? facade : brick, windows ? 0.02 : 0.008,
+              0.75 + 0.4 * rng.uniform());
+        }
+        pos += lot;
+      }
+    }
+  }
+
+  // Far buildings: boxes far_distance_m from the nearest street, in every direction.
+  for (int k = 0; k < cfg.far_buildings; ++k) {
+    for (int attempt = 0; attempt < 50; ++attempt) {
+      const size_t seg = static_cast<size_t>(rng.uniform() * (route.size() - 1));
+      const Eigen::Vector2d on = route[seg] + rng.uniform() * (route[seg + 1] - route[seg]);
+      const double angle = 2 * M_PI * rng.uniform();
+      const double dist = cfg.far_distance_m.x() + rng.uniform() * (cfg.far_distance_m.y() - cfg.far_distance_m.x());
+      const Eigen::Vector2d c = on + dist * Eigen::Vector2d(std::cos(angle), std::sin(angle));
+      const double sx = 15.0 + 50.0 * rng.uniform(), sy = 15.0 + 50.0 * rng.uniform();
+      if (distanceToRoute(c, route) < cfg.far_distance_m.x() + 0.5 * std::hypot(sx, sy)) continue;
+      const double h = cfg.far_height_m.x() + rng.uniform() * (cfg.far_height_m.y() - cfg.far_height_m.x());
+      const double x0 = c.x() - sx / 2, x1 = c.x() + sx / 2, y0 = c.y() - sy / 2, y1 = c.y() + sy / 2;
+      const double texel = 0.022, bright = 0.6 + 0.5 * rng.uniform();
+      add({x0, y0, 0}, {1, 0, 0}, up, sx, h, facade, texel, bright).one_sided = true;   // normal -y
+      add({x1, y1, 0}, {-1, 0, 0}, up, sx, h, facade, texel, bright).one_sided = true;  // normal +y
+      add({x1, y0, 0}, {0, 1, 0}, up, sy, h, facade, texel, bright).one_sided = true;   // normal +x
+      add({x0, y1, 0}, {0, -1, 0}, up, sy, h, facade, texel, bright).one_sided = true;  // normal -x
+      break;
+    }
+  }
+
+  // The sky: a box of faint, bright clouds around everything.
+  const double S = cfg.sky_distance_m, sky_texel = 8.0, sky = 1.5;
+  const Eigen::Vector3d o(centre.x() - S, centre.y() - S, -1.0);
+  add(o, {1, 0, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  add(o + Eigen::Vector3d(0, 2 * S, 0), {1, 0, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  add(o, {0, 1, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  add(o + Eigen::Vector3d(2 * S, 0, 0), {0, 1, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  add(o + Eigen::Vector3d(0, 0, S), {1, 0, 0}, {0, 1, 0}, 2 * S, 2 * S, clouds, sky_texel, sky);
+}
+
+}  // namespace
+
 World World::build(const WorldConfig& cfg, uint64_t seed) {
   World world;
+  if (cfg.type == "street") {
+    buildStreet(world, cfg, seed);
+    return world;
+  }
   Builder b{world, cfg, Rng(streamSeed(seed, kStreamWorld)), 0, 0, 0, 0, 0, 0, {}};
   const uint64_t ts = streamSeed(seed, kStreamWorld, 1);
   b.rough = world.addTexture("rough plaster", makeRoughTexture(1024, ts + 1, 40));

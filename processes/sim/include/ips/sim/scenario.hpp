@@ -116,6 +116,9 @@ struct CalibrationErrors {
 
 struct WorldConfig {
   std::string data_dir;  // photographs (stereo/*/left.png, ...); empty = IPS_DATA_DIR of the build
+  // building: the indoor corridor ring of the paper's walk (the keys down to texel_m);
+  // street: outdoors, facades along the streets of `route` and buildings 50-500 m away under a sky (street_*).
+  std::string type = "building";
   double wall_height_m = 2.8;
   double corridor_width_m = 2.4;
   Eigen::Vector2d building_size_m{30.0, 14.0};  // outer corridor ring
@@ -123,6 +126,17 @@ struct WorldConfig {
   double poster_spacing_m = 4.0;                // along the walls
   double object_spacing_m = 6.0;                // cabinets and boxes along the walls
   double texel_m = 0.004;                       // size of a procedural texel on the walls
+
+  // street: the streets are the segments of `route` (Scenario::load sets it to the trajectory's waypoints).
+  std::vector<Eigen::Vector2d> route;
+  double street_half_width_m = 9.0;  // kerb-side facades this far either side of a street's centre line
+  Eigen::Vector2d street_facade_height_m{6.0, 15.0};  // range of the facades' heights
+  double street_gap_share = 0.3;                      // share of the frontage left open (side streets, yards): the far
+                                                      // buildings show through
+  int far_buildings = 60;                             // buildings at far_distance_m from the nearest street
+  Eigen::Vector2d far_distance_m{50.0, 500.0};
+  Eigen::Vector2d far_height_m{15.0, 60.0};
+  double sky_distance_m = 5000.0;  // the sky: weakly textured clouds, "at infinity" for any baseline
 };
 
 struct Scenario {
