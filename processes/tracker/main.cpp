@@ -256,6 +256,16 @@ class TrackerProcess {
     d.residual_rms = r.residual_rms;
     d.prior_source = static_cast<int8_t>(r.prior_source);
     d.prior_ok = r.prior_ok;
+    d.far_valid = r.far_valid;
+    d.far_rotation[0] = r.far_rotation.w();
+    d.far_rotation[1] = r.far_rotation.x();
+    d.far_rotation[2] = r.far_rotation.y();
+    d.far_rotation[3] = r.far_rotation.z();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) d.far_rotation_covariance[i * 3 + j] = r.far_covariance(i, j);
+    d.num_far_matches = r.num_far_matches;
+    d.num_far_inliers = r.num_far_inliers;
+    if (r.far_valid) node_.health().count("far_rotation");
     if (!r.valid) node_.health().count("invalid_delta");
     const auto& st = tracker_.predictionStats();
     node_.health().set("prediction_ok_permille",

@@ -64,6 +64,10 @@ int main(int argc, char** argv) {
   delta.valid = 1;
   delta.rotation[0] = 1;
   for (int i = 0; i < 6; ++i) delta.covariance[i * 7] = 1e-4;
+  delta.far_valid = 1;
+  delta.far_rotation[0] = 1;
+  for (int i = 0; i < 3; ++i) delta.far_rotation_covariance[i * 4] = 1e-8;
+  delta.num_far_matches = delta.num_far_inliers = 20;
   writeMessage(dir, delta);
   writeMessage(dir, ips::test_support::sampleFilterState());
   writeMessage(dir, ips::test_support::sampleDisparityMap());

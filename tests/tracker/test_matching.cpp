@@ -86,7 +86,7 @@ TEST(Matching, IntraMatchingRejectsBadInput) {
   cv::Mat a(50, 60, CV_8UC1, cv::Scalar(3)), b(50, 61, CV_8UC1, cv::Scalar(3));
   EXPECT_THROW(matchAlongRows(a, b, {}, mp), std::invalid_argument);
   EXPECT_THROW(matchAlongRows(a, cv::Mat(), {}, mp), std::invalid_argument);
-  mp.max_disparity = 0;
+  mp.max_disparity = mp.min_disparity - 1;  // an empty range
   EXPECT_THROW(matchAlongRows(a, a, {}, mp), std::invalid_argument);
 }
 

@@ -38,3 +38,34 @@ TEST(TrackerSim, WalkRelativePoseErrorPerFrame) {
       "[ SIM      ] %zu pairs: rotation error median %.4f max %.4f deg; translation error median %.2f max %.2f %%\n",
       errors.size(), rot[rot.size() / 2], rot.back(), pct[pct.size() / 2], pct.back());
 }
+
+// Outdoors (config/sim_street.yaml: a town with buildings 50-500 m away and a sky): the rotation from far points
+// against the true rotation of camera 0, and the increment fused with it no worse than without.
+TEST(TrackerSim, StreetRotationFromFarPoints) {
+  const std::string scenario = std::string(IPS_SOURCE_DIR) + "/config/sim_street.yaml";
+  const TrackerParams params = loadTrackerParams(std::string(IPS_SOURCE_DIR) + "/config/tracker.yaml");
+  // From the 8th second on the car drives (after the still start and the ramp); 2 s of it.
+  std::vector<double> far_err;
+  int pairs = 0, far_valid = 0, fused = 0;
+  double nees = 0;
+  tools::runTrackerOnSimulation(
+      scenario, 10.0, params, tools::SimPrior::ConstantVelocity, [&](const tools::SimFrameError& e) {
+        if (e.frame < 64) return;
+        ++pairs;
+        if (!e.result.far_valid) return;
+        ++far_valid;
+        const Eigen::Vector3d err = logSO3(e.truth.linear().transpose() * e.result.far_rotation.toRotationMatrix());
+        far_err.push_back(err.norm() * 180 / M_PI);
+        nees += err.dot(e.result.far_covariance.ldlt().solve(err));
+        EXPECT_GE(e.result.num_far_inliers, params.far.min_inliers);
+        fused += fuseFarRotation(e.result).far_used;
+      });
+  ASSERT_GE(far_valid, 3);
+  for (double d : far_err) EXPECT_LT(d, 0.1);
+  // The far rotation's covariance is of the right size (mean NEES 3 for a consistent one; few samples here).
+  EXPECT_LT(nees / far_valid, 3.0 * 4);
+  EXPECT_GE(fused, far_valid - 1);
+  std::sort(far_err.begin(), far_err.end());
+  std::printf("[ SIM      ] street: far rotation on %d of %d pairs, error median %.4f max %.4f deg, NEES %.2f\n",
+              far_valid, pairs, far_err[far_err.size() / 2], far_err.back(), nees / far_valid);
+}

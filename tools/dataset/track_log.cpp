@@ -4,6 +4,8 @@
 // --e3d-config E3D.yaml: E3D (the e3d process's matcher, Vulkan) matches every pair first, in the same run, and the
 // tracker takes its intra-matches from that map (its own search where the map has no disparity); E3D's own time
 // is printed apart and not counted in ms_per_pair (it runs anyway, as its own process).
+// --far-out FILE.tum: also the chain of the increments fused with the rotation from far points (fuseFarRotation), the
+// tracker-only use of paper section 6's points at infinity, for traj_eval beside --out.
 // Last line: "pairs=N valid=V ms_per_pair=X".
 #include <chrono>
 #include <fstream>
@@ -41,7 +43,8 @@ int main(int argc, char** argv) {
         .required("--config", "FILE", "tracker parameters (config/euroc.yaml, config/kitti.yaml, ...)")
         .required("--out", "FILE.tum", "trajectory of camera 0 (first pair = origin)")
         .option("--gt-out", "FILE.tum", "ground truth of camera 0 in the ground truth's world frame")
-        .option("--e3d-config", "E3D.yaml", "intra-matches from E3D's disparity map of each pair (E3D in this run)");
+        .option("--e3d-config", "E3D.yaml", "intra-matches from E3D's disparity map of each pair (E3D in this run)")
+        .option("--far-out", "FILE.tum", "trajectory of the increments fused with the rotation from far points");
     if (!args.parse()) return 0;
     cv::setNumThreads(1);  // one thread, as the time per pair is compared
     const std::string log_path = args.get("--log");
@@ -58,8 +61,9 @@ int main(int argc, char** argv) {
     ips::fw::LogMessage event;
     std::ofstream gt_out;
     if (args.has("--gt-out")) gt_out.open(args.get("--gt-out"));
-    ips::tracker::DeltaChain chain;
-    int64_t pairs = 0, valid = 0;
+    ips::tracker::DeltaChain chain, far_chain;
+    int64_t pairs = 0, valid = 0, far_valid = 0, far_used = 0;
+    double far_matches = 0, far_inliers = 0;
     double total_ms = 0;
     ips::tracker::StageTimes stages;  // sums [ms]
     int64_t guided = 0, wide = 0;
@@ -94,6 +98,10 @@ int main(int argc, char** argv) {
         stages.inter += r.times.inter, stages.motion += r.times.motion;
         guided += r.guided_pass ? 1 : 0, wide += r.wide_retry ? 1 : 0;
         chain.add(r.utime, r.utime_prev, r.valid, r.rotation, r.translation);
+        const ips::tracker::FusedIncrement fused = ips::tracker::fuseFarRotation(r);
+        far_chain.add(r.utime, r.utime_prev, r.valid, fused.rotation, fused.translation);
+        far_valid += r.far_valid, far_used += fused.far_used;
+        far_matches += r.num_far_matches, far_inliers += r.num_far_inliers;
         ++pairs;
         valid += r.valid ? 1 : 0;
         intra += r.num_intra_matches, from_map += r.guided_intra.from_map;
@@ -102,6 +110,10 @@ int main(int argc, char** argv) {
     }
     std::ofstream out(args.get("--out"));
     for (const auto& p : chain.poses()) writeTumLine(out, p.utime, p.T_world_cam0);
+    if (args.has("--far-out")) {
+      std::ofstream far_out(args.get("--far-out"));
+      for (const auto& p : far_chain.poses()) writeTumLine(far_out, p.utime, p.T_world_cam0);
+    }
     const double n = std::max<int64_t>(1, pairs);
     std::printf(
         "stages [ms per pair]: rectify %.2f detect %.2f intra %.2f inter %.2f motion %.2f; guided passes %lld, "
@@ -114,6 +126,10 @@ int main(int argc, char** argv) {
         inter ? 100.0 * inliers / inter : 0.0);
     if (e3d) std::printf("; E3D %.1f ms per pair", e3d_ms / n);
     std::printf("\n");
+    std::printf(
+        "rotation from far points: valid on %lld pairs, %.0f far matches and %.0f far inliers per pair, fused "
+        "into %lld increments\n",
+        static_cast<long long>(far_valid), far_matches / n, far_inliers / n, static_cast<long long>(far_used));
     std::printf("pairs=%lld valid=%lld ms_per_pair=%.2f\n", static_cast<long long>(pairs),
                 static_cast<long long>(valid), pairs ? total_ms / pairs : 0.0);
     return 0;

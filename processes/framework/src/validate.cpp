@@ -58,14 +58,24 @@ Verdict validate(const ips::tilt_sample_t& m) {
 
 Verdict validate(const ips::tracker_delta_t& m) {
   if (m.utime <= m.utime_prev) return bad("bad_time", "tracker delta whose newer time is not after the older one");
-  if (!m.valid) return {};
-  if (!finite(m.translation, 3) || !finite(m.rotation, 4) || !finite(m.covariance, 36))
-    return bad("nan", "tracker delta with NaN or inf");
-  const double qn = std::sqrt(m.rotation[0] * m.rotation[0] + m.rotation[1] * m.rotation[1] +
-                              m.rotation[2] * m.rotation[2] + m.rotation[3] * m.rotation[3]);
-  if (std::fabs(qn - 1.0) > 1e-3) return bad("bad_value", "tracker delta rotation is not a unit quaternion");
-  for (int i = 0; i < 6; ++i)
-    if (!(m.covariance[i * 6 + i] > 0)) return bad("bad_value", "tracker delta covariance not positive");
+  auto unit = [](const double* q) {
+    return std::fabs(std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) - 1.0) <= 1e-3;
+  };
+  if (m.valid) {
+    if (!finite(m.translation, 3) || !finite(m.rotation, 4) || !finite(m.covariance, 36))
+      return bad("nan", "tracker delta with NaN or inf");
+    if (!unit(m.rotation)) return bad("bad_value", "tracker delta rotation is not a unit quaternion");
+    for (int i = 0; i < 6; ++i)
+      if (!(m.covariance[i * 6 + i] > 0)) return bad("bad_value", "tracker delta covariance not positive");
+  }
+  if (m.far_valid) {
+    if (!finite(m.far_rotation, 4) || !finite(m.far_rotation_covariance, 9))
+      return bad("nan", "tracker delta far rotation with NaN or inf");
+    if (!unit(m.far_rotation)) return bad("bad_value", "tracker delta far rotation is not a unit quaternion");
+    for (int i = 0; i < 3; ++i)
+      if (!(m.far_rotation_covariance[i * 3 + i] > 0))
+        return bad("bad_value", "tracker delta far rotation covariance not positive");
+  }
   return {};
 }
 

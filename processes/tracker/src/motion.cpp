@@ -259,4 +259,150 @@ MotionEstimate estimateMotion(const RectifiedStereo& cam, const std::vector<Corr
   return est;
 }
 
+namespace {
+
+// One far correspondence under rotation R: the residual of the older left position (2-D), its whitening and
+// the whitened Jacobian by the right perturbation of R.
+struct FarResidual {
+  Eigen::Vector2d white = Eigen::Vector2d::Zero();
+  Eigen::Matrix<double, 2, 3> jac = Eigen::Matrix<double, 2, 3>::Zero();
+  double chi2 = 1e12, raw2 = 1e12;
+};
+
+FarResidual farResidual(const RectifiedStereo& cam, const Correspondence& c, const Eigen::Matrix3d& R,
+                        const Eigen::Vector3d& t, const Eigen::Matrix3d& t_cov, double sigma) {
+  FarResidual out;
+  const double fb = cam.f * cam.baseline;
+  const Eigen::Vector3d a((c.now.xl - cam.cx) / cam.f, (c.now.y - cam.cy) / cam.f, 1.0);
+  const double rho = (c.now.xl - c.now.xr) / fb;
+  const Eigen::Vector3d v = R * a + rho * t;
+  if (v.z() < kMinProjectionDepth) return out;
+  const Eigen::Vector2d r(c.prev.xl - (cam.f * v.x() / v.z() + cam.cx), c.prev.y - (cam.f * v.y() / v.z() + cam.cy));
+  Eigen::Matrix<double, 2, 3> Jv;  // d projection / d v
+  Jv << cam.f / v.z(), 0, -cam.f * v.x() / (v.z() * v.z()), 0, cam.f / v.z(), -cam.f * v.y() / (v.z() * v.z());
+  // Noise: the older position (sigma), the newer one through a (sigma / f), rho (sqrt(2) sigma / (f b)), t.
+  const Eigen::Matrix<double, 2, 3> Ja = Jv * R;
+  const Eigen::Vector2d Jrho = Jv * t;
+  const Eigen::Matrix<double, 2, 3> Jt = rho * Jv;
+  const double s2 = sigma * sigma;
+  Eigen::Matrix2d S = s2 * Eigen::Matrix2d::Identity() +
+                      (s2 / (cam.f * cam.f)) * Ja.leftCols<2>() * Ja.leftCols<2>().transpose() +
+                      (2 * s2 / (fb * fb)) * Jrho * Jrho.transpose() + Jt * t_cov * Jt.transpose();
+  Eigen::LLT<Eigen::Matrix2d> llt(S);
+  if (llt.info() != Eigen::Success) return out;
+  out.white = llt.matrixL().solve(r);
+  // v(dr) = R (a + dr x a) + rho t: dv/dr = -R [a]x; the residual is obs - projection.
+  out.jac = llt.matrixL().solve(Jv * R * skew(a));
+  out.chi2 = out.white.squaredNorm();
+  out.raw2 = r.squaredNorm();
+  return out;
+}
+
+Eigen::Vector3d unitBearing(const RectifiedStereo& cam, const StereoObservation& o) {
+  return Eigen::Vector3d((o.xl - cam.cx) / cam.f, (o.y - cam.cy) / cam.f, 1.0).normalized();
+}
+
+}  // namespace
+
+FarRotationEstimate estimateFarRotation(const RectifiedStereo& cam, const std::vector<Correspondence>& far,
+                                        const Eigen::Vector3d& t, const Eigen::Matrix3d& t_cov,
+                                        const MotionParams& motion, const FarRotationParams& params) {
+  FarRotationEstimate est;
+  const int n = int(far.size());
+  const int min_inliers = std::max(2, params.min_inliers);
+  if (n < min_inliers) return est;
+  const double sigma = motion.pixel_sigma;
+  auto collectInliers = [&](const Eigen::Matrix3d& R, std::vector<int>& inl) {
+    inl.clear();
+    for (int i = 0; i < n; ++i)
+      if (farResidual(cam, far[i], R, t, t_cov, sigma).chi2 < params.inlier_chi2) inl.push_back(i);
+  };
+  // Wahba's problem on the bearings: R maximising sum b_i . (R a_i), with the older bearing freed of the
+  // translation's parallax: R X_now = X_prev - t, so R a ~ a_prev - rho_prev t.
+  const double fb = cam.f * cam.baseline;
+  std::vector<Eigen::Vector3d> prev_bearing(n);
+  for (int i = 0; i < n; ++i) {
+    const StereoObservation& o = far[i].prev;
+    const Eigen::Vector3d a((o.xl - cam.cx) / cam.f, (o.y - cam.cy) / cam.f, 1.0);
+    prev_bearing[i] = (a - (o.xl - o.xr) / fb * t).normalized();
+  }
+  auto wahba = [&](const std::vector<int>& use, Eigen::Matrix3d& R) {
+    Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
+    for (int i : use) B += prev_bearing[i] * unitBearing(cam, far[i].now).transpose();
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(B, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    if (!(svd.singularValues()(1) > 1e-12)) return false;
+    Eigen::Matrix3d s = Eigen::Matrix3d::Identity();
+    if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0) s(2, 2) = -1;
+    R = svd.matrixU() * s * svd.matrixV().transpose();
+    return true;
+  };
+
+  std::mt19937 rng(motion.ransac_seed);
+  std::uniform_int_distribution<int> pick(0, n - 1);
+  std::vector<int> best_inliers, inliers;
+  Eigen::Matrix3d best = Eigen::Matrix3d::Identity();
+  int max_iter = params.ransac_iterations;
+  for (int it = 0; it < max_iter; ++it) {
+    const int i0 = pick(rng), i1 = pick(rng);
+    // Two bearings closer than ~1 deg leave the rotation about them badly conditioned.
+    if (unitBearing(cam, far[i0].now).cross(unitBearing(cam, far[i1].now)).norm() < 0.02) continue;
+    Eigen::Matrix3d R;
+    if (!wahba({i0, i1}, R)) continue;
+    collectInliers(R, inliers);
+    if (inliers.size() > best_inliers.size()) {
+      best_inliers = inliers;
+      best = R;
+      const double w = double(best_inliers.size()) / n;
+      const double p_good = w * w;
+      if (p_good > 0.999999) break;
+      max_iter = std::min(params.ransac_iterations, int(std::ceil(std::log(1e-3) / std::log(1.0 - p_good))) + 10);
+    }
+  }
+  if (int(best_inliers.size()) < min_inliers) return est;
+
+  // Gauss-Newton on the whitened residuals of the inliers, inliers re-collected after each round.
+  Eigen::Matrix3d R = best;
+  Eigen::Matrix3d jtj = Eigen::Matrix3d::Zero();
+  double chi2 = 0, raw2 = 0;
+  for (int round = 0; round < 3; ++round) {
+    for (int iter = 0; iter <= motion.refine_iterations; ++iter) {
+      jtj.setZero();
+      Eigen::Vector3d jtr = Eigen::Vector3d::Zero();
+      chi2 = raw2 = 0;
+      for (int i : best_inliers) {
+        const FarResidual r = farResidual(cam, far[i], R, t, t_cov, sigma);
+        jtj += r.jac.transpose() * r.jac;
+        jtr += r.jac.transpose() * r.white;
+        chi2 += r.chi2;
+        raw2 += r.raw2;
+      }
+      if (iter == motion.refine_iterations) break;
+      const Eigen::Vector3d delta = jtj.ldlt().solve(-jtr);
+      if (!delta.allFinite()) break;
+      R = R * expSO3(delta);
+      if (delta.norm() < 1e-12) break;
+    }
+    collectInliers(R, inliers);
+    if (int(inliers.size()) < min_inliers) return est;
+    if (inliers == best_inliers) break;
+    best_inliers = inliers;
+  }
+  // The covariance at the final rotation and inlier set.
+  jtj.setZero();
+  chi2 = raw2 = 0;
+  for (int i : best_inliers) {
+    const FarResidual r = farResidual(cam, far[i], R, t, t_cov, sigma);
+    jtj += r.jac.transpose() * r.jac;
+    chi2 += r.chi2;
+    raw2 += r.raw2;
+  }
+  const double dof = std::max(1.0, 2.0 * double(best_inliers.size()) - 3.0);
+  est.R = R;
+  est.covariance = std::max(1.0, chi2 / dof) * jtj.inverse();
+  est.inliers = best_inliers;
+  est.residual_rms_px = std::sqrt(raw2 / (2.0 * double(best_inliers.size())));
+  est.valid = double(best_inliers.size()) >= motion.min_inlier_ratio * n && est.covariance.allFinite();
+  return est;
+}
+
 }  // namespace ips::tracker

@@ -44,7 +44,7 @@ TrackerParams loadTrackerParams(const Config& c) {
   readInt(c, "matcher/ncc_half_window", m.ncc_half_window, 1);
   if (m.ncc_half_window > 15) throw ConfigError(c.path() + ": key 'matcher/ncc_half_window' must be <= 15");
   readDouble(c, "matcher/min_patch_std", m.min_patch_std, 0.0);
-  readDouble(c, "matcher/min_disparity", m.min_disparity, 0.0);
+  readDouble(c, "matcher/min_disparity", m.min_disparity, -16.0);
   readDouble(c, "matcher/max_disparity", m.max_disparity, m.min_disparity + 2);
   readDouble(c, "matcher/intra_min_ncc", m.intra_min_ncc, -1.0);
   readDouble(c, "matcher/intra_uniqueness", m.intra_uniqueness, 0.0);
@@ -71,6 +71,12 @@ TrackerParams loadTrackerParams(const Config& c) {
   int seed = int(mo.ransac_seed);
   readInt(c, "motion/ransac_seed", seed, 0);
   mo.ransac_seed = unsigned(seed);
+
+  FarRotationParams& fr = p.far;
+  fr.enabled = c.getBool("far_rotation/enabled", fr.enabled);
+  readInt(c, "far_rotation/min_inliers", fr.min_inliers, 2);
+  readDouble(c, "far_rotation/inlier_chi2", fr.inlier_chi2, 0.0);
+  readInt(c, "far_rotation/ransac_iterations", fr.ransac_iterations, 1);
 
   PriorParams& pr = p.prior;
   readDouble(c, "prior/cv_rotation_sigma_per_s", pr.cv_rotation_sigma_per_s, 0.0);

@@ -46,6 +46,31 @@ cv::Mat toGray(const cv::Mat& img, const cv::Size& size, const char* which) {
 
 Eigen::Vector3d TrackResult::rotationVector() const { return logSO3(rotation.toRotationMatrix()); }
 
+FusedIncrement fuseFarRotation(const TrackResult& r) {
+  FusedIncrement out;
+  out.rotation = r.rotation;
+  out.translation = r.translation;
+  out.covariance = r.covariance;
+  if (!r.valid || !r.far_valid) return out;
+  // Measurement z = far rotation of the state [t, r] (r: right perturbation of the increment's rotation):
+  // residual Log(R^T R_far), H = [0 I].
+  const Eigen::Vector3d residual =
+      logSO3(r.rotation.toRotationMatrix().transpose() * r.far_rotation.toRotationMatrix());
+  const Eigen::Matrix3d S = r.covariance.bottomRightCorner<3, 3>() + r.far_covariance;
+  const Eigen::LDLT<Eigen::Matrix3d> ldlt(S);
+  if (ldlt.info() != Eigen::Success) return out;
+  // Gate: chi-square, 3 dof, 99.9 %.
+  if (!(residual.dot(ldlt.solve(residual)) < 16.27)) return out;
+  const Eigen::Matrix<double, 6, 3> K = r.covariance.rightCols<3>() * ldlt.solve(Eigen::Matrix3d::Identity());
+  const Eigen::Matrix<double, 6, 1> dx = K * residual;
+  out.translation = r.translation + dx.head<3>();
+  out.rotation = Eigen::Quaterniond(r.rotation.toRotationMatrix() * expSO3(dx.tail<3>())).normalized();
+  out.covariance = r.covariance - K * r.covariance.bottomRows<3>();
+  out.covariance = 0.5 * (out.covariance + out.covariance.transpose()).eval();
+  out.far_used = true;
+  return out;
+}
+
 MotionPrior MotionPrior::fromFilter(const Eigen::Matrix3d& R, const Eigen::Vector3d& t, const Matrix6d& cov) {
   MotionPrior p;
   p.source = Source::Filter;
@@ -105,21 +130,29 @@ std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matri
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tr_eig(cov.topLeftCorner<3, 3>(), Eigen::EigenvaluesOnly);
   const double sigma_rot = std::sqrt(std::max(0.0, rot_eig.eigenvalues().maxCoeff()));
   const double sigma_tr = std::sqrt(std::max(0.0, tr_eig.eigenvalues().maxCoeff()));
+  // In inverse depth, so that points at infinity (disparity 0 or, by noise, below) are predicted too: a point
+  // X = a / rho (a = ((xl - cx) / f, (y - cy) / f, 1)) is seen at the newer time along v = R^T (a - rho t), with
+  // inverse depth rho / v_z.
+  const double fb = stereo_.f * stereo_.baseline;
+  const StereoFeatures& fs = ref_->features;
   for (size_t i = 0; i < out.size(); ++i) {
-    const Eigen::Vector3d p = m.R.transpose() * (ref_->points[i] - m.t);
+    const Eigen::Vector3d a((fs.xl[i] - stereo_.cx) / stereo_.f, (fs.y[i] - stereo_.cy) / stereo_.f, 1.0);
+    const double rho = (fs.xl[i] - fs.xr[i]) / fb;
+    const Eigen::Vector3d v = m.R.transpose() * (a - rho * m.t);
     Prediction& q = out[i];
-    if (p.z() <= 0.05) {  // would be behind the camera: nothing to search
+    // Behind the camera or nearer than 5 cm (v_z / rho is the depth): nothing to search.
+    if (v.z() <= 1e-3 || (rho > 0 && v.z() <= 0.05 * rho)) {
       q.radius = 0;
       continue;
     }
-    const Eigen::Vector3d uv = stereo_.project(p);
-    q.xl = uv(0);
-    q.y = uv(1);
-    q.xr = uv(2);
+    const double rho_now = rho / v.z();
+    q.xl = stereo_.f * v.x() / v.z() + stereo_.cx;
+    q.y = stereo_.f * v.y() / v.z() + stereo_.cy;
+    q.xr = q.xl - fb * rho_now;
     if (!have_prior) {
       q.radius = mp.window_max_px;
     } else {
-      const double sigma_px = stereo_.f * (sigma_rot + sigma_tr / p.z());
+      const double sigma_px = stereo_.f * (sigma_rot + sigma_tr * std::max(0.0, rho_now));
       q.radius = std::clamp(mp.window_min_px + mp.window_sigma_scale * sigma_px, double(mp.window_min_px),
                             double(mp.window_max_px));
     }
@@ -127,17 +160,25 @@ std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matri
   return out;
 }
 
-std::vector<Correspondence> StereoTracker::correspondences(const std::vector<InterMatch>& matches) const {
+std::vector<Correspondence> StereoTracker::correspondences(const std::vector<InterMatch>& matches,
+                                                           std::vector<Correspondence>* far) const {
   std::vector<Correspondence> out;
   out.reserve(matches.size());
+  if (far) far->clear();
+  // Depth within max_depth <=> disparity at least f b / max_depth.
+  const double near_disparity = stereo_.f * stereo_.baseline / params_.motion.max_depth;
   for (const InterMatch& m : matches) {
     Correspondence c;
     c.prev = m.prev_obs;
     c.now = m.now_obs;
+    c.id = m.prev;
+    const bool near = c.prev.xl - c.prev.xr >= near_disparity && c.now.xl - c.now.xr >= near_disparity;
+    if (!near) {
+      if (far) far->push_back(c);
+      continue;
+    }
     c.p_prev = ref_->points[m.prev];
     c.p_now = stereo_.triangulate(c.now.xl, c.now.y, c.now.xr);
-    c.id = m.prev;
-    if (c.p_prev.z() > params_.motion.max_depth || c.p_now.z() > params_.motion.max_depth) continue;
     out.push_back(c);
   }
   return out;
@@ -229,7 +270,8 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   res.times.inter = msSince(t0);
 
   t0 = Clock::now();
-  std::vector<Correspondence> corr = correspondences(matches);
+  std::vector<Correspondence> far;
+  std::vector<Correspondence> corr = correspondences(matches, &far);
   MotionEstimate est = estimateMotion(stereo_, corr, params_.motion);
   res.num_inter_matches = int(matches.size());
   res.times.motion = msSince(t0);
@@ -243,7 +285,7 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
     matches = matchBetweenTimes(ref_->features, cur_->features, pred, cur_->left, cur_->right, params_.matcher);
     res.times.inter += msSince(t0);
     t0 = Clock::now();
-    corr = correspondences(matches);
+    corr = correspondences(matches, &far);
     est = estimateMotion(stereo_, corr, params_.motion);
     res.num_inter_matches = int(matches.size());
     res.times.motion += msSince(t0);
@@ -266,7 +308,8 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
         matchBetweenTimes(ref_->features, cur_->features, pred2, cur_->left, cur_->right, params_.matcher);
     res.times.inter += msSince(t0);
     t0 = Clock::now();
-    corr2 = correspondences(matches2);
+    std::vector<Correspondence> far2;
+    corr2 = correspondences(matches2, &far2);
     MotionEstimate est2 = estimateMotion(stereo_, corr2, params_.motion);
     res.times.motion += msSince(t0);
     res.guided_pass = true;
@@ -274,6 +317,7 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
       est = est2;
       est_from_guided = true;
       res.num_inter_matches = int(matches2.size());
+      far = std::move(far2);
     }
   }
 
@@ -311,6 +355,31 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
     last_dt_s_ = dt_s;
   } else {
     have_velocity_ = false;
+  }
+  // The rotation from far points, with the translation's parallax on them taken out by the 6-DoF estimate's
+  // translation (else the prior's, else none with the prior's own translation uncertainty per second).
+  res.num_far_matches = int(far.size());
+  if (params_.far.enabled && !far.empty()) {
+    t0 = Clock::now();
+    Eigen::Vector3d t_far = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d t_far_cov =
+        Eigen::Matrix3d::Identity() * std::pow(params_.prior.imu_translation_sigma_per_s * dt_s, 2);
+    if (est.valid) {
+      t_far = est.motion.t;
+      t_far_cov = est.covariance.topLeftCorner<3, 3>();
+    } else if (have_prior) {
+      t_far = prior_rect.t;
+      t_far_cov = cov_rect.topLeftCorner<3, 3>();
+    }
+    const FarRotationEstimate fr = estimateFarRotation(stereo_, far, t_far, t_far_cov, params_.motion, params_.far);
+    res.far_valid = fr.valid;
+    res.num_far_inliers = int(fr.inliers.size());
+    if (fr.valid) {
+      res.far_rotation = Eigen::Quaterniond(Rr.transpose() * fr.R * Rr).normalized();
+      res.far_covariance = Rr.transpose() * fr.covariance * Rr;
+      res.far_residual_rms_px = fr.residual_rms_px;
+    }
+    res.times.motion += msSince(t0);
   }
   ref_ = cur_;  // the new pair is the reference for the next, also after a failed match: it recovers there
   res.times.total = msSince(t_start);

@@ -83,6 +83,23 @@ RigidMotion refineMotion(const RectifiedStereo& cam, const std::vector<Correspon
                          const std::vector<int>& use, const RigidMotion& initial, int iterations, double sigma,
                          Matrix6d* covariance, double* rms_px);
 
+// Rotation from far correspondences (FarRotationParams): each point's bearing at the newer time a = ((xl-cx)/f,
+// (y-cy)/f, 1) and inverse depth rho = (xl - xr) / (f b) predict its older left position as the projection of
+// R a + rho t; rho t is the translation's parallax, ~0 for far points, taken out with the given translation
+// (whose covariance t_cov enters each point's weight, as do the pixel noise of both positions and of rho).
+// RANSAC over 2-point rotations, Gauss-Newton on the whitened 2-D residuals, covariance (J^T W J)^-1 scaled by
+// the residuals' variance factor when above 1. Correspondences need only their observations (prev, now).
+struct FarRotationEstimate {
+  bool valid = false;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();           // X_prev direction = R X_now direction (+ parallax)
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Identity();  // right perturbation R = R_hat exp([r]x) [rad^2]
+  std::vector<int> inliers;
+  double residual_rms_px = 0;
+};
+FarRotationEstimate estimateFarRotation(const RectifiedStereo& cam, const std::vector<Correspondence>& far,
+                                        const Eigen::Vector3d& t, const Eigen::Matrix3d& t_cov,
+                                        const MotionParams& motion, const FarRotationParams& params);
+
 Eigen::Matrix3d expSO3(const Eigen::Vector3d& w);
 Eigen::Vector3d logSO3(const Eigen::Matrix3d& R);
 

@@ -28,7 +28,10 @@ struct DetectorParams {
 struct MatcherParams {
   int ncc_half_window = 5;     // NCC templates are (2h+1)^2 pixels
   double min_patch_std = 3.0;  // grey-level std below which a template is too flat to match
-  double min_disparity = 1.0;  // intra-matching search range on the rectified row [px]
+  // Intra-matching search range on the rectified row [px]. Below zero, so that points at infinity (true disparity
+  // 0, measured with the noise of two positions, sqrt(2) * motion/pixel_sigma = 0.4 px) are matched too: they
+  // give the rotation from far points (FarRotationParams).
+  double min_disparity = -1.0;
   double max_disparity = 128.0;
   double intra_min_ncc = 0.8;          // accept a left-right match from this correlation on
   double intra_uniqueness = 0.03;      // the second best peak (>1 px away) must be this much lower
@@ -60,6 +63,17 @@ struct MotionParams {
   unsigned ransac_seed = 12345;   // fixed: the same input gives the same result
 };
 
+// Rotation from far points (paper section 6: "rotation and translation can be separated easily by selecting the
+// zero-disparity pixels"). Features farther than motion/max_depth (disparity below f * b / max_depth) do not enter
+// the 6-DoF estimate; their bearings give the rotation between the two images on their own, with the translation's
+// small parallax on them taken out using the 6-DoF estimate's translation and each point's inverse depth.
+struct FarRotationParams {
+  bool enabled = true;
+  int min_inliers = 8;          // fewer far inliers: no far rotation for this pair
+  double inlier_chi2 = 9.21;    // Mahalanobis gate of a far point's 2-D residual (2 dof, 99 %)
+  int ransac_iterations = 100;  // upper bound over 2-point rotations (adaptive stop at 99.9 %)
+};
+
 struct PriorParams {
   // Constant-velocity prior: the last delta scaled to the new interval, with this 1-sigma uncertainty
   // per second of interval (the motion changes between frames).
@@ -76,6 +90,7 @@ struct TrackerParams {
   DetectorParams detector;
   MatcherParams matcher;
   MotionParams motion;
+  FarRotationParams far;
   PriorParams prior;
 };
 

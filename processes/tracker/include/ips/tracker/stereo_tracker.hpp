@@ -66,8 +66,28 @@ struct TrackResult {
   GuidedIntraCounts guided_intra;  // ... and what it did with the corners
   StageTimes times;
 
+  // Rotation from far points alone (FarRotationParams), in the semantic and frame of `rotation`; independent of
+  // the 6-DoF estimate's points (those within motion/max_depth), so a filter can take it as a further measurement.
+  bool far_valid = false;
+  Eigen::Quaterniond far_rotation = Eigen::Quaterniond::Identity();
+  Eigen::Matrix3d far_covariance = Eigen::Matrix3d::Identity();  // rotation vector [rad^2], camera 0 at utime_prev
+  int num_far_matches = 0;                                       // inter-matches beyond motion/max_depth
+  int num_far_inliers = 0;
+  double far_residual_rms_px = 0;
+
   Eigen::Vector3d rotationVector() const;
 };
+
+// The 6-DoF increment updated with the far rotation as a measurement of its rotation (a Kalman update on the 6-vector
+// [t, r], gated at chi-square 3 dof 99.9 %), for chains of increments without a filter (track_log, the tracker-only
+// trajectory). Returns the increment unchanged when either part is invalid or the gate refuses the far rotation.
+struct FusedIncrement {
+  bool far_used = false;
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Matrix6d covariance = Matrix6d::Identity();
+};
+FusedIncrement fuseFarRotation(const TrackResult& r);
 
 // Running counts of how often the prediction was right, since construction or reset().
 struct PredictionStats {
@@ -116,7 +136,10 @@ class StereoTracker {
     bool valid = false;
   };
   std::vector<Prediction> predict(const RigidMotion& m_rect, const Matrix6d& cov_rect, bool have_prior) const;
-  std::vector<Correspondence> correspondences(const std::vector<InterMatch>& matches) const;
+  // Near correspondences (both points within motion/max_depth, for the 6-DoF estimate) and, if `far` is given, the
+  // others (for the rotation from far points); split by disparity, so that points at infinity are far.
+  std::vector<Correspondence> correspondences(const std::vector<InterMatch>& matches,
+                                              std::vector<Correspondence>* far = nullptr) const;
 
   TrackerParams params_;
   StereoCalibration calib_;
