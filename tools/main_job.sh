@@ -24,7 +24,7 @@ say() { printf '[main job %4ds] %s\n' $(( $(date +%s) - started )) "$*"; }
 say "output in $run"
 
 # 1. The sensor head: the simulator's default walk, as fast as it can render it, or a recording.
-export IPS_CONFIG=$ROOT/config
+export IPS_CONFIG=${IPS_CONFIG:-$ROOT/config}
 report_args=()
 if [ -n "${IPS_DATASET:-}" ]; then
   if [ -f "$IPS_DATASET/mav0/cam0/data.csv" ]; then format=euroc lengths=1,2

@@ -128,11 +128,17 @@ class FilterProcess {
     // A delta repeated, or sent by a second tracker for the same pair, does not advance the stream's time
     // and is dropped here: each image interval is fused once.
     if (!check(m, delta_order_, "delta")) return;
-    if (!m.valid) return node_.health().count("tracker_invalid");
+    if (!m.valid) node_.health().count("tracker_invalid");
+    if (!m.valid && !m.far_valid) return;
     ips::filter::TrackerDelta d;
     d.utime = m.utime;
     d.utime_prev = m.utime_prev;
-    d.valid = true;
+    d.valid = m.valid;
+    d.far_valid = m.far_valid;
+    d.far_rotation =
+        Eigen::Quaterniond(m.far_rotation[0], m.far_rotation[1], m.far_rotation[2], m.far_rotation[3]).normalized();
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) d.far_covariance(i, j) = m.far_rotation_covariance[i * 3 + j];
     d.translation = Eigen::Vector3d(m.translation[0], m.translation[1], m.translation[2]);
     d.rotation = Eigen::Quaterniond(m.rotation[0], m.rotation[1], m.rotation[2], m.rotation[3]).normalized();
     for (int i = 0; i < 6; ++i)

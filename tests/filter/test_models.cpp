@@ -251,3 +251,22 @@ TEST(FilterKalman, ClonesCarryCorrelationsThroughPrediction) {
     EXPECT_EQ(kf->covariance().rows(), 21);
   }
 }
+
+TEST(FilterModels, RotationJacobianMatchesNumericAndEqualsTheDeltasRotationRows) {
+  std::mt19937 rng(7);
+  const FullState x = randomFull(rng, 3);
+  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
+  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
+  T_imu_cam.translation() = Eigen::Vector3d(0.1, -0.05, 0.2);
+  const Eigen::Isometry3d z = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_imu_cam);
+  const RotationMeasurement m(0, 2, z.linear(), Eigen::Matrix3d::Identity() * 1e-8, T_imu_cam);
+  EXPECT_LT(m.residual(x).norm(), 1e-12);
+  EXPECT_LT((m.jacobian(x) - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
+  // A rotation-only measurement is the 6-DoF delta without its translation rows.
+  const DeltaMeasurement d(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam);
+  EXPECT_LT((m.jacobian(x) - d.jacobian(x).bottomRows(3)).cwiseAbs().maxCoeff(), 1e-12);
+  // Off by a known rotation: the residual is that rotation (left perturbation, camera 0 at the older time).
+  const Eigen::Vector3d off(2e-3, -1e-3, 5e-4);
+  const RotationMeasurement m2(0, 2, expSO3(off) * z.linear(), Eigen::Matrix3d::Identity() * 1e-8, T_imu_cam);
+  EXPECT_LT((Eigen::Vector3d(m2.residual(x)) - off).norm(), 1e-9);
+}

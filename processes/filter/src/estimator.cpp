@@ -31,7 +31,7 @@ Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
   accel_sigma_ = params_.imu.accel_noise_density * std::sqrt(params_.imu.rate_hz);
   gate2_ = chiSquareQuantile(params_.gate_probability, 2);
   gate6_ = chiSquareQuantile(params_.gate_probability, 6);
-  const char* names[kNumSensors] = {"imu", "tilt", "tracker", "image"};
+  const char* names[kNumSensors] = {"imu", "tilt", "tracker", "image", "far_rotation"};
   for (int i = 0; i < kNumSensors; ++i) counters_[i].name = names[i];
 }
 
@@ -75,15 +75,22 @@ void Estimator::addTilt(const TiltSample& s) {
 }
 
 void Estimator::addTrackerDelta(const TrackerDelta& d) {
-  if (!d.valid) return;  // the tracker found no motion: nothing to fuse
-  if (!d.translation.allFinite() || !d.rotation.coeffs().allFinite() || !d.covariance.allFinite() ||
-      std::abs(d.rotation.norm() - 1.0) > 1e-3) {
+  TrackerDelta checked = d;
+  if (checked.valid && (!d.translation.allFinite() || !d.rotation.coeffs().allFinite() || !d.covariance.allFinite() ||
+                        std::abs(d.rotation.norm() - 1.0) > 1e-3)) {
     ++counters_[kSensorTracker].rejected;
-    return;
+    checked.valid = false;
   }
+  if (checked.far_valid && (!d.far_rotation.coeffs().allFinite() || !d.far_covariance.allFinite() ||
+                            std::abs(d.far_rotation.norm() - 1.0) > 1e-3)) {
+    ++counters_[kSensorFarRotation].rejected;
+    checked.far_valid = false;
+  }
+  if (!params_.far_rotation) checked.far_valid = false;
+  if (!checked.valid && !checked.far_valid) return;  // the tracker found no motion: nothing to fuse
   Event e;
   e.sensor = kSensorTracker;
-  e.delta = d;
+  e.delta = checked;
   e.delta.utime = d.utime - params_.camera_latency_us;
   e.delta.utime_prev = d.utime_prev - params_.camera_latency_us;
   e.time = e.delta.utime;
@@ -246,9 +253,27 @@ void Estimator::process(const Event& e) {
       const int i0 = kf.state().findClone(e.delta.utime_prev);
       const int i1 = kf.state().findClone(e.delta.utime);
       if (i0 < 0 || i1 < 0 || i0 == i1) {
-        ++counters_[kSensorTracker].too_late;
+        if (e.delta.valid) ++counters_[kSensorTracker].too_late;
+        if (e.delta.far_valid) ++counters_[kSensorFarRotation].too_late;
         break;
       }
+      if (e.delta.far_valid) {
+        // The rotation from far points first: it is the sharper rotation where the scene is open, and the gate of
+        // the 6-DoF delta then judges it against a state that already knows the rotation.
+        Eigen::Matrix3d cov = 0.5 * (e.delta.far_covariance + e.delta.far_covariance.transpose());
+        for (int k = 0; k < 3; ++k)
+          cov(k, k) = std::max(cov(k, k), params_.far_rotation_min_sigma * params_.far_rotation_min_sigma);
+        const RotationMeasurement m(i0, i1, e.delta.far_rotation.normalized().toRotationMatrix(), cov, T_imu_cam0_);
+        const UpdateResult r = kf.update(m, gateFor(run_, kSensorFarRotation, 3, params_.gate_far_rotation));
+        if (r.applied) {
+          run_.consecutive_rejects[kSensorFarRotation] = 0;
+          ++counters_[kSensorFarRotation].accepted;
+        } else {
+          ++run_.consecutive_rejects[kSensorFarRotation];
+          ++counters_[kSensorFarRotation].rejected;
+        }
+      }
+      if (!e.delta.valid) break;
       Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
       T.linear() = e.delta.rotation.normalized().toRotationMatrix();
       T.translation() = e.delta.translation;

@@ -205,6 +205,27 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   return H;
 }
 
+// ---------------------------------------------------------------------------------------------- rotation
+
+RotationMeasurement::RotationMeasurement(int clone0, int clone1, const Eigen::Matrix3d& R_c0_c1,
+                                         const Eigen::Matrix3d& covariance, const Eigen::Isometry3d& T_imu_cam0)
+    : i0_(clone0), i1_(clone1), z_(R_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0) {}
+
+MeasVector RotationMeasurement::residual(const FullState& x) const {
+  const Eigen::Isometry3d T = DeltaMeasurement::predict(x.clones.at(i0_), x.clones.at(i1_), T_imu_cam0_);
+  return MeasVector(logSO3(z_ * T.linear().transpose()));
+}
+
+Eigen::MatrixXd RotationMeasurement::jacobian(const FullState& x) const {
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(3, x.errorDim());
+  // As DeltaMeasurement's rotation rows: R_pred = R_ci R0^T R1 R_ic, perturbed from the left by Exp(A (dth1 - dth0)).
+  const Eigen::Matrix3d A =
+      T_imu_cam0_.linear().transpose() * x.clones.at(i0_).orientation.toRotationMatrix().transpose();
+  H.block<3, 3>(0, kCoreErrorDim + kCloneErrorDim * i1_ + 3) = A;
+  H.block<3, 3>(0, kCoreErrorDim + kCloneErrorDim * i0_ + 3) = -A;
+  return H;
+}
+
 // ---------------------------------------------------------------------------------------------- chi-square
 
 namespace {

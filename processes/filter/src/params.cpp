@@ -57,6 +57,9 @@ FilterParams loadFilterParams(const Config& c) {
   p.tracker_min_sigma_r = c.getDouble("tracker/min_sigma_r", p.tracker_min_sigma_r);
   nonNegative(c, "tracker/min_sigma_t", p.tracker_min_sigma_t);
   nonNegative(c, "tracker/min_sigma_r", p.tracker_min_sigma_r);
+  p.far_rotation = c.getBool("tracker/far_rotation", p.far_rotation);
+  p.far_rotation_min_sigma = c.getDouble("tracker/far_rotation_min_sigma", p.far_rotation_min_sigma);
+  nonNegative(c, "tracker/far_rotation_min_sigma", p.far_rotation_min_sigma);
 
   p.imu_latency_us = c.getInt("latency_us/imu", static_cast<int>(p.imu_latency_us));
   p.tilt_latency_us = c.getInt("latency_us/tilt", static_cast<int>(p.tilt_latency_us));
@@ -75,6 +78,7 @@ FilterParams loadFilterParams(const Config& c) {
   p.gate_imu = c.getBool("gate/imu", p.gate_imu);
   p.gate_tilt = c.getBool("gate/tilt", p.gate_tilt);
   p.gate_tracker = c.getBool("gate/tracker", p.gate_tracker);
+  p.gate_far_rotation = c.getBool("gate/far_rotation", p.gate_far_rotation);
   p.max_consecutive_rejects = c.getInt("gate/max_consecutive_rejects", p.max_consecutive_rejects);
   if (p.max_consecutive_rejects < 1) throw ConfigError(c.path() + ": key 'gate/max_consecutive_rejects' must be >= 1");
 

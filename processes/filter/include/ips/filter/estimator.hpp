@@ -9,7 +9,9 @@
 //   tilt sample  -> time update + tilt measurement update
 //   image time   -> the a-priori state at that time is returned at once (for the tracker's prediction);
 //                   in time order the pose is cloned at that time
-//   tracker delta-> measurement update on the two clones (may arrive late: the clones are kept)
+//   tracker delta-> measurement update on the two clones (may arrive late: the clones are kept), then its
+//                   rotation from far points, if any, as a rotation-only update with its own gate
+//                   (params far_rotation; a delta without a valid 6-DoF part may still carry one)
 // Every measurement passes a chi-square gate on its Mahalanobis distance; counts per sensor.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -46,9 +48,20 @@ struct TrackerDelta {  // ips::tracker_delta_t: X_c0(utime_prev) = R * X_c0(utim
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   Matrix6d covariance = Matrix6d::Identity();  // order tx ty tz rx ry rz
+  // The rotation from far points alone (ips_tracker_delta_t far_*), a further, independent measurement.
+  bool far_valid = false;
+  Eigen::Quaterniond far_rotation = Eigen::Quaterniond::Identity();
+  Eigen::Matrix3d far_covariance = Eigen::Matrix3d::Identity();
 };
 
-enum Sensor : int { kSensorImu = 0, kSensorTilt = 1, kSensorTracker = 2, kSensorImage = 3, kNumSensors = 4 };
+enum Sensor : int {
+  kSensorImu = 0,
+  kSensorTilt = 1,
+  kSensorTracker = 2,
+  kSensorImage = 3,
+  kSensorFarRotation = 4,  // the tracker's rotation from far points (counted apart, gated on its own)
+  kNumSensors = 5
+};
 
 struct SensorCounters {
   const char* name = "";

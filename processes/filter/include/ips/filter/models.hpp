@@ -104,6 +104,26 @@ class DeltaMeasurement : public Measurement {
   Eigen::Isometry3d T_imu_cam0_;
 };
 
+// Relative rotation of camera 0 between clone i0 (older) and clone i1, alone: the tracker's rotation from far
+// points (paper section 6), which carries no translation. Residual Log(R_meas R_pred^T) as DeltaMeasurement's
+// rotation part, covariance 3x3.
+class RotationMeasurement : public Measurement {
+ public:
+  RotationMeasurement(int clone0, int clone1, const Eigen::Matrix3d& R_c0_c1, const Eigen::Matrix3d& covariance,
+                      const Eigen::Isometry3d& T_imu_cam0);
+  int dim() const override { return 3; }
+  MeasVector residual(const FullState& x) const override;
+  Eigen::MatrixXd jacobian(const FullState& x) const override;
+  MeasMatrix noise() const override { return cov_; }
+  bool coreOnly() const override { return false; }
+
+ private:
+  int i0_, i1_;
+  Eigen::Matrix3d z_;
+  Eigen::Matrix3d cov_;
+  Eigen::Isometry3d T_imu_cam0_;
+};
+
 // Quantile of the chi-square distribution with `dof` degrees of freedom: P(X <= x) = p.
 double chiSquareQuantile(double p, int dof);
 // Its cumulative distribution function.

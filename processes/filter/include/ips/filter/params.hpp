@@ -73,6 +73,9 @@ struct FilterParams {
   bool tilt_specific_force = true;     // the inclinometer senses specific force (accelerometer type), not gravity alone
   double tracker_min_sigma_t = 1e-4;   // [m] floor on the tracker's translation sigma
   double tracker_min_sigma_r = 1e-5;   // [rad] floor on the tracker's rotation sigma
+  // The tracker's rotation from far points (paper section 6) as a rotation-only measurement between the clones.
+  bool far_rotation = true;
+  double far_rotation_min_sigma = 1e-5;  // [rad] floor on its sigma
 
   // Latencies subtracted from message stamps [us] (zero when drivers already remove them).
   int64_t imu_latency_us = 0;
@@ -91,6 +94,7 @@ struct FilterParams {
   bool gate_imu = true;
   bool gate_tilt = true;
   bool gate_tracker = true;
+  bool gate_far_rotation = true;
   int max_consecutive_rejects = 20;  // then the next measurement is applied anyway (re-capture)
 
   // IMU gap: a longer pause between IMU samples resets acceleration and angular rate to zero with these
