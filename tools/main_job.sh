@@ -4,7 +4,8 @@
 # lcm-logger, with lcm-logplayer playing the walk through them), then writes the report to out/<run>/
 # (out/latest points at it).
 # Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario
-# file instead of the built-in walk), IPS_REPLAY_SPEED (default 1),
+# file instead of the built-in walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
+# replaces filter_sim.yaml), IPS_REPLAY_SPEED (default 1), IPS_CONFIG (the config folder; default config/),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), LCM_DEFAULT_URL.
 # IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder or KITTI odometry folder, told
 # apart by layout): dataset_to_lcm writes it as the head's log, the tracker runs with the head's config
@@ -61,6 +62,19 @@ else
   [ -n "${IPS_DURATION:-}" ] && sim_args+=(--duration "$IPS_DURATION")
   [ -n "${IPS_SCENARIO:-}" ] && sim_args+=(--scenario "$IPS_SCENARIO")
   sim "${sim_args[@]}" 2>&1 | sed -u 's/^/    /'
+fi
+# A simulated scenario may come with its own filter settings: config/filter_<name>.yaml for config/sim_<name>.yaml
+# (a car's body vibration needs another process noise than a walker's gait) takes filter_sim.yaml's place.
+if [ -z "${IPS_DATASET:-}" ] && [ -n "${IPS_SCENARIO:-}" ]; then
+  scenario_name=$(basename "$IPS_SCENARIO" .yaml)
+  scenario_filter=$IPS_CONFIG/filter_${scenario_name#sim_}.yaml
+  if [ -f "$scenario_filter" ]; then
+    mkdir -p "$run/config"
+    for f in "$IPS_CONFIG"/*.yaml; do ln -sf "$(realpath "$f")" "$run/config/"; done
+    ln -sf "$(realpath "$scenario_filter")" "$run/config/filter_sim.yaml"
+    IPS_CONFIG=$run/config
+    say "    the filters run with $scenario_filter"
+  fi
 fi
 walk_s=$(lcm-logplayer --help >/dev/null 2>&1; python3 - "$run/walk.lcmlog" <<'PY' 2>/dev/null || echo 0
 import struct, sys
