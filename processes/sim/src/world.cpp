@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "ips/log.hpp"
 #include "ips/sim/rng.hpp"
@@ -67,8 +68,9 @@ struct Builder {
   int rough = 0, tiles = 0, weak = 0, floor = 0, ceiling = 0, wood = 0;
   std::vector<int> photos;
 
+  // A textured rectangle at a random texture offset; its brightness is drawn (indoor lighting) unless given.
   Quad& add(const Eigen::Vector3d& o, const Eigen::Vector3d& s, const Eigen::Vector3d& t, double ss, double st, int tex,
-            double texel) {
+            double texel, std::optional<double> brightness = std::nullopt) {
     Quad q;
     q.origin = o;
     q.axis_s = s.normalized();
@@ -78,7 +80,7 @@ struct Builder {
     q.texture = tex;
     q.texel_s = q.texel_t = texel;
     q.texture_offset = {rng.uniform() * 4096, rng.uniform() * 4096};
-    q.brightness = static_cast<float>(0.8 + 0.35 * rng.uniform());
+    q.brightness = static_cast<float>(brightness ? *brightness : 0.8 + 0.35 * rng.uniform());
     world.quads.push_back(q);
     return world.quads.back();
   }
@@ -231,28 +233,14 @@ double distanceToRoute(const Eigen::Vector2d& p, const std::vector<Eigen::Vector
 // buildings far from the streets (the far structure whose disparity the baseline cannot resolve) and a sky box
 // of faint clouds. Deterministic per seed.
 void buildStreet(World& world, const WorldConfig& cfg, uint64_t seed) {
-  Rng rng(streamSeed(seed, kStreamWorld));
+  Builder builder{world, cfg, Rng(streamSeed(seed, kStreamWorld)), 0, 0, 0, 0, 0, 0, {}};
+  Rng& rng = builder.rng;
   const uint64_t ts = streamSeed(seed, kStreamWorld, 1);
   // Window grids: 8 tiles of 128 texels across the texture; the texel sizes below make a tile ~2.5-3 m (a storey).
   const int facade = world.addTexture("facade", makeTileTexture(1024, 8, ts + 1));
   const int brick = world.addTexture("brick", makeRoughTexture(1024, ts + 2, 40));
   const int ground = world.addTexture("asphalt", makeSpeckleTexture(1024, ts + 3));
   const int clouds = world.addTexture("clouds", makeRoughTexture(512, ts + 4, 10));
-  auto add = [&](const Eigen::Vector3d& o, const Eigen::Vector3d& s, const Eigen::Vector3d& t, double ss, double st,
-                 int tex, double texel, double brightness) -> Quad& {
-    Quad q;
-    q.origin = o;
-    q.axis_s = s.normalized();
-    q.axis_t = t.normalized();
-    q.size_s = ss;
-    q.size_t = st;
-    q.texture = tex;
-    q.texel_s = q.texel_t = texel;
-    q.texture_offset = {rng.uniform() * 4096, rng.uniform() * 4096};
-    q.brightness = static_cast<float>(brightness);
-    world.quads.push_back(q);
-    return world.quads.back();
-  };
   const std::vector<Eigen::Vector2d>& route = cfg.route;
   Eigen::Vector2d lo = route.front(), hi = route.front();
   for (const Eigen::Vector2d& p : route) {
@@ -264,8 +252,8 @@ void buildStreet(World& world, const WorldConfig& cfg, uint64_t seed) {
 
   // Ground out to beyond the farthest building.
   const double reach = cfg.far_distance_m.y() + 100.0;
-  add({lo.x() - reach, lo.y() - reach, 0}, {1, 0, 0}, {0, 1, 0}, hi.x() - lo.x() + 2 * reach,
-      hi.y() - lo.y() + 2 * reach, ground, 0.012, 0.9);
+  builder.add({lo.x() - reach, lo.y() - reach, 0}, {1, 0, 0}, {0, 1, 0}, hi.x() - lo.x() + 2 * reach,
+              hi.y() - lo.y() + 2 * reach, ground, 0.012, 0.9);
 
   // Facades: lots of 8-25 m along each side of each street, some left open. Near an inner waypoint (a junction)
   // the frontage stops a street's width short so the facades do not cross the next street.
@@ -286,8 +274,8 @@ void buildStreet(World& world, const WorldConfig& cfg, uint64_t seed) {
                            rng.uniform() * (cfg.street_facade_height_m.y() - cfg.street_facade_height_m.x());
           const Eigen::Vector2d p0 = a + pos * dir + side * W * left;
           const bool windows = rng.uniform() < 0.6;
-          add({p0.x(), p0.y(), 0}, {dir.x(), dir.y(), 0}, up, lot, h, windows ? facade : brick, windows ? 0.02 : 0.008,
-              0.75 + 0.4 * rng.uniform());
+          builder.add({p0.x(), p0.y(), 0}, {dir.x(), dir.y(), 0}, up, lot, h, windows ? facade : brick,
+                      windows ? 0.02 : 0.008, 0.75 + 0.4 * rng.uniform());
         }
         pos += lot;
       }
@@ -307,10 +295,10 @@ void buildStreet(World& world, const WorldConfig& cfg, uint64_t seed) {
       const double h = cfg.far_height_m.x() + rng.uniform() * (cfg.far_height_m.y() - cfg.far_height_m.x());
       const double x0 = c.x() - sx / 2, x1 = c.x() + sx / 2, y0 = c.y() - sy / 2, y1 = c.y() + sy / 2;
       const double texel = 0.022, bright = 0.6 + 0.5 * rng.uniform();
-      add({x0, y0, 0}, {1, 0, 0}, up, sx, h, facade, texel, bright).one_sided = true;   // normal -y
-      add({x1, y1, 0}, {-1, 0, 0}, up, sx, h, facade, texel, bright).one_sided = true;  // normal +y
-      add({x1, y0, 0}, {0, 1, 0}, up, sy, h, facade, texel, bright).one_sided = true;   // normal +x
-      add({x0, y1, 0}, {0, -1, 0}, up, sy, h, facade, texel, bright).one_sided = true;  // normal -x
+      builder.add({x0, y0, 0}, {1, 0, 0}, up, sx, h, facade, texel, bright).one_sided = true;   // normal -y
+      builder.add({x1, y1, 0}, {-1, 0, 0}, up, sx, h, facade, texel, bright).one_sided = true;  // normal +y
+      builder.add({x1, y0, 0}, {0, 1, 0}, up, sy, h, facade, texel, bright).one_sided = true;   // normal +x
+      builder.add({x0, y1, 0}, {0, -1, 0}, up, sy, h, facade, texel, bright).one_sided = true;  // normal -x
       break;
     }
   }
@@ -318,11 +306,11 @@ void buildStreet(World& world, const WorldConfig& cfg, uint64_t seed) {
   // The sky: a box of faint, bright clouds around everything.
   const double S = cfg.sky_distance_m, sky_texel = 8.0, sky = 1.5;
   const Eigen::Vector3d o(centre.x() - S, centre.y() - S, -1.0);
-  add(o, {1, 0, 0}, up, 2 * S, S, clouds, sky_texel, sky);
-  add(o + Eigen::Vector3d(0, 2 * S, 0), {1, 0, 0}, up, 2 * S, S, clouds, sky_texel, sky);
-  add(o, {0, 1, 0}, up, 2 * S, S, clouds, sky_texel, sky);
-  add(o + Eigen::Vector3d(2 * S, 0, 0), {0, 1, 0}, up, 2 * S, S, clouds, sky_texel, sky);
-  add(o + Eigen::Vector3d(0, 0, S), {1, 0, 0}, {0, 1, 0}, 2 * S, 2 * S, clouds, sky_texel, sky);
+  builder.add(o, {1, 0, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  builder.add(o + Eigen::Vector3d(0, 2 * S, 0), {1, 0, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  builder.add(o, {0, 1, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  builder.add(o + Eigen::Vector3d(2 * S, 0, 0), {0, 1, 0}, up, 2 * S, S, clouds, sky_texel, sky);
+  builder.add(o + Eigen::Vector3d(0, 0, S), {1, 0, 0}, {0, 1, 0}, 2 * S, 2 * S, clouds, sky_texel, sky);
 }
 
 }  // namespace
