@@ -9,8 +9,20 @@
 namespace ips::filter {
 
 namespace {
-constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// A measurement covariance made symmetric, its standard deviations floored at min_sigma (a tracker's covariance from
+// many points can claim more than its model errors allow).
+template <int N>
+Eigen::Matrix<double, N, N> symmetrisedWithFloor(const Eigen::Matrix<double, N, N>& c,
+                                                 const Eigen::Matrix<double, N, 1>& min_sigma) {
+  Eigen::Matrix<double, N, N> out = 0.5 * (c + c.transpose());
+  for (int k = 0; k < N; ++k) out(k, k) = std::max(out(k, k), min_sigma(k) * min_sigma(k));
+  return out;
 }
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+}  // namespace
 
 Matrix21d initialCovariance(const InitParams& ip) {
   Vector21d sd;
@@ -217,14 +229,18 @@ bool Estimator::applyMeasurement(Runner& run, const Event& e, std::array<SensorC
   } else {
     return false;
   }
-  if (r.applied) {
-    run.consecutive_rejects[e.sensor] = 0;
-    if (counters) ++(*counters)[e.sensor].accepted;
-  } else {
-    ++run.consecutive_rejects[e.sensor];
-    if (counters) ++(*counters)[e.sensor].rejected;
-  }
+  countUpdate(run, e.sensor, r.applied, counters);
   return r.applied;
+}
+
+void Estimator::countUpdate(Runner& run, Sensor s, bool applied, std::array<SensorCounters, kNumSensors>* counters) {
+  if (applied) {
+    run.consecutive_rejects[s] = 0;
+    if (counters) ++(*counters)[s].accepted;
+  } else {
+    ++run.consecutive_rejects[s];
+    if (counters) ++(*counters)[s].rejected;
+  }
 }
 
 void Estimator::process(const Event& e) {
@@ -260,38 +276,22 @@ void Estimator::process(const Event& e) {
       if (e.delta.far_valid) {
         // The rotation from far points first: it is the sharper rotation where the scene is open, and the gate of
         // the 6-DoF delta then judges it against a state that already knows the rotation.
-        Eigen::Matrix3d cov = 0.5 * (e.delta.far_covariance + e.delta.far_covariance.transpose());
-        for (int k = 0; k < 3; ++k)
-          cov(k, k) = std::max(cov(k, k), params_.far_rotation_min_sigma * params_.far_rotation_min_sigma);
+        const Eigen::Matrix3d cov = symmetrisedWithFloor(
+            e.delta.far_covariance, Eigen::Vector3d(Eigen::Vector3d::Constant(params_.far_rotation_min_sigma)));
         const RotationMeasurement m(i0, i1, e.delta.far_rotation.normalized().toRotationMatrix(), cov, T_imu_cam0_);
         const UpdateResult r = kf.update(m, gateFor(run_, kSensorFarRotation, 3, params_.gate_far_rotation));
-        if (r.applied) {
-          run_.consecutive_rejects[kSensorFarRotation] = 0;
-          ++counters_[kSensorFarRotation].accepted;
-        } else {
-          ++run_.consecutive_rejects[kSensorFarRotation];
-          ++counters_[kSensorFarRotation].rejected;
-        }
+        countUpdate(run_, kSensorFarRotation, r.applied, &counters_);
       }
       if (!e.delta.valid) break;
       Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
       T.linear() = e.delta.rotation.normalized().toRotationMatrix();
       T.translation() = e.delta.translation;
-      Matrix6d cov = e.delta.covariance;
-      cov = 0.5 * (cov + cov.transpose()).eval();
-      for (int k = 0; k < 3; ++k) {
-        cov(k, k) = std::max(cov(k, k), params_.tracker_min_sigma_t * params_.tracker_min_sigma_t);
-        cov(k + 3, k + 3) = std::max(cov(k + 3, k + 3), params_.tracker_min_sigma_r * params_.tracker_min_sigma_r);
-      }
-      const DeltaMeasurement m(i0, i1, T, cov, T_imu_cam0_);
+      Eigen::Matrix<double, 6, 1> min_sigma;
+      min_sigma << Eigen::Vector3d::Constant(params_.tracker_min_sigma_t),
+          Eigen::Vector3d::Constant(params_.tracker_min_sigma_r);
+      const DeltaMeasurement m(i0, i1, T, symmetrisedWithFloor(e.delta.covariance, min_sigma), T_imu_cam0_);
       const UpdateResult r = kf.update(m, gateFor(run_, kSensorTracker, 6, params_.gate_tracker));
-      if (r.applied) {
-        run_.consecutive_rejects[kSensorTracker] = 0;
-        ++counters_[kSensorTracker].accepted;
-      } else {
-        ++run_.consecutive_rejects[kSensorTracker];
-        ++counters_[kSensorTracker].rejected;
-      }
+      countUpdate(run_, kSensorTracker, r.applied, &counters_);
       break;
     }
     default:

@@ -160,6 +160,21 @@ MeasMatrix TiltMeasurement::noise() const {
 
 // ---------------------------------------------------------------------------------------------- delta
 
+namespace {
+
+// Rows `row`..`row`+2 of H for the relative rotation of camera 0 between clones i0 and i1 (DeltaMeasurement's
+// rotation part, RotationMeasurement whole): R_pred = R_ci R0^T R1 R_ic, perturbed from the left by
+// Exp(A (dth1 - dth0)) with A = R_ci R0^T.
+void setRotationRows(const FullState& x, int i0, int i1, const Eigen::Isometry3d& T_imu_cam0, int row,
+                     Eigen::MatrixXd& H) {
+  const Eigen::Matrix3d A =
+      T_imu_cam0.linear().transpose() * x.clones.at(i0).orientation.toRotationMatrix().transpose();
+  H.block<3, 3>(row, kCoreErrorDim + kCloneErrorDim * i1 + 3) = A;
+  H.block<3, 3>(row, kCoreErrorDim + kCloneErrorDim * i0 + 3) = -A;
+}
+
+}  // namespace
+
 DeltaMeasurement::DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
                                    const Eigen::Isometry3d& T_imu_cam0)
     : i0_(clone0), i1_(clone1), z_(T_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0) {}
@@ -199,9 +214,7 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   H.block<3, 3>(0, o0) = -A;
   H.block<3, 3>(0, o1 + 3) = -A * skew(R1 * t_ic);
   H.block<3, 3>(0, o0 + 3) = A * skew(d);
-  // R_pred = R_ci R0^T R1 R_ic, perturbed from the left by Exp(A (dth1 - dth0)).
-  H.block<3, 3>(3, o1 + 3) = A;
-  H.block<3, 3>(3, o0 + 3) = -A;
+  setRotationRows(x, i0_, i1_, T_imu_cam0_, 3, H);
   return H;
 }
 
@@ -218,11 +231,7 @@ MeasVector RotationMeasurement::residual(const FullState& x) const {
 
 Eigen::MatrixXd RotationMeasurement::jacobian(const FullState& x) const {
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(3, x.errorDim());
-  // As DeltaMeasurement's rotation rows: R_pred = R_ci R0^T R1 R_ic, perturbed from the left by Exp(A (dth1 - dth0)).
-  const Eigen::Matrix3d A =
-      T_imu_cam0_.linear().transpose() * x.clones.at(i0_).orientation.toRotationMatrix().transpose();
-  H.block<3, 3>(0, kCoreErrorDim + kCloneErrorDim * i1_ + 3) = A;
-  H.block<3, 3>(0, kCoreErrorDim + kCloneErrorDim * i0_ + 3) = -A;
+  setRotationRows(x, i0_, i1_, T_imu_cam0_, 0, H);
   return H;
 }
 

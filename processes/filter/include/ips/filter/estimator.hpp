@@ -138,6 +138,9 @@ class Estimator {
   // Time update to t; enters the gap mode if the IMU has been silent for imu_gap_s by then.
   void predictTo(Runner& run, int64_t t);
   double gateFor(Runner& run, Sensor s, int dof, bool enabled) const;
+  // Counts an update's outcome for its sensor (counters: the estimator's own, or null for a look-ahead copy) and
+  // tracks the consecutive rejections the re-capture rule needs.
+  static void countUpdate(Runner& run, Sensor s, bool applied, std::array<SensorCounters, kNumSensors>* counters);
   FilterOutput makeOutput(const KalmanFilter& kf, bool a_priori) const;
 
   FilterParams params_;
