@@ -20,6 +20,7 @@
 #include "ips/framework/channels.hpp"
 #include "ips/framework/filter_state_layout.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
@@ -243,12 +244,8 @@ class TrackerProcess {
     d.seq = p.seq;
     d.valid = r.valid;
     for (int i = 0; i < 3; ++i) d.translation[i] = r.translation[i];
-    d.rotation[0] = r.rotation.w();
-    d.rotation[1] = r.rotation.x();
-    d.rotation[2] = r.rotation.y();
-    d.rotation[3] = r.rotation.z();
-    for (int i = 0; i < 6; ++i)
-      for (int j = 0; j < 6; ++j) d.covariance[i * 6 + j] = r.covariance(i, j);
+    ips::fw::quaternionToArray(r.rotation, d.rotation);
+    ips::fw::matrixToArray<6>(r.covariance, d.covariance);
     d.num_features = r.num_features;
     d.num_intra_matches = r.num_intra_matches;
     d.num_inter_matches = r.num_inter_matches;
@@ -257,12 +254,8 @@ class TrackerProcess {
     d.prior_source = static_cast<int8_t>(r.prior_source);
     d.prior_ok = r.prior_ok;
     d.far_valid = r.far_valid;
-    d.far_rotation[0] = r.far_rotation.w();
-    d.far_rotation[1] = r.far_rotation.x();
-    d.far_rotation[2] = r.far_rotation.y();
-    d.far_rotation[3] = r.far_rotation.z();
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) d.far_rotation_covariance[i * 3 + j] = r.far_covariance(i, j);
+    ips::fw::quaternionToArray(r.far_rotation, d.far_rotation);
+    ips::fw::matrixToArray<3>(r.far_covariance, d.far_rotation_covariance);
     d.num_far_matches = r.num_far_matches;
     d.num_far_inliers = r.num_far_inliers;
     if (r.far_valid) node_.health().count("far_rotation");

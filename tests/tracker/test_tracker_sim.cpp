@@ -58,7 +58,7 @@ TEST(TrackerSim, StreetRotationFromFarPoints) {
         far_err.push_back(err.norm() * 180 / M_PI);
         nees += err.dot(e.result.far_covariance.ldlt().solve(err));
         EXPECT_GE(e.result.num_far_inliers, params.far.min_inliers);
-        fused += fuseFarRotation(e.result).far_used;
+        fused += fuseFarRotation(e.result, params.far.fuse_chi2).far_used;
       });
   ASSERT_GE(far_valid, 3);
   for (double d : far_err) EXPECT_LT(d, 0.1);

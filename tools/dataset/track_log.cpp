@@ -98,7 +98,7 @@ int main(int argc, char** argv) {
         stages.inter += r.times.inter, stages.motion += r.times.motion;
         guided += r.guided_pass ? 1 : 0, wide += r.wide_retry ? 1 : 0;
         chain.add(r.utime, r.utime_prev, r.valid, r.rotation, r.translation);
-        const ips::tracker::FusedIncrement fused = ips::tracker::fuseFarRotation(r);
+        const ips::tracker::FusedIncrement fused = ips::tracker::fuseFarRotation(r, tracker.params().far.fuse_chi2);
         far_chain.add(r.utime, r.utime_prev, r.valid, fused.rotation, fused.translation);
         far_valid += r.far_valid, far_used += fused.far_used;
         far_matches += r.num_far_matches, far_inliers += r.num_far_inliers;

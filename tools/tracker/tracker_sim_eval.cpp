@@ -80,38 +80,31 @@ int main(int argc, char** argv) {
     stat(tr, "translation error", "m");
     stat(pct, "translation error (%)", "% of step (steps > 2 cm)");
     std::printf("sum of translation errors / path: %.2f %%\n", path > 0 ? 100 * sum_t / path : 0.0);
-    // The increments chained (an invalid one counts as no motion), against the true increments chained.
-    Eigen::Isometry3d chain = Eigen::Isometry3d::Identity(), truth = Eigen::Isometry3d::Identity();
-    std::vector<double> intra_ms;
-    double intra = 0, from_map = 0, inliers = 0, inter = 0;
+    // The increments chained (an invalid one counts as no motion), against the true increments chained; beside them
+    // the increments fused with the rotation from far points (paper section 6), whose own error per pair is kept.
+    Eigen::Isometry3d chain = Eigen::Isometry3d::Identity(), fused_chain = Eigen::Isometry3d::Identity();
+    Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();
+    const auto increment = [](const Eigen::Quaterniond& q, const Eigen::Vector3d& t) {
+      Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+      d.linear() = q.toRotationMatrix();
+      d.translation() = t;
+      return d;
+    };
+    std::vector<double> intra_ms, far_err, near_err_same;
+    double intra = 0, from_map = 0, inliers = 0, inter = 0, far_matches = 0, far_inliers = 0;
+    int far_valid = 0, far_used = 0;
     for (const auto& e : errors) {
       truth = truth * e.truth;
+      const FusedIncrement f = fuseFarRotation(e.result, params.far.fuse_chi2);
       if (e.result.valid) {
-        Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-        d.linear() = e.result.rotation.toRotationMatrix();
-        d.translation() = e.result.translation;
-        chain = chain * d;
+        chain = chain * increment(e.result.rotation, e.result.translation);
+        fused_chain = fused_chain * increment(f.rotation, f.translation);
         inliers += e.result.num_inliers;
         inter += e.result.num_inter_matches;
       }
       intra_ms.push_back(e.result.times.intra);
       intra += e.result.num_intra_matches;
       from_map += e.result.guided_intra.from_map;
-    }
-    // Rotation from far points (paper section 6): its own error per pair, and the increments fused with it chained
-    // beside the plain ones (rotation error per metre of path, end error).
-    Eigen::Isometry3d fused_chain = Eigen::Isometry3d::Identity();
-    std::vector<double> far_err, near_err_same;
-    int far_valid = 0, far_used = 0;
-    double far_matches = 0, far_inliers = 0;
-    for (const auto& e : errors) {
-      const FusedIncrement f = fuseFarRotation(e.result);
-      if (e.result.valid) {
-        Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-        d.linear() = f.rotation.toRotationMatrix();
-        d.translation() = f.translation;
-        fused_chain = fused_chain * d;
-      }
       far_used += f.far_used;
       far_matches += e.result.num_far_matches;
       far_inliers += e.result.num_far_inliers;

@@ -273,8 +273,8 @@ FarResidual farResidual(const RectifiedStereo& cam, const Correspondence& c, con
                         const Eigen::Vector3d& t, const Eigen::Matrix3d& t_cov, double sigma) {
   FarResidual out;
   const double fb = cam.f * cam.baseline;
-  const Eigen::Vector3d a((c.now.xl - cam.cx) / cam.f, (c.now.y - cam.cy) / cam.f, 1.0);
-  const double rho = (c.now.xl - c.now.xr) / fb;
+  const Eigen::Vector3d a = cam.ray(c.now.xl, c.now.y);
+  const double rho = cam.inverseDepth(c.now.xl, c.now.xr);
   const Eigen::Vector3d v = R * a + rho * t;
   if (v.z() < kMinProjectionDepth) return out;
   const Eigen::Vector2d r(c.prev.xl - (cam.f * v.x() / v.z() + cam.cx), c.prev.y - (cam.f * v.y() / v.z() + cam.cy));
@@ -299,7 +299,7 @@ FarResidual farResidual(const RectifiedStereo& cam, const Correspondence& c, con
 }
 
 Eigen::Vector3d unitBearing(const RectifiedStereo& cam, const StereoObservation& o) {
-  return Eigen::Vector3d((o.xl - cam.cx) / cam.f, (o.y - cam.cy) / cam.f, 1.0).normalized();
+  return cam.ray(o.xl, o.y).normalized();
 }
 
 }  // namespace
@@ -319,12 +319,10 @@ FarRotationEstimate estimateFarRotation(const RectifiedStereo& cam, const std::v
   };
   // Wahba's problem on the bearings: R maximising sum b_i . (R a_i), with the older bearing freed of the
   // translation's parallax: R X_now = X_prev - t, so R a ~ a_prev - rho_prev t.
-  const double fb = cam.f * cam.baseline;
   std::vector<Eigen::Vector3d> prev_bearing(n);
   for (int i = 0; i < n; ++i) {
     const StereoObservation& o = far[i].prev;
-    const Eigen::Vector3d a((o.xl - cam.cx) / cam.f, (o.y - cam.cy) / cam.f, 1.0);
-    prev_bearing[i] = (a - (o.xl - o.xr) / fb * t).normalized();
+    prev_bearing[i] = (cam.ray(o.xl, o.y) - cam.inverseDepth(o.xl, o.xr) * t).normalized();
   }
   auto wahba = [&](const std::vector<int>& use, Eigen::Matrix3d& R) {
     Eigen::Matrix3d B = Eigen::Matrix3d::Zero();

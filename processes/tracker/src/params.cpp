@@ -77,6 +77,7 @@ TrackerParams loadTrackerParams(const Config& c) {
   readInt(c, "far_rotation/min_inliers", fr.min_inliers, 2);
   readDouble(c, "far_rotation/inlier_chi2", fr.inlier_chi2, 0.0);
   readInt(c, "far_rotation/ransac_iterations", fr.ransac_iterations, 1);
+  readDouble(c, "far_rotation/fuse_chi2", fr.fuse_chi2, 0.0);
 
   PriorParams& pr = p.prior;
   readDouble(c, "prior/cv_rotation_sigma_per_s", pr.cv_rotation_sigma_per_s, 0.0);

@@ -46,7 +46,7 @@ cv::Mat toGray(const cv::Mat& img, const cv::Size& size, const char* which) {
 
 Eigen::Vector3d TrackResult::rotationVector() const { return logSO3(rotation.toRotationMatrix()); }
 
-FusedIncrement fuseFarRotation(const TrackResult& r) {
+FusedIncrement fuseFarRotation(const TrackResult& r, double gate_chi2) {
   FusedIncrement out;
   out.rotation = r.rotation;
   out.translation = r.translation;
@@ -59,8 +59,7 @@ FusedIncrement fuseFarRotation(const TrackResult& r) {
   const Eigen::Matrix3d S = r.covariance.bottomRightCorner<3, 3>() + r.far_covariance;
   const Eigen::LDLT<Eigen::Matrix3d> ldlt(S);
   if (ldlt.info() != Eigen::Success) return out;
-  // Gate: chi-square, 3 dof, 99.9 %.
-  if (!(residual.dot(ldlt.solve(residual)) < 16.27)) return out;
+  if (!(residual.dot(ldlt.solve(residual)) < gate_chi2)) return out;
   const Eigen::Matrix<double, 6, 3> K = r.covariance.rightCols<3>() * ldlt.solve(Eigen::Matrix3d::Identity());
   const Eigen::Matrix<double, 6, 1> dx = K * residual;
   out.translation = r.translation + dx.head<3>();
@@ -136,8 +135,8 @@ std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matri
   const double fb = stereo_.f * stereo_.baseline;
   const StereoFeatures& fs = ref_->features;
   for (size_t i = 0; i < out.size(); ++i) {
-    const Eigen::Vector3d a((fs.xl[i] - stereo_.cx) / stereo_.f, (fs.y[i] - stereo_.cy) / stereo_.f, 1.0);
-    const double rho = (fs.xl[i] - fs.xr[i]) / fb;
+    const Eigen::Vector3d a = stereo_.ray(fs.xl[i], fs.y[i]);
+    const double rho = stereo_.inverseDepth(fs.xl[i], fs.xr[i]);
     const Eigen::Vector3d v = m.R.transpose() * (a - rho * m.t);
     Prediction& q = out[i];
     // Behind the camera or nearer than 5 cm (v_z / rho is the depth): nothing to search.

@@ -22,6 +22,10 @@ struct RectifiedStereo {
 
   // Point in the rectified left camera from a left pixel (xl, y) and the right column xr (same row).
   Eigen::Vector3d triangulate(double xl, double y, double xr) const;
+  // The same point in inverse depth, defined also at infinity (disparity 0) and beyond (noise): X = ray / rho with
+  // ray = ((xl - cx) / f, (y - cy) / f, 1) and rho = (xl - xr) / (f b).
+  Eigen::Vector3d ray(double xl, double y) const { return {(xl - cx) / f, (y - cy) / f, 1.0}; }
+  double inverseDepth(double xl, double xr) const { return (xl - xr) / (f * baseline); }
   // Projection into left (x, y) and right (x) of a point in the rectified left camera.
   Eigen::Vector3d project(const Eigen::Vector3d& p) const;
   // d project / d point at p.

@@ -72,6 +72,7 @@ struct FarRotationParams {
   int min_inliers = 8;          // fewer far inliers: no far rotation for this pair
   double inlier_chi2 = 9.21;    // Mahalanobis gate of a far point's 2-D residual (2 dof, 99 %)
   int ransac_iterations = 100;  // upper bound over 2-point rotations (adaptive stop at 99.9 %)
+  double fuse_chi2 = 16.27;     // fuseFarRotation's gate on the two rotations' difference (3 dof, 99.9 %)
 };
 
 struct PriorParams {

@@ -79,15 +79,15 @@ struct TrackResult {
 };
 
 // The 6-DoF increment updated with the far rotation as a measurement of its rotation (a Kalman update on the 6-vector
-// [t, r], gated at chi-square 3 dof 99.9 %), for chains of increments without a filter (track_log, the tracker-only
-// trajectory). Returns the increment unchanged when either part is invalid or the gate refuses the far rotation.
+// [t, r], gated at gate_chi2, FarRotationParams::fuse_chi2), for chains of increments without a filter (track_log,
+// tracker_sim_eval). Returns the increment unchanged when either part is invalid or the gate refuses the far rotation.
 struct FusedIncrement {
   bool far_used = false;
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
   Matrix6d covariance = Matrix6d::Identity();
 };
-FusedIncrement fuseFarRotation(const TrackResult& r);
+FusedIncrement fuseFarRotation(const TrackResult& r, double gate_chi2);
 
 // Running counts of how often the prediction was right, since construction or reset().
 struct PredictionStats {
