@@ -15,6 +15,7 @@
 #include "ips/filter/params.hpp"
 #include "ips/framework/channels.hpp"
 #include "ips/framework/filter_state_layout.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
@@ -135,14 +136,11 @@ class FilterProcess {
     d.utime_prev = m.utime_prev;
     d.valid = m.valid;
     d.far_valid = m.far_valid;
-    d.far_rotation =
-        Eigen::Quaterniond(m.far_rotation[0], m.far_rotation[1], m.far_rotation[2], m.far_rotation[3]).normalized();
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) d.far_covariance(i, j) = m.far_rotation_covariance[i * 3 + j];
+    d.far_rotation = ips::fw::quaternionFromArray(m.far_rotation).normalized();
+    d.far_covariance = ips::fw::matrixFromArray<3>(m.far_rotation_covariance);
     d.translation = Eigen::Vector3d(m.translation[0], m.translation[1], m.translation[2]);
-    d.rotation = Eigen::Quaterniond(m.rotation[0], m.rotation[1], m.rotation[2], m.rotation[3]).normalized();
-    for (int i = 0; i < 6; ++i)
-      for (int j = 0; j < 6; ++j) d.covariance(i, j) = m.covariance[i * 6 + j];
+    d.rotation = ips::fw::quaternionFromArray(m.rotation).normalized();
+    d.covariance = ips::fw::matrixFromArray<6>(m.covariance);
     est_.addTrackerDelta(d);
     publishOutputs();
   }
