@@ -347,7 +347,7 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   const double t = (frame.utime_true - scenario_.start_utime) * 1e-6;
   const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
   const std::vector<SceneRenderer::CamQuad> quads[2] = {scene_.prepare(head_.cam0InWorld(T_world_imu)),
-                                                        scene_.prepare(head_.cam1InWorld(T_world_imu))};
+                                                        scene_.prepare(head_.cam1InWorld(T_world_imu, t))};
   SceneRenderer::Buffers buf[2];
   for (int c = 0; c < 2; ++c) {
     buf[c].z.assign(static_cast<size_t>(raw_[c].width) * raw_[c].height, std::numeric_limits<float>::infinity());
@@ -377,7 +377,8 @@ cv::Mat StereoRenderer::rectifiedDepth(double t, int camera) const {
   const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
   Eigen::Isometry3d T_cam_rect = Eigen::Isometry3d::Identity();
   T_cam_rect.linear() = (camera == 0 ? rect_.R_rect0_cam0 : rect_.R_rect1_cam1).transpose();
-  const Eigen::Isometry3d T_world_cam = camera == 0 ? head_.cam0InWorld(T_world_imu) : head_.cam1InWorld(T_world_imu);
+  const Eigen::Isometry3d T_world_cam =
+      camera == 0 ? head_.cam0InWorld(T_world_imu) : head_.cam1InWorld(T_world_imu, t);
   cv::Mat depth;
   scene_.render(rect_view_, T_world_cam * T_cam_rect, nullptr, &depth);
   return depth;

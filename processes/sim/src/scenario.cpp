@@ -89,6 +89,9 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "camera/focal_ratio_right", cam.focal_ratio_right);
   get(c, "camera/relative_rotation_deg", cam.relative_rotation_deg);
   get(c, "camera/baseline_offset_m", cam.baseline_offset_m);
+  get(c, "camera/relative_rotation_step_deg", cam.relative_rotation_step_deg);
+  get(c, "camera/relative_rotation_step_s", cam.relative_rotation_step_s);
+  get(c, "camera/relative_rotation_drift_deg_per_min", cam.relative_rotation_drift_deg_per_min);
   get(c, "camera/noise_sigma", cam.noise_sigma);
   get(c, "camera/gain_left_db", cam.gain_left_db);
   get(c, "camera/gain_right_db", cam.gain_right_db);
@@ -200,6 +203,9 @@ void Scenario::validate() const {
   require(camera.noise_sigma >= 0, "camera/noise_sigma must not be negative");
   require(camera.latency_us >= 0 && imu.latency_us >= 0 && tilt.latency_us >= 0, "latency_us must not be negative");
   require(camera.near_m > 0, "camera/near_m must be positive");
+  require(camera.relative_rotation_step_deg.norm() < 5 && camera.relative_rotation_drift_deg_per_min.norm() < 5 &&
+              camera.relative_rotation_step_s >= 0,
+          "camera/relative_rotation_step_deg and _drift_deg_per_min must be below 5 deg, the step time not negative");
   require(imu.rate_hz > 0 && imu.rate_hz <= 10000, "imu/rate_hz must be in (0, 10000]");
   require(tilt.rate_hz > 0 && tilt.rate_hz <= 1000, "tilt/rate_hz must be in (0, 1000]");
   require(tilt.time_constant_s >= 0, "tilt/time_constant_s must not be negative");

@@ -55,7 +55,17 @@ SensorHead SensorHead::make(const Scenario& s) {
   head.R_tilt_imu = smallRotation(rng, s.tilt.misalignment_deg * kDeg) * R_imu_head.transpose();
   cal.T_imu_cam0 = head.T_imu_cam0;
   cal.R_tilt_cam0 = head.R_tilt_imu * head.T_imu_cam0.linear();
+  head.cam1_step = c.relative_rotation_step_deg * kDeg;
+  head.cam1_step_s = c.relative_rotation_step_s;
+  head.cam1_drift_per_s = c.relative_rotation_drift_deg_per_min * kDeg / 60.0;
   return head;
+}
+
+Eigen::Matrix3d SensorHead::cam1Turn(double t) const {
+  const Eigen::Vector3d r =
+      cam1_drift_per_s * std::max(t, 0.0) + (t >= cam1_step_s ? cam1_step : Eigen::Vector3d::Zero());
+  if (r.norm() == 0) return Eigen::Matrix3d::Identity();
+  return Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
 }
 
 StereoCalibration SensorHead::calibrationForProcesses(const Scenario& s) const {

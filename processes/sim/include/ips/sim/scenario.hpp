@@ -25,7 +25,14 @@ struct CameraFigures {
   double focal_ratio_right = 1.004;                       // fx_right / fx_left
   Eigen::Vector3d relative_rotation_deg{0.3, -0.5, 0.4};  // rotation vector of cam1 against cam0 [deg]
   Eigen::Vector3d baseline_offset_m{0.0, 0.002, -0.003};  // y, z offset of cam1's centre besides the baseline
-  double noise_sigma = 1.5;                               // [grey levels] sensor noise of each pixel
+  // The right camera turning about its own centre after calibration, which the processes are not told: a step
+  // (a knock) of relative_rotation_step_deg at relative_rotation_step_s, and a drift (temperature) of
+  // relative_rotation_drift_deg_per_min from the start. Rotation vectors in the right camera's frame; zero: the head
+  // stays as calibrated.
+  Eigen::Vector3d relative_rotation_step_deg{0.0, 0.0, 0.0};
+  double relative_rotation_step_s = 0.0;
+  Eigen::Vector3d relative_rotation_drift_deg_per_min{0.0, 0.0, 0.0};
+  double noise_sigma = 1.5;  // [grey levels] sensor noise of each pixel
   double gain_left_db = 0.0;
   double gain_right_db = 0.4;  // gain difference of the right camera
   double exposure_us = 4000.0;

@@ -18,6 +18,10 @@ struct SensorHead {
   Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_cam0_cam1 = Eigen::Isometry3d::Identity();
   Eigen::Matrix3d R_tilt_imu = Eigen::Matrix3d::Identity();
+  // The right camera's turn after calibration (CameraFigures::relative_rotation_step_deg, _drift_deg_per_min) [rad].
+  Eigen::Vector3d cam1_step = Eigen::Vector3d::Zero();
+  double cam1_step_s = 0;
+  Eigen::Vector3d cam1_drift_per_s = Eigen::Vector3d::Zero();
 
   // Intrinsics from the camera figures; the IMU and tilt misalignments are drawn from the seed.
   static SensorHead make(const Scenario& scenario);
@@ -26,9 +30,14 @@ struct SensorHead {
   StereoCalibration calibrationForProcesses(const Scenario& scenario) const;
   // Pose of camera 0 / camera 1 in the world when the body is at T_world_imu.
   Eigen::Isometry3d cam0InWorld(const Eigen::Isometry3d& T_world_imu) const { return T_world_imu * T_imu_cam0; }
-  Eigen::Isometry3d cam1InWorld(const Eigen::Isometry3d& T_world_imu) const {
-    return T_world_imu * T_imu_cam0 * T_cam0_cam1;
+  // t [s] since the scenario start: the right camera as turned by then.
+  Eigen::Isometry3d cam1InWorld(const Eigen::Isometry3d& T_world_imu, double t) const {
+    Eigen::Isometry3d turned = Eigen::Isometry3d::Identity();
+    turned.linear() = cam1Turn(t);
+    return T_world_imu * T_imu_cam0 * T_cam0_cam1 * turned;
   }
+  // Rotation of the right camera at t against its calibrated orientation (R_cam1calibrated_cam1now).
+  Eigen::Matrix3d cam1Turn(double t) const;
 };
 
 // Sample time k of a sensor at rate_hz: integer microseconds, exactly reproducible.
