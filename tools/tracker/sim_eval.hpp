@@ -5,6 +5,7 @@
 // simulation test.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <chrono>
 #include <functional>
 #include <string>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/trajectory.hpp"
 #include "ips/sim/world.hpp"
+#include "ips/tracker/epipolar_integrity.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
 namespace ips::tracker::tools {
@@ -92,6 +94,51 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
     prev_utime = f.utime_stamp;
   }
   return out;
+}
+
+// One pair of the epipolar integrity monitor on the simulated head (runIntegrityOnSimulation).
+struct SimIntegrityFrame {
+  int64_t frame = 0;
+  double t = 0;                                     // [s] since the scenario start
+  const sim::StereoFrame* pair = nullptr;           // the raw pair (with its true disparity when asked for)
+  const IntegrityStatus* status = nullptr;          // the monitor after this pair
+  const StereoCalibration* told = nullptr;          // the calibration the tracker was given
+  Eigen::Vector3d truth = Eigen::Vector3d::Zero();  // the rotation the right camera's turn needs (monitor's frame)
+  double monitor_ms = 0;                            // the row search and the monitor's update of this pair (one core)
+};
+
+// The tracker and its epipolar integrity monitor on a scenario whose right camera may turn (CameraFigures::
+// relative_rotation_step_deg, _drift_deg_per_min), frames 0 .. floor(duration * rate) with the constant-velocity
+// prior; the monitor's corrections go to the tracker as in the tracker process. The truth is the turn alone, in the
+// rectified right frame of the calibration the tracker got (with a perturbed one, the calibration's own error is on
+// top of it). `with_disparity(k)`: render frame k's true disparity too.
+inline void runIntegrityOnSimulation(const sim::Scenario& sc, double duration_s, const TrackerParams& params,
+                                     const IntegrityParams& integrity,
+                                     const std::function<bool(int64_t)>& with_disparity,
+                                     const std::function<void(const SimIntegrityFrame&)>& each) {
+  const sim::World world = sim::World::build(sc.world, sc.seed);
+  const sim::SensorHead head = sim::SensorHead::make(sc);
+  const sim::Trajectory traj(sc.trajectory, sc.gravity);
+  const sim::StereoRenderer renderer(sc, world, head, traj);
+  const StereoCalibration told = head.calibrationForProcesses(sc);
+  StereoTracker tracker(told, params);
+  EpipolarMonitor monitor(tracker.rectification(), integrity);
+  const Eigen::Matrix3d R_rect1_cam1 = tracker.rectification().R_rect1_cam1;
+  const int64_t frames = int64_t(std::floor(duration_s * sc.camera.rate_hz)) + 1;
+  for (int64_t k = 0; k < frames; ++k) {
+    const sim::StereoFrame f = renderer.render(k, with_disparity && with_disparity(k));
+    SimIntegrityFrame out;
+    out.frame = k;
+    out.t = (f.utime_true - sc.start_utime) * 1e-6;
+    tracker.process(f.utime_stamp, f.left, f.right);
+    const auto t0 = std::chrono::steady_clock::now();
+    out.status = &monitorPair(monitor, tracker, f.utime_stamp);
+    out.monitor_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    out.pair = &f;
+    out.told = &told;
+    out.truth = R_rect1_cam1 * logSO3(head.cam1Turn(out.t));
+    each(out);
+  }
 }
 
 }  // namespace ips::tracker::tools

@@ -117,7 +117,8 @@ void saveCalibration(const std::string& path, const StereoCalibration& c,
   if (write_more) write_more(fs);
 }
 
-StereoRectification computeRectification(const StereoCalibration& c, double alpha) {
+StereoRectification computeRectification(const StereoCalibration& c, double alpha,
+                                         const RightCameraCorrection& right_correction) {
   StereoRectification out;
   out.size = cv::Size(c.cam0.width, c.cam0.height);
   cv::Mat R1, R2, P1, P2, Q;
@@ -140,6 +141,15 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
   out.baseline = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
   cv::cv2eigen(R1, out.R_rect0_cam0);
   cv::cv2eigen(R2, out.R_rect1_cam1);
+  CameraIntrinsics cam1 = c.cam1;
+  if (!right_correction.isZero()) {
+    const Eigen::Vector3d& w = right_correction.rotation;
+    if (w.norm() > 0)
+      out.R_rect1_cam1 = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * out.R_rect1_cam1;
+    R2 = toCv(out.R_rect1_cam1);
+    cam1.K(0, 0) *= 1 + right_correction.focal_scale;
+    cam1.K(1, 1) *= 1 + right_correction.focal_scale;
+  }
   auto maps = [&](const CameraIntrinsics& cam, const cv::Mat& R, const cv::Mat& P, cv::Mat& mx, cv::Mat& my) {
     if (fisheye)
       cv::fisheye::initUndistortRectifyMap(cam.cvK(), cam.cvDistortion(), R, P, out.size, CV_32FC1, mx, my);
@@ -147,13 +157,14 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
       cv::initUndistortRectifyMap(cam.cvK(), cam.cvDistortion(), R, P, out.size, CV_32FC1, mx, my);
   };
   maps(c.cam0, R1, P1, out.map0x, out.map0y);
-  maps(c.cam1, R2, P2, out.map1x, out.map1y);
+  maps(cam1, R2, P2, out.map1x, out.map1y);
   return out;
 }
 
-StereoRectification scaledRectification(const StereoCalibration& calib, double scale) {
+StereoRectification scaledRectification(const StereoCalibration& calib, double scale,
+                                        const RightCameraCorrection& right_correction) {
   if (!(scale > 0 && scale <= 1)) throw std::invalid_argument("scaledRectification: scale must be in (0, 1]");
-  StereoRectification rect = computeRectification(calib);
+  StereoRectification rect = computeRectification(calib, 0.0, right_correction);
   if (scale == 1.0) return rect;
   const cv::Size size(static_cast<int>(std::lround(rect.size.width * scale)),
                       static_cast<int>(std::lround(rect.size.height * scale)));
@@ -180,6 +191,26 @@ void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv:
                  cv::Mat& out1) {
   cv::remap(raw0, out0, rect.map0x, rect.map0y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
   cv::remap(raw1, out1, rect.map1x, rect.map1y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+}
+
+bool RightCorrectionSchedule::add(int64_t decided_utime, const RightCameraCorrection& correction) {
+  if (!entries_.empty() && decided_utime <= entries_.back().first) return false;
+  entries_.emplace_back(decided_utime, correction);
+  return true;
+}
+
+RightCameraCorrection RightCorrectionSchedule::forPair(int64_t utime) const {
+  RightCameraCorrection c;
+  for (const auto& [decided, correction] : entries_)
+    if (decided < utime) c = correction;
+  return c;
+}
+
+void RightCorrectionSchedule::dropBefore(int64_t utime) {
+  size_t keep_from = 0;
+  for (size_t i = 0; i < entries_.size(); ++i)
+    if (entries_[i].first < utime) keep_from = i;
+  entries_.erase(entries_.begin(), entries_.begin() + static_cast<std::ptrdiff_t>(keep_from));
 }
 
 }  // namespace ips

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "ips/tracker/epipolar_integrity.hpp"
+
 namespace ips::tracker {
 
 bool normalizedPatch(const cv::Mat& gray8, int x, int y, int half, double min_std, float* out) {
@@ -153,6 +155,54 @@ StereoFeatures matchAlongRows(const cv::Mat& left8, const cv::Mat& right8, const
     const float xr = xr_int + parabolaPeak(ncc[best - 1], ncc[best], ncc[best + 1]);
     if (xl - xr < p.min_disparity) continue;
     out.push(xl, y, xr, xr_int, ncc[best], tmpl.data(), right_patch.data());
+  }
+  return out;
+}
+
+std::vector<VerticalMatch> matchAcrossRows(const cv::Mat& left8, const cv::Mat& right8,
+                                           const std::vector<Corner>& corners, const MatcherParams& m,
+                                           const IntegrityParams& p) {
+  checkPair(left8, right8, "matchAcrossRows");
+  if (m.ncc_half_window < 1 || m.max_disparity < m.min_disparity || p.search_rows < 1)
+    throw std::invalid_argument("matchAcrossRows: bad window, disparity range or band");
+  const int h = m.ncc_half_window, n = (2 * h + 1) * (2 * h + 1), band = 2 * p.search_rows + 1;
+  const int w = right8.cols, rows = right8.rows;
+  std::vector<float> tmpl(n), ncc;
+  std::vector<std::vector<float>> grid(band);  // correlation per band row and candidate column
+  RowScratch scratch;
+  std::vector<VerticalMatch> out;
+  for (const Corner& c : corners) {
+    const int xl = c.xi, y = c.yi;
+    if (y - p.search_rows - h < 0 || y + p.search_rows + h >= rows) continue;
+    if (!normalizedPatch(left8, xl, y, h, m.min_patch_std, tmpl.data())) continue;
+    const int x_lo = std::max(h, int(std::floor(xl - m.max_disparity)));
+    const int x_hi = std::min(w - 1 - h, int(std::ceil(xl - m.min_disparity)));
+    const int nc = x_hi - x_lo + 1;
+    if (nc < 3) continue;
+    int best_r = 0, best_k = 0;
+    float best = -2.f;
+    for (int r = 0; r < band; ++r) {
+      rowCorrelation(right8, y - p.search_rows + r, x_lo, nc, h, tmpl.data(), scratch, grid[r]);
+      const int k = argmax(grid[r]);
+      if (grid[r][k] > best) best = grid[r][k], best_r = r, best_k = k;
+    }
+    if (best < p.min_ncc) continue;
+    // On the band's or the range's edge the peak may lie outside them.
+    if (best_r == 0 || best_r == band - 1 || best_k == 0 || best_k == nc - 1) continue;
+    // Unique in both directions: along an edge the correlation is flat, and a corner on a near-vertical edge would
+    // give any row of the band.
+    float second = -1.f;
+    for (int r = 0; r < band; ++r)
+      for (int k = 0; k < nc; ++k)
+        if (std::abs(k - best_k) > 1 || std::abs(r - best_r) > 1) second = std::max(second, grid[r][k]);
+    if (best - second < p.uniqueness) continue;
+    VerticalMatch vm;
+    vm.xl = float(xl);
+    vm.y = float(y);
+    vm.xr = x_lo + best_k + parabolaPeak(grid[best_r][best_k - 1], best, grid[best_r][best_k + 1]);
+    vm.dy = best_r - p.search_rows + parabolaPeak(grid[best_r - 1][best_k], best, grid[best_r + 1][best_k]);
+    vm.ncc = best;
+    out.push_back(vm);
   }
   return out;
 }

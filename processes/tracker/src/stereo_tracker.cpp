@@ -113,6 +113,15 @@ StereoTracker::StereoTracker(const StereoCalibration& calib, const TrackerParams
   cv::convertMaps(rect_.map1x, rect_.map1y, map1a_, map1b_, CV_16SC2);
 }
 
+void StereoTracker::setRightCorrection(const RightCameraCorrection& correction) {
+  const StereoRectification rect = computeRectification(calib_, params_.rectification_alpha, correction);
+  rect_.R_rect1_cam1 = rect.R_rect1_cam1;
+  rect_.map1x = rect.map1x;
+  rect_.map1y = rect.map1y;
+  cv::convertMaps(rect_.map1x, rect_.map1y, map1a_, map1b_, CV_16SC2);
+  right_correction_ = correction;
+}
+
 void StereoTracker::reset() {
   ref_.reset();
   cur_ = std::make_shared<Frame>();
@@ -200,7 +209,8 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
 
   t0 = Clock::now();
   const int margin = params_.detector.border + params_.matcher.ncc_half_window + 1;
-  const std::vector<Corner> corners = detectCorners(cur_->left, params_.detector, margin);
+  cur_->corners = detectCorners(cur_->left, params_.detector, margin);
+  const std::vector<Corner>& corners = cur_->corners;
   res.num_features = int(corners.size());
   res.times.detect = msSince(t0);
 

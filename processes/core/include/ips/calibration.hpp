@@ -7,9 +7,12 @@
 // A transform named T_a_b maps a point from frame b into frame a: X_a = T_a_b * X_b.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <functional>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace ips {
 
@@ -66,14 +69,48 @@ struct StereoRectification {
   cv::Mat map0x, map0y, map1x, map1y;
 };
 
+// A correction of the right camera for a head that has changed since calibration (a knock, temperature), as the
+// epipolar integrity monitor estimates it from the vertical disparity of matched points.
+struct RightCameraCorrection {
+  // Rotation vector [rad] in the rectified right frame: R_rect1_cam1 becomes exp(rotation) * R_rect1_cam1.
+  Eigen::Vector3d rotation = Eigen::Vector3d::Zero();
+  // Relative error of the right camera's focal length: its fx and fy become (1 + focal_scale) times the file's.
+  double focal_scale = 0;
+  bool isZero() const { return rotation.isZero(0) && focal_scale == 0; }
+  bool operator==(const RightCameraCorrection& o) const {
+    return rotation == o.rotation && focal_scale == o.focal_scale;
+  }
+  bool operator!=(const RightCameraCorrection& o) const { return !(*this == o); }
+};
+
+// The corrections a consumer of pairs (E3D) has been told of, each with the stamp of the pair that decided it: a
+// pair takes the newest one decided before its own stamp, so that which rectification a pair gets depends on stamps.
+class RightCorrectionSchedule {
+ public:
+  // Returns false (and keeps nothing) for a stamp not after the newest one held: repeated or out of order.
+  bool add(int64_t decided_utime, const RightCameraCorrection& correction);
+  // The correction for a pair with this stamp (none: zero).
+  RightCameraCorrection forPair(int64_t utime) const;
+  // Forget those no later pair can take (all but the newest decided before this stamp).
+  void dropBefore(int64_t utime);
+  size_t size() const { return entries_.size(); }
+
+ private:
+  std::vector<std::pair<int64_t, RightCameraCorrection>> entries_;  // by stamp, increasing
+};
+
 // alpha as in cv::stereoRectify: 0 keeps only valid pixels, 1 keeps all source pixels.
-StereoRectification computeRectification(const StereoCalibration& calib, double alpha = 0.0);
+// A right-camera correction changes only the right camera's maps: the left rectification, f, cx, cy and the baseline
+// stay those of the calibration, so left pixels and disparities keep their meaning.
+StereoRectification computeRectification(const StereoCalibration& calib, double alpha = 0.0,
+                                         const RightCameraCorrection& right_correction = {});
 
 // The rectification of computeRectification(calib) at a reduced resolution: `scale` in (0, 1] times its size
 // (rounded), rectified pixel (u, v) at the reduced scale sampling where full-scale pixel ((u + 0.5) / scale - 0.5,
 // (v + 0.5) / scale - 0.5) samples (so raw images are still sampled once); f, cx, cy scaled alike.
 // Throws std::invalid_argument for a scale outside (0, 1].
-StereoRectification scaledRectification(const StereoCalibration& calib, double scale);
+StereoRectification scaledRectification(const StereoCalibration& calib, double scale,
+                                        const RightCameraCorrection& right_correction = {});
 
 // Remaps a raw pair into the rectified geometry on the CPU (the reference for the device stage).
 void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat& out0,

@@ -114,6 +114,10 @@ class StereoTracker {
                       const MotionPrior* prior = nullptr, const DisparityGuide* guide = nullptr);
 
   void reset();  // forget the reference pair and the constant-velocity state
+  // Rectify the right images of the following pairs with this correction of the right camera (the epipolar integrity
+  // monitor's); the left rectification, and so the reference pair, stay as they are.
+  void setRightCorrection(const RightCameraCorrection& correction);
+  const RightCameraCorrection& rightCorrection() const { return right_correction_; }
   const StereoRectification& rectification() const { return rect_; }
   const StereoCalibration& calibration() const { return calib_; }
   const RectifiedStereo& rectifiedStereo() const { return stereo_; }
@@ -124,6 +128,7 @@ class StereoTracker {
   const cv::Mat& rectifiedLeft() const { return cur_->left; }
   const cv::Mat& rectifiedRight() const { return cur_->right; }
   const StereoFeatures& features() const { return cur_->features; }
+  const std::vector<Corner>& corners() const { return cur_->corners; }  // of the last rectified left image
   // Time of the pair the next one will be measured against (0 when there is none).
   int64_t referenceTime() const { return ref_ ? ref_->utime : 0; }
 
@@ -131,6 +136,7 @@ class StereoTracker {
   struct Frame {
     int64_t utime = 0;
     cv::Mat left, right;  // rectified
+    std::vector<Corner> corners;
     StereoFeatures features;
     std::vector<Eigen::Vector3d> points;  // rectified left camera
     bool valid = false;
@@ -144,6 +150,7 @@ class StereoTracker {
   TrackerParams params_;
   StereoCalibration calib_;
   StereoRectification rect_;
+  RightCameraCorrection right_correction_;
   RectifiedStereo stereo_;
   cv::Mat map0a_, map0b_, map1a_, map1b_;  // fixed-point remap tables
   std::shared_ptr<Frame> ref_;             // the older pair of the next delta
