@@ -9,6 +9,7 @@
 #include <ips/ground_truth_t.hpp>
 #include <ips/health_t.hpp>
 #include <ips/imu_sample_t.hpp>
+#include <ips/integrity_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
@@ -77,6 +78,19 @@ int main(int argc, char** argv) {
   gt.utime = 1000;
   gt.orientation[0] = 1;
   writeMessage(dir, gt);
+  ips::integrity_t integrity{};
+  integrity.utime = 2000;
+  integrity.seq = 2;
+  integrity.state = ips::integrity_t::STATE_ALARM;
+  integrity.num_probes = 150;
+  integrity.num_points = 100;
+  integrity.pair_valid = 1;
+  integrity.correction[0] = integrity.applied[0] = 2e-3;
+  for (int i = 0; i < 4; ++i) integrity.correction_covariance[i * 5] = 1e-10;
+  integrity.certain = 1;
+  integrity.applied_utime = 1000;
+  integrity.alarms = integrity.steps = integrity.corrections = 1;
+  writeMessage(dir, integrity);
 
 #ifdef IPS_FUZZ_PROCMAN
   writeMessage(dir, ips::test_support::sampleOrders(), "fuzz_decode_procman_");

@@ -102,6 +102,29 @@ TEST(Framework, ValidateNanAndRanges) {
   EXPECT_EQ(ips::fw::validate(d).reason, "bad_time");
 }
 
+TEST(Framework, ValidateIntegrity) {
+  ips::integrity_t m{};
+  m.utime = 2000;
+  m.state = ips::integrity_t::STATE_OK;
+  m.applied[0] = 0.2 * M_PI / 180;  // a knock's correction
+  m.applied_utime = 1000;
+  EXPECT_TRUE(ips::fw::validate(m).ok());
+  m.state = 7;
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_value");
+  m.state = ips::integrity_t::STATE_ALARM;
+  m.correction_covariance[5] = std::nan("");
+  EXPECT_EQ(ips::fw::validate(m).reason, "nan");
+  m.correction_covariance[5] = 0;
+  m.applied[2] = 10 * M_PI / 180;  // no head is corrected by 10 deg: corrupt
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_value");
+  m.applied[2] = 0;
+  m.applied[3] = 0.5;
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_value");
+  m.applied[3] = 0;
+  m.applied_utime = 3000;  // decided after its own pair
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_time");
+}
+
 TEST(Framework, StreamOrderCountsGapsAndRejectsBackwards) {
   ips::fw::StreamOrder order;
   EXPECT_TRUE(order.check(100, 1).accept);

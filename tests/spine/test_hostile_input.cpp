@@ -13,6 +13,7 @@
 #include <ips/ground_truth_t.hpp>
 #include <ips/health_t.hpp>
 #include <ips/imu_sample_t.hpp>
+#include <ips/integrity_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
@@ -108,6 +109,7 @@ TEST(HostileInput, HealthPointCloudAndFixedSizeTypesNeverThrow) {
   decodeEveryHostileLength(ips::imu_sample_t{}, none);
   decodeEveryHostileLength(ips::tilt_sample_t{}, none);
   decodeEveryHostileLength(ips::tracker_delta_t{}, none);
+  decodeEveryHostileLength(ips::integrity_t{}, none);
   ips::ground_truth_t gt{};
   decodeEveryHostileLength(gt, none);
 }

@@ -49,6 +49,8 @@ class Monitor {
       sub<ips::ground_truth_t>(channel);
     else if (channel == kPoints)
       sub<ips::point_cloud_t>(channel);
+    else if (channel == kIntegrity)
+      sub<ips::integrity_t>(channel);
     else
       throw ips::ArgError("bus_monitor: no known type for channel '" + channel + "'");
   }
@@ -111,7 +113,7 @@ class Monitor {
   static int64_t seqOf(const Msg& m) {
     if constexpr (std::is_same_v<Msg, ips::stereo_pair_t> || std::is_same_v<Msg, ips::imu_sample_t> ||
                   std::is_same_v<Msg, ips::tilt_sample_t> || std::is_same_v<Msg, ips::tracker_delta_t> ||
-                  std::is_same_v<Msg, ips::disparity_map_t>)
+                  std::is_same_v<Msg, ips::disparity_map_t> || std::is_same_v<Msg, ips::integrity_t>)
       return m.seq;
     return 0;
   }

@@ -133,6 +133,21 @@ Verdict validate(const ips::health_t& m, const std::string& channel) {
   return {};
 }
 
+Verdict validate(const ips::integrity_t& m) {
+  if (m.state < ips::integrity_t::STATE_NO_DATA || m.state > ips::integrity_t::STATE_ALARM)
+    return bad("bad_value", "integrity message with unknown state " + std::to_string(m.state));
+  if (!finite(m.correction, 4) || !finite(m.correction_covariance, 16) || !finite(m.applied, 4))
+    return bad("nan", "integrity message with NaN or inf");
+  constexpr double kMaxRotationRad = 5 * M_PI / 180, kMaxFocalScale = 0.1;
+  if (std::sqrt(m.applied[0] * m.applied[0] + m.applied[1] * m.applied[1] + m.applied[2] * m.applied[2]) >
+          kMaxRotationRad ||
+      std::fabs(m.applied[3]) > kMaxFocalScale)
+    return bad("bad_value", "integrity message with an applied correction beyond 5 deg or 10 % of focal length");
+  if (m.applied_utime < 0 || m.applied_utime > m.utime)
+    return bad("bad_time", "integrity message whose correction was decided after its own pair");
+  return {};
+}
+
 Verdict validate(const ips::disparity_map_t& m) {
   if (m.width <= 0 || m.height <= 0 || m.width > kMaxImageSide || m.height > kMaxImageSide ||
       static_cast<int>(m.data.size()) != m.height)

@@ -8,6 +8,7 @@ inline constexpr const char* kTrackerDelta = "TRACKER_DELTA";  // ips::tracker_d
 inline constexpr const char* kFilterState = "FILTER_STATE";    // ips::filter_state_t, a posteriori
 inline constexpr const char* kFilterPrior = "FILTER_PRIOR";    // ips::filter_state_t, a priori at image times
 inline constexpr const char* kDisparity = "DISPARITY";         // ips::disparity_map_t
+inline constexpr const char* kIntegrity = "INTEGRITY";         // ips::integrity_t (epipolar integrity, tracker)
 inline constexpr const char* kPoints = "POINTS";               // ips::point_cloud_t
 inline constexpr const char* kGtPose = "GT_POSE";              // ips::ground_truth_t (simulator only)
 inline constexpr const char* kGtDisparity = "GT_DISPARITY";    // ips::disparity_map_t (simulator only)
