@@ -6,9 +6,12 @@
 // With process/intra_from_disparity, a pair E3D matches (seq % disparity_every_nth == 0) also waits for its
 // DISPARITY map and takes its intra-matches from it: live until disparity_wait_pairs newer pairs are pending,
 // with --queue-disparity (replay) until the map or a later one arrives, so that the replay repeats itself.
+// With integrity/enabled, every pair also goes through the epipolar integrity monitor: INTEGRITY out, and the right
+// camera's correction, once certain, used for the following pairs (and by E3D).
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
 #include <ips/imu_sample_t.hpp>
+#include <ips/integrity_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <map>
@@ -24,6 +27,7 @@
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
+#include "ips/tracker/epipolar_integrity.hpp"
 #include "ips/tracker/params.hpp"
 #include "ips/tracker/prior_builder.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
@@ -93,6 +97,35 @@ DisparityWait disparityWait(const ips::Config& cfg, bool queue) {
   return w;
 }
 
+ips::integrity_t integrityMessage(const ips::tracker::IntegrityStatus& s, int64_t seq) {
+  ips::integrity_t m{};
+  m.utime = s.utime;
+  m.seq = seq;
+  m.state = static_cast<int8_t>(s.state);
+  m.num_probes = s.num_probes;
+  m.num_points = s.num_points;
+  m.num_outliers = s.num_outliers;
+  m.dy_median_px = static_cast<float>(s.dy_median_px);
+  m.dy_rms_px = static_cast<float>(s.dy_rms_px);
+  m.pair_valid = s.pair_valid;
+  m.pair_offset_px = static_cast<float>(s.pair_offset_px);
+  m.pair_chi2 = static_cast<float>(s.pair_chi2);
+  const Eigen::Vector4d estimate = ips::tracker::toVector(s.estimate), applied = ips::tracker::toVector(s.applied);
+  for (int i = 0; i < 4; ++i) {
+    m.correction[i] = estimate[i];
+    m.applied[i] = applied[i];
+  }
+  ips::fw::matrixToArray<4>(s.covariance, m.correction_covariance);
+  m.estimate_offset_px = static_cast<float>(s.estimate_offset_px);
+  m.estimate_sigma_px = static_cast<float>(s.estimate_sigma_px);
+  m.certain = s.certain;
+  m.applied_utime = s.applied_utime;
+  m.alarms = static_cast<int32_t>(s.alarms);
+  m.steps = static_cast<int32_t>(s.steps);
+  m.corrections = static_cast<int32_t>(s.corrections);
+  return m;
+}
+
 // A DISPARITY message as the tracker's guide (the map of the pair with this seq and stamp).
 struct StoredMap {
   int64_t seq = 0;
@@ -105,6 +138,7 @@ class TrackerProcess {
                  const ips::Config& cfg, const DisparityWait& wait)
       : node_(node),
         tracker_(calib, params),
+        monitor_(tracker_.rectification(), ips::tracker::loadIntegrityParams(cfg)),
         priors_(calib.T_imu_cam0, priorBuilderParams(cfg), params.prior),
         admission_(calib.cam0.width, calib.cam0.height),
         wait_(wait) {
@@ -232,6 +266,7 @@ class TrackerProcess {
     }
     maps_.erase(maps_.begin(), maps_.upper_bound(p.utime));
     node_.health().latency(r.times.total);
+    if (monitor_.params().enabled) checkIntegrity(p);
     last_utime_ = p.utime;
     if (r.intra_guided) {
       node_.health().count("intra_matches_from_disparity", r.guided_intra.from_map);
@@ -266,8 +301,24 @@ class TrackerProcess {
     node_.publish(ips::channels::kTrackerDelta, d);
   }
 
+  void checkIntegrity(const Pending& p) {
+    const ips::tracker::IntegrityStatus& s = ips::tracker::monitorPair(monitor_, tracker_, p.utime);
+    ips::fw::Health& h = node_.health();
+    h.set("integrity_state", static_cast<int64_t>(s.state));
+    h.set("integrity_alarms", s.alarms);
+    h.set("integrity_steps", s.steps);
+    h.set("integrity_corrections", s.corrections);
+    h.set("integrity_offset_mpx", std::llround(1000 * s.estimate_offset_px));
+    if (!s.pair_valid) h.count("integrity_without_measurement");
+    if (s.applied_now)
+      IPS_WARN("epipolar integrity: the right camera has turned; pairs after "
+               << s.utime << " are rectified with the new correction (corrections so far: " << s.corrections << ")");
+    node_.publish(ips::channels::kIntegrity, integrityMessage(s, p.seq));
+  }
+
   ips::fw::Node& node_;
   ips::tracker::StereoTracker tracker_;
+  ips::tracker::EpipolarMonitor monitor_;
   ips::tracker::PriorBuilder priors_;
   ips::fw::StereoAdmission admission_;
   std::map<int64_t, Pending> pending_;
