@@ -1,11 +1,13 @@
 // e3d: dense stereo as a process. Raw STEREO pairs in; rectification and Semi-Global Matching on the Vulkan
 // device; DISPARITY out. Matching runs in a worker thread: live, it always takes the newest pair and counts
 // the ones it skipped; for replay, --every-nth N picks pairs by sequence number and --queue keeps all of
-// them, so that a log replayed twice gives the same maps.
+// them, so that a log replayed twice gives the same maps. With process/apply_integrity, the right camera's correction
+// from the tracker's epipolar integrity monitor (INTEGRITY) rectifies the pairs after the one that decided it.
 #include <chrono>
 #include <condition_variable>
 #include <deque>
 #include <ips/disparity_map_t.hpp>
+#include <ips/integrity_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <limits>
 #include <mutex>
@@ -26,24 +28,35 @@ namespace {
 // A full-size pair is about 2.8 MB: 256 queued pairs is already 700 MB, more than a deployment wants held.
 constexpr long long kMaxQueueLimit = 256;
 
+// How long a queued pair waits, at most, for the tracker's INTEGRITY of the pair before it (a tracker that stopped
+// must not stop E3D); far beyond the tracker's time per pair.
+constexpr auto kIntegrityWaitLimit = std::chrono::seconds(10);
+
 struct Job {
   int64_t utime = 0;
   int64_t seq = 0;
-  cv::Mat left, right;  // raw 8-bit copies
+  int64_t prev_utime = 0;  // the stamp of the STEREO pair before this one (selected or not)
+  cv::Mat left, right;     // raw 8-bit copies
 };
 
 class E3dProcess {
  public:
   E3dProcess(ips::fw::Node& node, const ips::StereoCalibration& calib, ips::e3d::StereoMatcher& matcher,
-             const ips::StereoRectification& rect, int every_nth, bool queue_all, size_t max_queue)
+             const ips::StereoRectification& rect, double scale, int every_nth, bool queue_all, size_t max_queue,
+             bool apply_integrity)
       : node_(node),
         matcher_(matcher),
+        calib_(calib),
+        scale_(scale),
         rect_(rect),
         every_nth_(every_nth),
         queue_all_(queue_all),
         max_queue_(max_queue),
         admission_(calib.cam0.width, calib.cam0.height) {
     node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
+    if (apply_integrity)
+      node_.subscribe<ips::integrity_t>(ips::channels::kIntegrity,
+                                        [this](const ips::integrity_t& m) { onIntegrity(m); });
     worker_ = std::thread([this] { work(); });
   }
 
@@ -63,9 +76,12 @@ class E3dProcess {
  private:
   void onStereo(const ips::stereo_pair_t& m) {
     if (!admission_.admit(m, node_.health(), node_.arrivalUs())) return;
+    const int64_t prev_utime = last_stereo_utime_;
+    last_stereo_utime_ = m.utime;
     if (every_nth_ > 1 && m.seq % every_nth_ != 0) return;  // not selected: neither work nor loss
     node_.health().accepted();
-    Job job{m.utime, m.seq, ips::fw::mono8Copy(ips::fw::leftImage(m)), ips::fw::mono8Copy(ips::fw::rightImage(m))};
+    Job job{m.utime, m.seq, prev_utime, ips::fw::mono8Copy(ips::fw::leftImage(m)),
+            ips::fw::mono8Copy(ips::fw::rightImage(m))};
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!queue_all_) {
@@ -81,6 +97,48 @@ class E3dProcess {
     cv_.notify_one();
   }
 
+  void onIntegrity(const ips::integrity_t& m) {
+    const ips::fw::Verdict v = ips::fw::validate(m);
+    if (!v.ok()) return node_.health().bad(v.reason, "integrity: " + v.detail);
+    ips::RightCameraCorrection c;
+    c.rotation = Eigen::Vector3d(m.applied[0], m.applied[1], m.applied[2]);
+    c.focal_scale = m.applied[3];
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      integrity_seen_utime_ = std::max(integrity_seen_utime_, m.utime);
+      // Every INTEGRITY message repeats the correction in use: only a newly decided one is news.
+      if (m.applied_utime > corrections_newest_) {
+        corrections_newest_ = m.applied_utime;
+        corrections_.add(m.applied_utime, c);
+      }
+    }
+    cv_.notify_all();
+  }
+
+  // With every pair kept (replay), a pair waits for the tracker's INTEGRITY of the pair before it, once a tracker
+  // has sent any: which correction a pair is matched with then depends on stamps, not on which process was faster,
+  // and a replay repeats the live run. Live, the newest pair goes with what has arrived.
+  bool integrityReady(const Job& job) const {
+    return !queue_all_ || integrity_seen_utime_ == 0 || integrity_seen_utime_ >= job.prev_utime;
+  }
+
+  // Before matching a pair: the rectification of the newest correction decided before it.
+  void rectifyFor(int64_t utime) {
+    ips::RightCameraCorrection c;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      c = corrections_.forPair(utime);
+      corrections_.dropBefore(utime);
+    }
+    if (c == in_use_) return;
+    rect_ = ips::scaledRectification(calib_, scale_, c);
+    matcher_.setRectification(rect_, cv::Size(calib_.cam0.width, calib_.cam0.height));
+    in_use_ = c;
+    node_.health().count("integrity_corrections_applied");
+    IPS_INFO("rectifying with the right camera's correction (rotation " << c.rotation.norm() * 180 / M_PI
+                                                                        << " deg) from pair " << utime << " on");
+  }
+
   void work() {
     for (;;) {
       Job job;
@@ -88,11 +146,14 @@ class E3dProcess {
         std::unique_lock<std::mutex> lock(mutex_);
         cv_.wait(lock, [this] { return stopping_ || !jobs_.empty(); });
         if (jobs_.empty()) return;
+        if (!cv_.wait_for(lock, kIntegrityWaitLimit, [this] { return stopping_ || integrityReady(jobs_.front()); }))
+          node_.health().count("integrity_wait_timeout");
         job = std::move(jobs_.front());
         jobs_.pop_front();
         node_.health().queueLength(static_cast<int>(jobs_.size()));
       }
       try {
+        rectifyFor(job.utime);
         ips::e3d::MatchOutput out = matcher_.matchRaw(job.left, job.right);
         node_.health().latency(out.total_ms);
         publish(job, out.disparity);
@@ -127,7 +188,14 @@ class E3dProcess {
 
   ips::fw::Node& node_;
   ips::e3d::StereoMatcher& matcher_;
+  ips::StereoCalibration calib_;
+  double scale_;
   ips::StereoRectification rect_;
+  ips::RightCorrectionSchedule corrections_;  // guarded by mutex_
+  int64_t corrections_newest_ = 0;            // guarded by mutex_
+  int64_t integrity_seen_utime_ = 0;          // guarded by mutex_: the newest INTEGRITY's pair
+  int64_t last_stereo_utime_ = 0;             // LCM thread only
+  ips::RightCameraCorrection in_use_;         // worker only
   int every_nth_;
   bool queue_all_;
   size_t max_queue_;
@@ -177,7 +245,8 @@ int main(int argc, char** argv) {
     ips::e3d::StereoMatcher matcher(ctx, rect.size, params);
     matcher.setRectification(rect, cv::Size(calib.cam0.width, calib.cam0.height));
     ips::fw::Node node("e3d", args.get("--lcm-url"));
-    E3dProcess process(node, calib, matcher, rect, every_nth, queue_all, max_queue);
+    E3dProcess process(node, calib, matcher, rect, scale, every_nth, queue_all, max_queue,
+                       cfg.getBool("process/apply_integrity", true));
     IPS_INFO("matching " << rect.size.width << "x" << rect.size.height << " on " << ctx.info().name << ", "
                          << params.describe());
     const int rc = node.run();
