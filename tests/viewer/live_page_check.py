@@ -91,6 +91,19 @@ try:
     wait(first, "the mapper's georeferenced points reach the 3D view", lambda s: s['mapPoints'] > 1000)
     wait(first, 'the health table lists every process live: ' + a.processes,
          lambda s: set(processes) <= {r['process'] for r in s['healthRows'] if not r['stale']})
+    # The tracker's epipolar integrity shows in its row: the state (1: rows match) and the counters.
+    integrity_cell = (
+        "const head = [...document.querySelectorAll('#health thead th')].map(e => e.textContent);"
+        "const row = [...document.querySelectorAll('#health tbody tr')].find(r => r.cells[0].textContent === 'tracker');"
+        "return row ? row.cells[head.indexOf('integrity')].textContent : '';")
+    end = time.time() + a.deadline_s
+    while 'state 1' not in driver.execute_script(integrity_cell) and time.time() < end:
+        time.sleep(0.2)
+    cell = driver.execute_script(integrity_cell)
+    if 'state 1' not in cell or 'alarms 0' not in cell:
+        fail(f"the tracker's integrity column does not show rows matching without alarms: '{cell}'")
+    else:
+        print('ok: the tracker row shows its epipolar integrity:', cell)
     # The second tab (a second browser on the same viewer) gets the same stream.
     wait(second, 'a second browser gets pictures and trajectory too',
          lambda s: s['imageUpdates'] >= 1 and all(s['trajectoryPoints'].get(n, 0) >= 10 for n in sources))
