@@ -6,6 +6,8 @@
 #include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
+#include <stdexcept>
+#include <utility>
 
 #include "ips/sim/rng.hpp"
 
@@ -27,6 +29,19 @@ View View::pinhole(const Eigen::Matrix3d& K, cv::Size size) {
       v.rx[i] = static_cast<float>((x - K(0, 2) - K(0, 1) * yn) / K(0, 0));
       v.ry[i] = static_cast<float>(yn);
     }
+  v.computeTiles();
+  return v;
+}
+
+View View::fromRays(int width, int height, double focal, std::vector<float> rx, std::vector<float> ry) {
+  if (width <= 0 || height <= 0 || rx.size() != static_cast<size_t>(width) * height || ry.size() != rx.size())
+    throw std::invalid_argument("View::fromRays: need width * height rays");
+  View v;
+  v.width = width;
+  v.height = height;
+  v.focal = focal;
+  v.rx = std::move(rx);
+  v.ry = std::move(ry);
   v.computeTiles();
   return v;
 }

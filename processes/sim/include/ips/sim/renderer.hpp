@@ -29,6 +29,8 @@ struct View {
   static View pinhole(const Eigen::Matrix3d& K, cv::Size size);
   // A real lens: each pixel's ray from undistorting its centre (OpenCV model).
   static View distorted(const CameraIntrinsics& camera);
+  // Any pixel layout (a polar rectification's): rays (rx, ry, 1) per pixel, row-major, width * height of them.
+  static View fromRays(int width, int height, double focal, std::vector<float> rx, std::vector<float> ry);
 
  private:
   void computeTiles();
