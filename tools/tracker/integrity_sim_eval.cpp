@@ -14,6 +14,7 @@
 #include <memory>
 
 #include "common.hpp"
+#include "e3d_scorer.hpp"
 #include "ips/e3d/sgm.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
@@ -25,8 +26,7 @@ using namespace ips::tracker;
 namespace {
 
 constexpr double kDeg = M_PI / 180;
-constexpr double kBadDisparityPx = 2.0;  // bad 2.0, at full resolution
-constexpr double kSettleS = 10.0;        // figures after the start and after a step are taken once this has passed
+constexpr double kSettleS = 10.0;  // figures after the start and after a step are taken once this has passed
 
 struct Score {
   double bad2_pct = 0, density_pct = 0;
@@ -38,52 +38,6 @@ struct Score {
   }
   double bad2() const { return maps ? bad2_pct / maps : 0; }
   double density() const { return maps ? density_pct / maps : 0; }
-};
-
-// E3D at the config's scale with a given right-camera correction, scored against the true disparity (full resolution,
-// 0 = nothing seen) as the main job's report scores it: at E3D's scale, bad when invalid or more than 2 px
-// (full-resolution px) off.
-class E3dScorer {
- public:
-  E3dScorer(const StereoCalibration& calib, const std::string& config) : calib_(calib) {
-    const Config cfg(config);
-    params_ = e3d::SgmParams::fromConfig(cfg.has("sgm") ? cfg.section("sgm") : cfg);
-    scale_ = cfg.getDouble("process/output_scale", 1.0);
-    ctx_ = std::make_unique<e3d::VulkanContext>();
-    rect_ = scaledRectification(calib, scale_);
-    matcher_ = std::make_unique<e3d::StereoMatcher>(*ctx_, rect_.size, params_);
-    setCorrection({});
-  }
-  void setCorrection(const RightCameraCorrection& c) {
-    rect_ = scaledRectification(calib_, scale_, c);
-    matcher_->setRectification(rect_, cv::Size(calib_.cam0.width, calib_.cam0.height));
-  }
-  std::pair<double, double> score(const cv::Mat& raw0, const cv::Mat& raw1, const cv::Mat& gt_full) {
-    const cv::Mat d = matcher_->matchRaw(raw0, raw1).disparity;
-    int64_t evaluated = 0, bad = 0, valid = 0;
-    for (int r = 0; r < d.rows; ++r)
-      for (int c = 0; c < d.cols; ++c) {
-        const int16_t v = d.at<int16_t>(r, c);
-        const bool ok = v != e3d::kInvalidDisparity;
-        valid += ok;
-        // The true disparity where this map pixel samples the full-resolution image.
-        const int gr = std::min(gt_full.rows - 1, int(std::lround((r + 0.5) / scale_ - 0.5)));
-        const int gc = std::min(gt_full.cols - 1, int(std::lround((c + 0.5) / scale_ - 0.5)));
-        const float g = gt_full.at<float>(gr, gc);
-        if (!(g > 0)) continue;
-        ++evaluated;
-        if (!ok || std::abs(float(v) / e3d::kSubpixelScale / scale_ - g) > kBadDisparityPx) ++bad;
-      }
-    return {evaluated ? 100.0 * bad / evaluated : 0.0, 100.0 * valid / (double(d.rows) * d.cols)};
-  }
-
- private:
-  StereoCalibration calib_;
-  e3d::SgmParams params_;
-  double scale_ = 1;
-  StereoRectification rect_;
-  std::unique_ptr<e3d::VulkanContext> ctx_;
-  std::unique_ptr<e3d::StereoMatcher> matcher_;
 };
 
 struct SeedResult {
