@@ -25,7 +25,7 @@ namespace {
 volatile std::sig_atomic_t g_save_requested = 0;
 void onSaveRequest(int) { g_save_requested = 1; }
 
-ips::mapper::Pose toPose(int64_t utime, const ips::fw::BodyPose& b) { return {utime, b.T_world_body, b.covariance}; }
+ips::Pose toPose(int64_t utime, const ips::fw::BodyPose& b) { return {utime, b.T_world_body, b.covariance}; }
 
 // Messages in, the library's plain inputs; its frames out as POINTS.
 class MapperProcess {
@@ -65,7 +65,7 @@ class MapperProcess {
     timed([&] { return mapper_.addDisparity(in); });
   }
 
-  void onPose(const ips::mapper::Pose& p) {
+  void onPose(const ips::Pose& p) {
     // A stamp off the pose stream's time line (forged, an hour ahead) would hold every map back: refused here.
     if (!ips::fw::admitInOrder(pose_order_, p.utime, 0, node_.health(), "pose", node_.arrivalUs())) return;
     timed([&] { return mapper_.addPose(p); });

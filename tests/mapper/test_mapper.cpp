@@ -9,7 +9,6 @@
 
 #include "ips/mapper/map_eval.hpp"
 #include "ips/mapper/params.hpp"
-#include "ips/mapper/pose_buffer.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/mapper/voxel_map.hpp"
 #include "ips/sim/renderer.hpp"
@@ -105,30 +104,6 @@ TEST(MapperGeometry, RangeCutFollowsTheDepthPrecision) {
   for (const auto& p : set.points)
     if (std::abs(p.x()) < 1e-9 && std::abs(p.y()) < 1e-9) centre_found = std::abs(p.z() - 100.0 / 16) < 1e-9;
   EXPECT_TRUE(centre_found);
-}
-
-TEST(PoseBuffer, InterpolatesBetweenStatesAndSaysWhenItCannot) {
-  PoseBuffer buffer(0.1, 10.0);
-  Pose a, b, c;
-  a.utime = 1000000;
-  b.utime = 1050000;
-  b.T_world_body.translation() = Eigen::Vector3d(1, 2, 0);
-  b.T_world_body.linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  b.covariance.setIdentity();
-  c.utime = 1500000;  // 0.45 s after b: a gap
-  ASSERT_TRUE(buffer.add(a));
-  ASSERT_TRUE(buffer.add(b));
-  Pose out;
-  ASSERT_EQ(buffer.at(1010000, &out), PoseBuffer::Lookup::kFound);
-  EXPECT_TRUE(out.T_world_body.translation().isApprox(Eigen::Vector3d(0.2, 0.4, 0), 1e-12));
-  EXPECT_NEAR(Eigen::AngleAxisd(out.T_world_body.linear()).angle(), 0.04, 1e-12);
-  EXPECT_EQ(out.covariance, a.covariance) << "the nearer state's covariance";
-  EXPECT_EQ(buffer.at(1060000, &out), PoseBuffer::Lookup::kNotYet);
-  EXPECT_EQ(buffer.at(900000, &out), PoseBuffer::Lookup::kTooOld);
-  ASSERT_TRUE(buffer.add(c));
-  EXPECT_EQ(buffer.at(1200000, &out), PoseBuffer::Lookup::kGap);
-  EXPECT_FALSE(buffer.add(a)) << "time going back starts the buffer over";
-  EXPECT_EQ(buffer.newestUtime(), a.utime);
 }
 
 TEST(VoxelMap, FusesPerVoxelStaysWithinItsBoundAndRoundTrips) {

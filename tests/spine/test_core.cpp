@@ -12,6 +12,7 @@
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
 #include "ips/pfm.hpp"
+#include "ips/pose_buffer.hpp"
 
 namespace {
 
@@ -212,3 +213,27 @@ TEST(Pfm, RoundTripKeepsInfAndOrientation) {
 }
 
 }  // namespace
+
+TEST(PoseBuffer, InterpolatesBetweenStatesAndSaysWhenItCannot) {
+  ips::PoseBuffer buffer(0.1, 10.0);
+  ips::Pose a, b, c;
+  a.utime = 1000000;
+  b.utime = 1050000;
+  b.T_world_body.translation() = Eigen::Vector3d(1, 2, 0);
+  b.T_world_body.linear() = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  b.covariance.setIdentity();
+  c.utime = 1500000;  // 0.45 s after b: a gap
+  ASSERT_TRUE(buffer.add(a));
+  ASSERT_TRUE(buffer.add(b));
+  ips::Pose out;
+  ASSERT_EQ(buffer.at(1010000, &out), ips::PoseBuffer::Lookup::kFound);
+  EXPECT_TRUE(out.T_world_body.translation().isApprox(Eigen::Vector3d(0.2, 0.4, 0), 1e-12));
+  EXPECT_NEAR(Eigen::AngleAxisd(out.T_world_body.linear()).angle(), 0.04, 1e-12);
+  EXPECT_EQ(out.covariance, a.covariance) << "the nearer state's covariance";
+  EXPECT_EQ(buffer.at(1060000, &out), ips::PoseBuffer::Lookup::kNotYet);
+  EXPECT_EQ(buffer.at(900000, &out), ips::PoseBuffer::Lookup::kTooOld);
+  ASSERT_TRUE(buffer.add(c));
+  EXPECT_EQ(buffer.at(1200000, &out), ips::PoseBuffer::Lookup::kGap);
+  EXPECT_FALSE(buffer.add(a)) << "time going back starts the buffer over";
+  EXPECT_EQ(buffer.newestUtime(), a.utime);
+}

@@ -13,7 +13,7 @@
 
 #include "ips/calibration.hpp"
 #include "ips/mapper/params.hpp"
-#include "ips/mapper/pose_buffer.hpp"
+#include "ips/pose_buffer.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/mapper/voxel_map.hpp"
 #include "ips/tracker/delta_chain.hpp"

@@ -6,7 +6,7 @@
 #include <deque>
 #include <optional>
 
-namespace ips::mapper {
+namespace ips {
 
 struct Pose {
   int64_t utime = 0;
@@ -37,4 +37,4 @@ class PoseBuffer {
   std::deque<Pose> poses_;
 };
 
-}  // namespace ips::mapper
+}  // namespace ips

@@ -1,8 +1,8 @@
-#include "ips/mapper/pose_buffer.hpp"
+#include "ips/pose_buffer.hpp"
 
 #include <algorithm>
 
-namespace ips::mapper {
+namespace ips {
 
 bool PoseBuffer::add(const Pose& pose) {
   if (!poses_.empty() && pose.utime < poses_.back().utime) {
@@ -37,4 +37,4 @@ PoseBuffer::Lookup PoseBuffer::at(int64_t utime, Pose* out) const {
   return Lookup::kFound;
 }
 
-}  // namespace ips::mapper
+}  // namespace ips
