@@ -3,9 +3,12 @@
 // truth; and the same pair rectified with a pose one degree off, which the truth must find far worse.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "ips/config.hpp"
+#include "ips/e3d/mono_depth.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
 #include "ips/polar_rectification.hpp"
@@ -42,14 +45,26 @@ Figures score(const PolarRectification& P, const cv::Mat& disparity, const cv::M
   return {100.0 * bad / std::max<int64_t>(1, evaluated), 100.0 * valid / std::max<int64_t>(1, masked)};
 }
 
+// The simulated walk and the deployed E3D configuration.
+struct Walk {
+  sim::Scenario sc = sim::Scenario::defaults();
+  sim::World world = sim::World::build(sc.world, sc.seed);
+  sim::SensorHead head = sim::SensorHead::make(sc);
+  sim::Trajectory traj{sc.trajectory, sc.gravity};
+  sim::StereoRenderer renderer{sc, world, head, traj};
+  sim::SceneRenderer scene{world, sc.camera.near_m};
+  Config cfg{std::string(IPS_SOURCE_DIR) + "/config/e3d_sim.yaml"};
+  Eigen::Isometry3d pose(const sim::StereoFrame& f) const {
+    return head.cam0InWorld(traj.pose((f.utime_true - sc.start_utime) * 1e-6));
+  }
+};
+
 TEST(MonoDisparity, TwoExposuresOfTheLeftCameraAgainstTheTruth) {
-  const sim::Scenario sc = sim::Scenario::defaults();
-  const sim::World world = sim::World::build(sc.world, sc.seed);
-  const sim::SensorHead head = sim::SensorHead::make(sc);
-  const sim::Trajectory traj(sc.trajectory, sc.gravity);
-  const sim::StereoRenderer renderer(sc, world, head, traj);
-  const sim::SceneRenderer scene(world, sc.camera.near_m);
-  const Config cfg(std::string(IPS_SOURCE_DIR) + "/config/e3d_sim.yaml");
+  const Walk w;
+  const sim::SensorHead& head = w.head;
+  const sim::StereoRenderer& renderer = w.renderer;
+  const sim::SceneRenderer& scene = w.scene;
+  const Config& cfg = w.cfg;
   PolarRectificationParams polar = PolarRectificationParams::fromConfig(cfg.section("mono"));
   polar.size = cv::Size(256, 1024);  // a quarter of the deployed polar image: same geometry, coarser steps
   e3d::VulkanContext ctx;
@@ -59,10 +74,7 @@ TEST(MonoDisparity, TwoExposuresOfTheLeftCameraAgainstTheTruth) {
   // 25 s into the walk, walking ahead: frames two apart (0.19 m), the epipole inside the image.
   const int64_t k = 200, gap = 2;
   const sim::StereoFrame fa = renderer.render(k), fb = renderer.render(k + gap);
-  const auto world_pose = [&](const sim::StereoFrame& f) {
-    return head.cam0InWorld(traj.pose((f.utime_true - sc.start_utime) * 1e-6));
-  };
-  const Eigen::Isometry3d W_a = world_pose(fa), W_b = world_pose(fb);
+  const Eigen::Isometry3d W_a = w.pose(fa), W_b = w.pose(fb);
   const Eigen::Isometry3d T_a_b = W_a.inverse() * W_b;
   ASSERT_GT(T_a_b.translation().norm(), 0.1);
 
@@ -85,6 +97,38 @@ TEST(MonoDisparity, TwoExposuresOfTheLeftCameraAgainstTheTruth) {
   const Figures wrong = run(off);
   std::printf("pose 1 deg off: bad2 %.2f %% density %.2f %%\n", wrong.bad2, wrong.density);
   EXPECT_GT(wrong.bad2, good.bad2 + 10.0);
+}
+
+// MonoDepth, as the E3D process runs it with config/e3d_sim.yaml's section mono: its points lie at the true range
+// of the rays they were seen on, and a head that has hardly moved gives no map.
+TEST(MonoDisparity, MonoDepthPointsLieAtTheTrueRange) {
+  const Walk w;
+  const e3d::MonoDepthParams params = e3d::MonoDepthParams::fromConfig(w.cfg.section("mono"));
+  e3d::VulkanContext ctx;
+  e3d::MonoDepth mono(ctx, w.head.calibration.cam0, e3d::SgmParams::fromConfig(w.cfg.section("sgm")), params);
+  const int64_t k = 480;
+  const sim::StereoFrame fa = w.renderer.render(k), fb = w.renderer.render(k + params.gap_pairs);
+  const Eigen::Isometry3d W_a = w.pose(fa), W_b = w.pose(fb);
+  const e3d::MonoDepthResult r = mono.compute(fa.left, fb.left, W_a.inverse() * W_b);
+  ASSERT_TRUE(r.matched);
+  cv::Mat truth, range;
+  sim::polarDisparityTruth(mono.rectification(), w.scene, W_a, W_b, truth, range);
+  std::vector<double> errors;
+  const Eigen::Vector3d centre = mono.rectification().leftCentre();
+  for (size_t i = 0; i < r.points.size(); ++i) {
+    const float g = range.at<float>(r.pixels[i]);
+    if (std::isfinite(g)) errors.push_back(std::abs((r.points[i].cast<double>() - centre).norm() - g) / g);
+  }
+  ASSERT_GT(errors.size(), 20000u);  // of 128 x 512 sampled pixels
+  std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
+  std::printf("%zu points, median range error %.2f %%, density %.1f %%\n", r.points.size(),
+              100 * errors[errors.size() / 2], 100.0 * r.valid / r.masked);
+  EXPECT_LT(errors[errors.size() / 2], 0.02);
+  EXPECT_GT(double(r.valid) / r.masked, 0.9);
+
+  Eigen::Isometry3d still = Eigen::Isometry3d::Identity();
+  still.translation() = Eigen::Vector3d(0, 0, 0.5 * params.min_baseline_m);
+  EXPECT_FALSE(mono.compute(fa.left, fa.left, still).matched);
 }
 
 }  // namespace

@@ -1,0 +1,56 @@
+#include "ips/e3d/mono_depth.hpp"
+
+#include <cmath>
+
+namespace ips::e3d {
+
+MonoDepthParams MonoDepthParams::fromConfig(const Config& section) {
+  MonoDepthParams p;
+  p.polar = PolarRectificationParams::fromConfig(section);
+  p.gap_pairs = section.getInt("gap_pairs", p.gap_pairs);
+  p.every_nth = section.getInt("every_nth", p.every_nth);
+  p.point_step = section.getInt("point_step", p.point_step);
+  p.max_range_m = section.getDouble("max_range_m", p.max_range_m);
+  p.min_baseline_m = section.getDouble("min_baseline_m", p.min_baseline_m);
+  if (p.gap_pairs < 1) throw ConfigError(section.path() + ": mono/gap_pairs must be at least 1");
+  if (p.every_nth < 1) throw ConfigError(section.path() + ": mono/every_nth must be at least 1");
+  if (p.point_step < 1) throw ConfigError(section.path() + ": mono/point_step must be at least 1");
+  if (!(p.max_range_m > 0)) throw ConfigError(section.path() + ": mono/max_range_m must be > 0");
+  if (!(p.min_baseline_m > 0)) throw ConfigError(section.path() + ": mono/min_baseline_m must be > 0");
+  return p;
+}
+
+MonoDepth::MonoDepth(VulkanContext& ctx, const CameraIntrinsics& camera, const SgmParams& sgm,
+                     const MonoDepthParams& params)
+    : camera_(camera), params_(params), matcher_(ctx, params.polar.size, sgm) {}
+
+MonoDepthResult MonoDepth::compute(const cv::Mat& raw_a, const cv::Mat& raw_b, const Eigen::Isometry3d& T_a_b) {
+  MonoDepthResult out;
+  out.baseline_m = T_a_b.translation().norm();
+  if (out.baseline_m < params_.min_baseline_m) return out;
+  rect_ = polarRectification(camera_, T_a_b, params_.polar);
+  matcher_.setRectification(rect_.maps, cv::Size(camera_.width, camera_.height));
+  cv::Mat left;
+  const MatchOutput m = matcher_.matchRaw(rect_.left_is_b ? raw_b : raw_a, rect_.left_is_b ? raw_a : raw_b, &left);
+  out.matched = true;
+  out.left_is_b = rect_.left_is_b;
+  out.match_ms = m.total_ms;
+  const Eigen::Vector3d left_centre = rect_.leftCentre();
+  for (int v = 0; v < m.disparity.rows; ++v)
+    for (int u = 0; u < m.disparity.cols; ++u) {
+      if (!rect_.valid.at<uint8_t>(v, u)) continue;
+      ++out.masked;
+      const int16_t raw = m.disparity.at<int16_t>(v, u);
+      if (raw == kInvalidDisparity) continue;
+      ++out.valid;
+      if (u % params_.point_step != 0 || v % params_.point_step != 0) continue;
+      const Eigen::Vector3d X = rect_.triangulate(u, v, double(raw) / kSubpixelScale);
+      if (!X.allFinite() || (X - left_centre).norm() > params_.max_range_m) continue;
+      out.points.push_back(X.cast<float>());
+      out.intensity.push_back(left.at<uint8_t>(v, u));
+      out.pixels.emplace_back(u, v);
+    }
+  return out;
+}
+
+}  // namespace ips::e3d
