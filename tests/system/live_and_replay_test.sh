@@ -2,7 +2,8 @@
 # Live run, record and replay: the simulator publishes a short walk live through the real processes (tracker,
 # filter, e3d, mapper) while lcm-logger records what they publish; then the same walk, written as a log, is played
 # with lcm-logplayer through fresh processes, twice. All three recordings must hold identical tracker deltas,
-# filter states, disparity maps and map points: every process takes time from message stamps only.
+# filter states, disparity maps, map points and points from one camera: every process takes time from message stamps
+# only.
 # IPS_TRACKER_ON_E3D=1: the tracker takes its intra-matches from E3D's maps and waits for each (--queue-disparity),
 # live too; without the filter (whose reorder window a delta waiting for lavapipe's E3D would miss) and the mapper.
 set -euo pipefail
@@ -30,7 +31,7 @@ run_once() {
     "$BIN/mapper" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/mapper.yaml" --log-level warn &
     local mapper=$!
   fi
-  lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|POINTS|INTEGRITY|HEALTH_.*' -f "$out" \
+  lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|POINTS|MONO_POINTS|INTEGRITY|HEALTH_.*' -f "$out" \
     >/dev/null 2>&1 &
   local logger=$!
   sleep 2  # let every process subscribe (e3d builds its Vulkan pipeline)
@@ -61,7 +62,7 @@ run_once() {
 run_once "$WORK/live.lcmlog" live
 run_once "$WORK/run1.lcmlog"
 run_once "$WORK/run2.lcmlog"
-channels='TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|POINTS|INTEGRITY'
+channels='TRACKER_DELTA|FILTER_STATE|FILTER_PRIOR|DISPARITY|POINTS|MONO_POINTS|INTEGRITY'
 [ "$ON_E3D" = 1 ] && channels='TRACKER_DELTA|DISPARITY|INTEGRITY'
 "$BIN/log_diff" --channels "$channels" "$WORK/run1.lcmlog" "$WORK/run2.lcmlog" | tee "$WORK/diff.txt" || true
 "$BIN/log_diff" --channels "$channels" "$WORK/live.lcmlog" "$WORK/run1.lcmlog" | tee "$WORK/diff_live.txt" || true

@@ -47,7 +47,7 @@ class Monitor {
       sub<ips::disparity_map_t>(channel);
     else if (channel == kGtPose)
       sub<ips::ground_truth_t>(channel);
-    else if (channel == kPoints)
+    else if (channel == kPoints || channel == kMonoPoints)
       sub<ips::point_cloud_t>(channel);
     else if (channel == kIntegrity)
       sub<ips::integrity_t>(channel);

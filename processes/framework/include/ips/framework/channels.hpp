@@ -10,6 +10,7 @@ inline constexpr const char* kFilterPrior = "FILTER_PRIOR";    // ips::filter_st
 inline constexpr const char* kDisparity = "DISPARITY";         // ips::disparity_map_t
 inline constexpr const char* kIntegrity = "INTEGRITY";         // ips::integrity_t (epipolar integrity, tracker)
 inline constexpr const char* kPoints = "POINTS";               // ips::point_cloud_t
+inline constexpr const char* kMonoPoints = "MONO_POINTS";      // ips::point_cloud_t, depth from one camera (e3d)
 inline constexpr const char* kGtPose = "GT_POSE";              // ips::ground_truth_t (simulator only)
 inline constexpr const char* kGtDisparity = "GT_DISPARITY";    // ips::disparity_map_t (simulator only)
 inline constexpr const char* kHealthPrefix = "HEALTH_";        // + upper-case process name: ips::health_t
