@@ -119,7 +119,7 @@ TEST(MonoDisparity, MonoDepthPointsLieAtTheTrueRange) {
     const float g = range.at<float>(r.pixels[i]);
     if (std::isfinite(g)) errors.push_back(std::abs((r.points[i].cast<double>() - centre).norm() - g) / g);
   }
-  ASSERT_GT(errors.size(), 20000u);  // of 128 x 512 sampled pixels
+  ASSERT_GT(errors.size(), 10000u);  // of 128 x 512 sampled pixels, those the precision rule keeps
   std::nth_element(errors.begin(), errors.begin() + errors.size() / 2, errors.end());
   std::printf("%zu points, median range error %.2f %%, density %.1f %%\n", r.points.size(),
               100 * errors[errors.size() / 2], 100.0 * r.valid / r.masked);

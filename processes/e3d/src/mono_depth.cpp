@@ -10,12 +10,14 @@ MonoDepthParams MonoDepthParams::fromConfig(const Config& section) {
   p.gap_pairs = section.getInt("gap_pairs", p.gap_pairs);
   p.every_nth = section.getInt("every_nth", p.every_nth);
   p.point_step = section.getInt("point_step", p.point_step);
-  p.max_range_m = section.getDouble("max_range_m", p.max_range_m);
+  p.disparity_sigma_px = section.getDouble("disparity_sigma_px", p.disparity_sigma_px);
+  p.max_range_sigma_m = section.getDouble("max_range_sigma_m", p.max_range_sigma_m);
   p.min_baseline_m = section.getDouble("min_baseline_m", p.min_baseline_m);
   if (p.gap_pairs < 1) throw ConfigError(section.path() + ": mono/gap_pairs must be at least 1");
   if (p.every_nth < 1) throw ConfigError(section.path() + ": mono/every_nth must be at least 1");
   if (p.point_step < 1) throw ConfigError(section.path() + ": mono/point_step must be at least 1");
-  if (!(p.max_range_m > 0)) throw ConfigError(section.path() + ": mono/max_range_m must be > 0");
+  if (!(p.disparity_sigma_px > 0)) throw ConfigError(section.path() + ": mono/disparity_sigma_px must be > 0");
+  if (!(p.max_range_sigma_m > 0)) throw ConfigError(section.path() + ": mono/max_range_sigma_m must be > 0");
   if (!(p.min_baseline_m > 0)) throw ConfigError(section.path() + ": mono/min_baseline_m must be > 0");
   return p;
 }
@@ -35,7 +37,6 @@ MonoDepthResult MonoDepth::compute(const cv::Mat& raw_a, const cv::Mat& raw_b, c
   out.matched = true;
   out.left_is_b = rect_.left_is_b;
   out.match_ms = m.total_ms;
-  const Eigen::Vector3d left_centre = rect_.leftCentre();
   for (int v = 0; v < m.disparity.rows; ++v)
     for (int u = 0; u < m.disparity.cols; ++u) {
       if (!rect_.valid.at<uint8_t>(v, u)) continue;
@@ -44,8 +45,10 @@ MonoDepthResult MonoDepth::compute(const cv::Mat& raw_a, const cv::Mat& raw_b, c
       if (raw == kInvalidDisparity) continue;
       ++out.valid;
       if (u % params_.point_step != 0 || v % params_.point_step != 0) continue;
-      const Eigen::Vector3d X = rect_.triangulate(u, v, double(raw) / kSubpixelScale);
-      if (!X.allFinite() || (X - left_centre).norm() > params_.max_range_m) continue;
+      const double d = double(raw) / kSubpixelScale;
+      const Eigen::Vector3d X = rect_.triangulate(u, v, d);
+      const Eigen::Vector3d X_off = rect_.triangulate(u, v, d + params_.disparity_sigma_px);
+      if (!X.allFinite() || !X_off.allFinite() || (X - X_off).norm() > params_.max_range_sigma_m) continue;
       out.points.push_back(X.cast<float>());
       out.intensity.push_back(left.at<uint8_t>(v, u));
       out.pixels.emplace_back(u, v);

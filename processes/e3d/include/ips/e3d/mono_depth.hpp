@@ -18,13 +18,17 @@ namespace ips::e3d {
 
 struct MonoDepthParams {
   PolarRectificationParams polar;
-  int gap_pairs = 2;          // the earlier exposure is the one this many pairs before
-  int every_nth = 48;         // pairs whose seq is a multiple of this get a map
-  int point_step = 4;         // every point_step-th polar row and column becomes a point
-  double max_range_m = 30.0;  // farther points are left out
+  int gap_pairs = 2;   // the earlier exposure is the one this many pairs before
+  int every_nth = 48;  // pairs whose seq is a multiple of this get a map
+  int point_step = 4;  // every point_step-th polar row and column becomes a point
+  // A point is kept while a disparity error of disparity_sigma_px (columns) moves it by at most max_range_sigma_m,
+  // the rule the mapper applies to the stereo maps' points (its max_depth_sigma_m, disparity_sigma_px).
+  double disparity_sigma_px = 0.25;
+  double max_range_sigma_m = 0.10;
   double min_baseline_m = 0.05;
 
-  // Keys of section `mono` (absent: these defaults): gap_pairs, every_nth, point_step, max_range_m, min_baseline_m,
+  // Keys of section `mono` (absent: these defaults): gap_pairs, every_nth, point_step, disparity_sigma_px,
+  // max_range_sigma_m, min_baseline_m,
   // and the polar keys (PolarRectificationParams::fromConfig). Throws ConfigError when one is out of range.
   static MonoDepthParams fromConfig(const Config& section);
 };
