@@ -81,6 +81,8 @@ constexpr double kMapWithinM = 0.05;
 // The later part of a run "sees the same surface" as the earlier one where their points are this close: a few
 // voxels, more than the drift of a good run, less than the distance between walls.
 constexpr double kMapOverlapM = 0.25;
+// Points drawn evenly from all published clouds of one kind for their distances to the true surfaces.
+constexpr size_t kSurfaceSamplePoints = 200000;
 // Disparities below one pixel are not triangulated: there a quarter-pixel matching error moves the point by more
 // than a quarter of its depth.
 constexpr double kMinCloudDisparityPx = 1.0;
@@ -357,6 +359,7 @@ int main(int argc, char** argv) {
     };
     std::vector<MapPoints> map_points;           // POINTS: the mapper's points of each disparity map
     std::vector<MapPoints> map_points_gt_poses;  // POINTS_GT_POSES: the same placed with the true poses
+    std::vector<MapPoints> mono_points;          // MONO_POINTS: E3D's depth from one camera, filter's poses
     // What makes the run's figures untrustworthy: named in report.json ("failures") and on stderr, exit 4.
     std::vector<std::string> failures;
     std::map<std::string, int64_t> last_health_log_us;  // per process: logger time of its last health message
@@ -397,7 +400,7 @@ int main(int argc, char** argv) {
             return;
           }
           if (inOrder(ch, d.utime)) (ch == "DISPARITY" ? est_disp : gt_disp)[d.utime] = std::move(d);
-        } else if (ch == "POINTS" || ch == "POINTS_GT_POSES") {
+        } else if (ch == "POINTS" || ch == "POINTS_GT_POSES" || ch == "MONO_POINTS") {
           ips::point_cloud_t pc;
           if (!decode(m, &pc) || pc.num_points < 0) {
             ++bad_messages;
@@ -409,7 +412,10 @@ int main(int argc, char** argv) {
           for (const auto& q : pc.points)
             if (std::isfinite(q[0]) && std::isfinite(q[1]) && std::isfinite(q[2]))
               mp.points.emplace_back(q[0], q[1], q[2]);
-          (ch == "POINTS" ? map_points : map_points_gt_poses).push_back(std::move(mp));
+          (ch == "POINTS"        ? map_points
+           : ch == "MONO_POINTS" ? mono_points
+                                 : map_points_gt_poses)
+              .push_back(std::move(mp));
         } else if (ch == "TRACKER_DELTA") {
           ips::tracker_delta_t d;
           if (!decode(m, &d) || !ips::fw::validate(d).ok()) {
@@ -737,6 +743,26 @@ int main(int argc, char** argv) {
       };
       consistencyKeys(map_points, "");
       consistencyKeys(map_points_gt_poses, "_gt_poses");
+      // Depth from one camera (MONO_POINTS) beside the stereo maps' points (POINTS), both as published, placed with
+      // the filter's poses and put on the truth by the same alignment: each point's distance to the true surfaces.
+      js << "  \"mono_maps\": " << mono_points.size() << ",\n";
+      if (world && !mono_points.empty()) {
+        auto pointKeys = [&](const std::vector<MapPoints>& maps, const std::string& prefix) {
+          std::vector<Eigen::Vector3d> all;
+          for (const auto& mp : maps) all.insert(all.end(), mp.points.begin(), mp.points.end());
+          // An even sample keeps the distance queries to seconds; the figures are medians and shares.
+          const size_t stride = std::max<size_t>(1, all.size() / kSurfaceSamplePoints);
+          std::vector<Eigen::Vector3d> sample;
+          for (size_t i = 0; i < all.size(); i += stride) sample.push_back(all[i]);
+          const ips::mapper::SurfaceErrors e = ips::mapper::surfaceErrors(sample, *world, T_truth_map, kMapWithinM);
+          js << "  \"" << prefix << "points\": " << all.size() << ",\n";
+          js << "  \"" << prefix << "median_surface_error_m\": " << jsonNumber(e.median_m) << ",\n";
+          js << "  \"" << prefix << "p90_surface_error_m\": " << jsonNumber(e.p90_m) << ",\n";
+          js << "  \"" << prefix << "within_5cm_pct\": " << jsonNumber(e.within_pct) << ",\n";
+        };
+        pointKeys(mono_points, "mono_");
+        pointKeys(map_points, "stereo_");
+      }
       std::vector<double> up;
       if (args.get("--map-up") == "truth") {
         if (gt.empty() || delta_msgs.empty())
