@@ -56,4 +56,21 @@ MonoDepthResult MonoDepth::compute(const cv::Mat& raw_a, const cv::Mat& raw_b, c
   return out;
 }
 
+std::vector<double> depthDifferences(const MonoDepthResult& result, const StereoRectification& rect,
+                                     const cv::Mat& stereo_disparity) {
+  std::vector<double> out;
+  for (const Eigen::Vector3f& X : result.points) {
+    const Eigen::Vector3d Xr = rect.R_rect0_cam0 * X.cast<double>();
+    if (Xr.z() <= 0) continue;
+    const int u = static_cast<int>(std::lround(rect.f * Xr.x() / Xr.z() + rect.cx));
+    const int v = static_cast<int>(std::lround(rect.f * Xr.y() / Xr.z() + rect.cy));
+    if (u < 0 || v < 0 || u >= stereo_disparity.cols || v >= stereo_disparity.rows) continue;
+    const int16_t d = stereo_disparity.at<int16_t>(v, u);
+    if (d == kInvalidDisparity || d <= 0) continue;
+    const double z_stereo = rect.f * rect.baseline / (double(d) / kSubpixelScale);
+    out.push_back(std::abs(Xr.z() - z_stereo) / z_stereo);
+  }
+  return out;
+}
+
 }  // namespace ips::e3d

@@ -44,6 +44,13 @@ struct MonoDepthResult {
   double match_ms = 0;                  // the matcher's wall time
 };
 
+// Points from one camera against a stereo map of the earlier exposure (`stereo_disparity`, the matcher's CV_16S of
+// `rect`, the head's rectification at the map's scale): per point seen by the map, |z - z_stereo| / z_stereo in the
+// rectified left frame. A cross-check of two depths with independent errors (the head's baseline against the
+// motion); points outside the map or on invalid pixels are left out.
+std::vector<double> depthDifferences(const MonoDepthResult& result, const StereoRectification& rect,
+                                     const cv::Mat& stereo_disparity);
+
 class MonoDepth {
  public:
   // Allocates a matcher of the polar size; throws std::invalid_argument as StereoMatcher does.
