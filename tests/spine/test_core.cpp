@@ -198,6 +198,13 @@ TEST(Args, OptionsFlagsAndErrors) {
   EXPECT_THROW(n.getDouble("--rate"), ips::ArgError);
 }
 
+TEST(Args, IntegerListsAndTheirErrors) {
+  EXPECT_EQ(ips::parseIntList("1,2,4,8", "--gaps", 1), (std::vector<int>{1, 2, 4, 8}));
+  EXPECT_EQ(ips::parseIntList("-3", "--offsets", -5), (std::vector<int>{-3}));
+  for (const char* bad : {"", "1,,2", "1,x", "2.5", "0"})
+    EXPECT_THROW(ips::parseIntList(bad, "--gaps", 1), ips::ArgError) << "'" << bad << "'";
+}
+
 TEST(Pfm, RoundTripKeepsInfAndOrientation) {
   cv::Mat d(3, 4, CV_32FC1);
   for (int r = 0; r < 3; ++r)

@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <sstream>
 #include <string>
 #include <vector>
 
@@ -35,17 +34,6 @@ struct Comparison {
   int maps = 0;
 };
 
-std::vector<int> parseGaps(const std::string& text) {
-  std::vector<int> gaps;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ','))
-    if (!item.empty()) gaps.push_back(std::stoi(item));
-  if (gaps.empty() || *std::min_element(gaps.begin(), gaps.end()) < 1)
-    throw ips::ArgError("--gaps takes frame gaps >= 1, e.g. 1,2");
-  return gaps;
-}
-
 double median(std::vector<double> v) {
   if (v.empty()) return NAN;
   std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
@@ -68,7 +56,7 @@ int main(int argc, char** argv) {
     const std::string dir = args.get("--data");
     const ips::dataset::Recording rec = ips::dataset::readRecording(ips::dataset::detectFormat(dir), dir, ro);
     if (rec.ground_truth.empty()) throw ips::ArgError(dir + ": the recording has no ground truth");
-    const std::vector<int> gaps = parseGaps(args.get("--gaps"));
+    const std::vector<int> gaps = ips::parseIntList(args.get("--gaps"), "--gaps", 1);
     const int every = static_cast<int>(args.getInt("--every"));
     if (every < 1) throw ips::ArgError("--every must be at least 1");
 

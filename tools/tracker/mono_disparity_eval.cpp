@@ -17,10 +17,10 @@
 #include <map>
 #include <memory>
 #include <opencv2/imgproc.hpp>
-#include <sstream>
 
 #include "common.hpp"
 #include "e3d_scorer.hpp"
+#include "ips/args.hpp"
 #include "ips/polar_rectification.hpp"
 #include "ips/sim/mono_truth.hpp"
 #include "sim_eval.hpp"
@@ -96,18 +96,6 @@ MonoScore scoreMono(const PolarRectification& P, const cv::Mat& disparity, const
   return s;
 }
 
-std::vector<int> parseGaps(const std::string& text) {
-  std::vector<int> gaps;
-  std::stringstream ss(text);
-  std::string item;
-  while (std::getline(ss, item, ','))
-    if (!item.empty()) gaps.push_back(std::stoi(item));
-  for (int g : gaps)
-    if (g < 1) throw std::invalid_argument("--gaps: each gap must be >= 1 frame");
-  if (gaps.empty()) throw std::invalid_argument("--gaps: none given");
-  return gaps;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -120,7 +108,7 @@ int main(int argc, char** argv) {
     }
     const std::string scenario_path = opts.count("scenario") ? opts["scenario"] : "";
     const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
-    const std::vector<int> gaps = parseGaps(opts.count("gaps") ? opts["gaps"] : "1,2,4,8");
+    const std::vector<int> gaps = parseIntList(opts.count("gaps") ? opts["gaps"] : "1,2,4,8", "--gaps", 1);
     const int every = opts.count("every") ? std::stoi(opts["every"]) : 80;
     const bool quiet = opts.count("quiet") && opts["quiet"] != "0";
     const sim::World world = sim::World::build(sc.world, sc.seed);

@@ -138,4 +138,24 @@ std::string Args::help() const {
   return os.str();
 }
 
+std::vector<int> parseIntList(const std::string& text, const std::string& what, int min_value) {
+  std::vector<int> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    size_t used = 0;
+    int value = 0;
+    try {
+      value = std::stoi(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size() || value < min_value)
+      throw ArgError(what + ": '" + item + "' is not an integer >= " + std::to_string(min_value));
+    out.push_back(value);
+  }
+  if (out.empty()) throw ArgError(what + ": no values in '" + text + "'");
+  return out;
+}
+
 }  // namespace ips

@@ -59,4 +59,8 @@ class Args {
   size_t positional_min_ = 0, positional_max_ = 0;
 };
 
+// "1,2,4": comma-separated integers, each at least `min_value`; throws ArgError naming `what` on an empty list or a
+// bad item.
+std::vector<int> parseIntList(const std::string& text, const std::string& what, int min_value);
+
 }  // namespace ips
