@@ -25,8 +25,6 @@ namespace {
 volatile std::sig_atomic_t g_save_requested = 0;
 void onSaveRequest(int) { g_save_requested = 1; }
 
-ips::Pose toPose(int64_t utime, const ips::fw::BodyPose& b) { return {utime, b.T_world_body, b.covariance}; }
-
 // Messages in, the library's plain inputs; its frames out as POINTS.
 class MapperProcess {
  public:
@@ -92,21 +90,7 @@ class MapperProcess {
   void publish(const std::vector<ips::mapper::MappedFrame>& frames) {
     for (const auto& f : frames) {
       if (!f.has_grey) node_.health().count("points_without_grey");
-      ips::point_cloud_t out{};
-      out.utime = f.utime;
-      out.seq = f.seq;
-      out.frame = "world";
-      const Eigen::Vector3d t = f.pose.T_world_body.translation();
-      const Eigen::Quaterniond q(f.pose.T_world_body.linear());
-      for (int i = 0; i < 3; ++i) out.position[i] = t[i];
-      out.orientation[0] = q.w(), out.orientation[1] = q.x(), out.orientation[2] = q.y(), out.orientation[3] = q.z();
-      for (int i = 0; i < 36; ++i) out.pose_covariance[i] = f.pose.covariance(i / 6, i % 6);
-      out.num_points = static_cast<int32_t>(f.points.size());
-      out.points.resize(f.points.size());
-      for (size_t i = 0; i < f.points.size(); ++i)
-        out.points[i] = {static_cast<float>(f.points[i].x()), static_cast<float>(f.points[i].y()),
-                         static_cast<float>(f.points[i].z())};
-      out.intensity.assign(f.intensity.begin(), f.intensity.end());
+      const ips::point_cloud_t out = ips::fw::pointCloudMessage(f.utime, f.seq, "world", f.pose, f.points, f.intensity);
       node_.publish(points_channel_, out);
     }
     node_.health().set("map_voxels", static_cast<int64_t>(mapper_.map().size()));
@@ -157,7 +141,7 @@ int main(int argc, char** argv) {
           [&](const ips::filter_state_t& s) {
             const ips::fw::Verdict v = ips::fw::validate(s);
             if (!v.ok()) return node.health().bad(v.reason, v.detail);
-            mapper.onPose(toPose(s.utime, ips::fw::bodyPose(s)));
+            mapper.onPose(ips::fw::stampedPose(s.utime, ips::fw::bodyPose(s)));
           });
     } else if (source == "tracker") {
       auto chain = std::make_shared<ips::mapper::TrackerPoses>(calib.T_imu_cam0);
@@ -180,7 +164,7 @@ int main(int argc, char** argv) {
             ips::fw::BodyPose b;
             if (!ips::fw::bodyPose(g, &b))
               return node.health().bad("nan", "a ground-truth pose that is not finite or not a rotation");
-            mapper.onPose(toPose(g.utime, b));
+            mapper.onPose(ips::fw::stampedPose(g.utime, b));
           });
     }
     std::signal(SIGUSR1, onSaveRequest);

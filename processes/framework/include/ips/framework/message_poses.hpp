@@ -1,12 +1,19 @@
 #pragma once
 // The body's pose in the world as the navigation messages carry it, for the processes that place data with it
-// (mapper, viewer): the filter's state with its position and attitude covariance, the simulator's truth.
+// (mapper, viewer, e3d): the filter's state with its position and attitude covariance, the simulator's truth; and
+// the point clouds placed with it.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
 #include <ips/filter_state_t.hpp>
 #include <ips/ground_truth_t.hpp>
+#include <ips/point_cloud_t.hpp>
+#include <string>
+#include <vector>
 
 #include "ips/framework/filter_state_layout.hpp"
+#include "ips/framework/message_arrays.hpp"
+#include "ips/pose_buffer.hpp"
 
 namespace ips::fw {
 
@@ -43,6 +50,31 @@ inline bool bodyPose(const ips::ground_truth_t& g, BodyPose* out) {
   out->T_world_body.translation() = t;
   out->covariance.setZero();
   return true;
+}
+
+// As the pose buffers (ips/pose_buffer.hpp) keep it.
+inline ips::Pose stampedPose(int64_t utime, const BodyPose& b) { return {utime, b.T_world_body, b.covariance}; }
+
+// Points in `frame` placed with the body pose `body` (its pose and covariance go into the message), with their grey
+// values.
+inline ips::point_cloud_t pointCloudMessage(int64_t utime, int64_t seq, const std::string& frame, const ips::Pose& body,
+                                            const std::vector<Eigen::Vector3d>& points,
+                                            const std::vector<uint8_t>& intensity) {
+  ips::point_cloud_t out{};
+  out.utime = utime;
+  out.seq = seq;
+  out.frame = frame;
+  const Eigen::Vector3d t = body.T_world_body.translation();
+  for (int i = 0; i < 3; ++i) out.position[i] = t[i];
+  quaternionToArray(Eigen::Quaterniond(body.T_world_body.linear()), out.orientation);
+  matrixToArray<6>(body.covariance, out.pose_covariance);
+  out.num_points = static_cast<int32_t>(points.size());
+  out.points.resize(points.size());
+  for (size_t i = 0; i < points.size(); ++i)
+    out.points[i] = {static_cast<float>(points[i].x()), static_cast<float>(points[i].y()),
+                     static_cast<float>(points[i].z())};
+  out.intensity = intensity;
+  return out;
 }
 
 }  // namespace ips::fw
