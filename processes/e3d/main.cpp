@@ -11,28 +11,25 @@
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
 #include <ips/integrity_t.hpp>
-#include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <thread>
-#include <tuple>
 
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
 #include "ips/e3d/mono_depth.hpp"
+#include "ips/e3d/mono_pairing.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
-#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/message_poses.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
-#include "ips/pose_buffer.hpp"
 
 namespace {
 
@@ -42,21 +39,6 @@ constexpr long long kMaxQueueLimit = 256;
 // How long a queued pair waits, at most, for the tracker's INTEGRITY of the pair before it (a tracker that stopped
 // must not stop E3D); far beyond the tracker's time per pair.
 constexpr auto kIntegrityWaitLimit = std::chrono::seconds(10);
-
-// Depth from one camera waits for the filter's pose of both exposures. The filter's states come at IMU rate, so
-// neighbours further apart than this mean it stalled; the buffer keeps enough for the pairs still waiting.
-constexpr double kPoseMaxGapS = 0.1;
-constexpr double kPoseKeepS = 30.0;
-// Maps waiting for the filter: beyond this many (one per mono/every_nth pairs, over 40 s at the defaults) the filter
-// is not there, and the oldest goes.
-constexpr size_t kMaxPendingMono = 8;
-
-// A map from one camera: the left images of two pairs, and (once the filter has passed the later one) their poses.
-struct MonoJob {
-  int64_t utime_a = 0, utime_b = 0, seq_b = 0;
-  cv::Mat left_a, left_b;
-  ips::Pose pose_a, pose_b;
-};
 
 struct Job {
   int64_t utime = 0;
@@ -79,8 +61,8 @@ class E3dProcess {
         queue_all_(queue_all),
         max_queue_(max_queue),
         admission_(calib.cam0.width, calib.cam0.height),
-        mono_(mono),
-        poses_(kPoseMaxGapS, kPoseKeepS) {
+        mono_(mono) {
+    if (mono_) pairing_.emplace(mono_->params().gap_pairs, mono_->params().every_nth);
     node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
     if (apply_integrity)
       node_.subscribe<ips::integrity_t>(ips::channels::kIntegrity,
@@ -96,9 +78,8 @@ class E3dProcess {
   // Stops the worker; with drain, the queued pairs are matched first. Call after the node's loop has returned: maps
   // still waiting for the filter's pose then never get it.
   void stop(bool drain) {
-    if (!pending_mono_.empty())
-      node_.health().dropped("mono_no_filter_state", static_cast<int64_t>(pending_mono_.size()));
-    pending_mono_.clear();
+    if (pairing_ && pairing_->pending())
+      node_.health().dropped("mono_no_filter_state", static_cast<int64_t>(pairing_->pending()));
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (!drain) {
@@ -116,9 +97,15 @@ class E3dProcess {
     if (!admission_.admit(m, node_.health(), node_.arrivalUs())) return;
     const int64_t prev_utime = last_stereo_utime_;
     last_stereo_utime_ = m.utime;
+    const bool for_stereo = every_nth_ <= 1 || m.seq % every_nth_ == 0;
+    const bool for_mono = pairing_ && pairing_->wants(m.seq);
+    if (!for_stereo && !for_mono) return;  // not selected: neither work nor loss
     cv::Mat left = ips::fw::mono8Copy(ips::fw::leftImage(m));
-    if (mono_) keepForMono(m, left);
-    if (every_nth_ > 1 && m.seq % every_nth_ != 0) return;  // not selected: neither work nor loss
+    if (for_mono) {
+      const int64_t dropped = pairing_->addPair(m.seq, m.utime, left);
+      if (dropped) node_.health().dropped("mono_no_filter_state", dropped);
+    }
+    if (!for_stereo) return;
     node_.health().accepted();
     Job job{m.utime, m.seq, prev_utime, std::move(left), ips::fw::mono8Copy(ips::fw::rightImage(m))};
     {
@@ -136,54 +123,24 @@ class E3dProcess {
     cv_.notify_one();
   }
 
-  // LCM thread: the left images of the last gap_pairs pairs, and a map to make when this pair is selected for one.
-  void keepForMono(const ips::stereo_pair_t& m, const cv::Mat& left) {
-    const ips::e3d::MonoDepthParams& p = mono_->params();
-    if (m.seq % p.every_nth == 0) {
-      for (const auto& [seq, utime, image] : recent_left_)
-        if (seq == m.seq - p.gap_pairs) {
-          if (pending_mono_.size() >= kMaxPendingMono) {
-            pending_mono_.pop_front();
-            node_.health().dropped("mono_no_filter_state");
-          }
-          MonoJob job;
-          job.utime_a = utime;
-          job.utime_b = m.utime;
-          job.seq_b = m.seq;
-          job.left_a = image;
-          job.left_b = left;
-          pending_mono_.push_back(std::move(job));
-        }
-    }
-    recent_left_.emplace_back(m.seq, m.utime, left);
-    while (recent_left_.size() > static_cast<size_t>(p.gap_pairs)) recent_left_.pop_front();
-  }
-
-  // LCM thread: a map whose later exposure the filter has passed gets both poses and goes to the worker. Which maps
-  // are made, and with which poses, depends on stamps only.
+  // LCM thread: the maps whose later exposure the filter has passed go to the worker with both poses.
   void onFilterState(const ips::filter_state_t& m) {
     const ips::fw::Verdict v = ips::fw::validate(m);
     if (!v.ok()) return node_.health().bad(v.reason, "filter state: " + v.detail);
-    const ips::fw::BodyPose body = ips::fw::bodyPose(m);
-    poses_.add({m.utime, body.T_world_body, body.covariance});
-    while (!pending_mono_.empty() && poses_.newestUtime() >= pending_mono_.front().utime_b) {
-      MonoJob job = std::move(pending_mono_.front());
-      pending_mono_.pop_front();
-      if (poses_.at(job.utime_a, &job.pose_a) != ips::PoseBuffer::Lookup::kFound ||
-          poses_.at(job.utime_b, &job.pose_b) != ips::PoseBuffer::Lookup::kFound) {
-        node_.health().dropped("mono_no_pose");
-        continue;
-      }
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (mono_ready_.size() >= kMaxPendingMono) {
+    ips::e3d::MonoPairing::Released released = pairing_->addPose(ips::fw::stampedPose(m.utime, ips::fw::bodyPose(m)));
+    if (released.without_pose) node_.health().dropped("mono_no_pose", released.without_pose);
+    if (released.ready.empty()) return;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      for (ips::e3d::MonoJob& job : released.ready) {
+        if (mono_ready_.size() >= ips::e3d::MonoPairing::kMaxPending) {
           mono_ready_.pop_front();
           node_.health().dropped("mono_queue_full");
         }
         mono_ready_.push_back(std::move(job));
       }
-      cv_.notify_one();
     }
+    cv_.notify_one();
   }
 
   void onIntegrity(const ips::integrity_t& m) {
@@ -231,30 +188,26 @@ class E3dProcess {
   void work() {
     for (;;) {
       Job job;
-      std::optional<MonoJob> mono_job;
+      std::optional<ips::e3d::MonoJob> mono_job;
       {
         std::unique_lock<std::mutex> lock(mutex_);
         cv_.wait(lock, [this] { return stopping_ || !jobs_.empty() || !mono_ready_.empty(); });
         if (!mono_ready_.empty()) {
           mono_job = std::move(mono_ready_.front());
           mono_ready_.pop_front();
+        } else {
+          if (jobs_.empty()) return;  // stopping, and nothing left
+          if (!cv_.wait_for(lock, kIntegrityWaitLimit, [this] { return stopping_ || integrityReady(jobs_.front()); }))
+            node_.health().count("integrity_wait_timeout");
+          if (jobs_.empty()) return;  // stopped without draining while it waited
+          job = std::move(jobs_.front());
+          jobs_.pop_front();
+          node_.health().queueLength(static_cast<int>(jobs_.size()));
         }
       }
       if (mono_job) {
         runMono(*mono_job);
         continue;
-      }
-      {
-        std::unique_lock<std::mutex> lock(mutex_);
-        if (jobs_.empty()) {
-          if (stopping_) return;
-          continue;
-        }
-        if (!cv_.wait_for(lock, kIntegrityWaitLimit, [this] { return stopping_ || integrityReady(jobs_.front()); }))
-          node_.health().count("integrity_wait_timeout");
-        job = std::move(jobs_.front());
-        jobs_.pop_front();
-        node_.health().queueLength(static_cast<int>(jobs_.size()));
       }
       try {
         rectifyFor(job.utime);
@@ -268,29 +221,17 @@ class E3dProcess {
   }
 
   // Worker: the map from one camera, its points placed in the world with the filter's pose of the earlier exposure.
-  void runMono(const MonoJob& job) {
+  void runMono(const ips::e3d::MonoJob& job) {
     try {
       const Eigen::Isometry3d W_a = job.pose_a.T_world_body * calib_.T_imu_cam0;
       const Eigen::Isometry3d W_b = job.pose_b.T_world_body * calib_.T_imu_cam0;
       const ips::e3d::MonoDepthResult r = mono_->compute(job.left_a, job.left_b, W_a.inverse() * W_b);
       if (!r.matched) return node_.health().count("mono_short_baseline");
       node_.health().count("mono_maps");
-      ips::point_cloud_t out{};
-      out.utime = job.utime_b;
-      out.seq = job.seq_b;
-      out.frame = "world";
-      const Eigen::Vector3d t = job.pose_a.T_world_body.translation();
-      for (int i = 0; i < 3; ++i) out.position[i] = t[i];
-      ips::fw::quaternionToArray(Eigen::Quaterniond(job.pose_a.T_world_body.linear()), out.orientation);
-      ips::fw::matrixToArray<6>(job.pose_a.covariance, out.pose_covariance);
-      out.num_points = static_cast<int32_t>(r.points.size());
-      out.points.resize(r.points.size());
-      for (size_t i = 0; i < r.points.size(); ++i) {
-        const Eigen::Vector3d X = W_a * r.points[i].cast<double>();
-        out.points[i] = {static_cast<float>(X.x()), static_cast<float>(X.y()), static_cast<float>(X.z())};
-      }
-      out.intensity = r.intensity;
-      node_.publish(ips::channels::kMonoPoints, out);
+      std::vector<Eigen::Vector3d> world(r.points.size());
+      for (size_t i = 0; i < r.points.size(); ++i) world[i] = W_a * r.points[i].cast<double>();
+      node_.publish(ips::channels::kMonoPoints,
+                    ips::fw::pointCloudMessage(job.utime_b, job.seq_b, "world", job.pose_a, world, r.intensity));
     } catch (const std::exception& e) {
       node_.health().bad("mono_error", e.what());
     }
@@ -333,11 +274,9 @@ class E3dProcess {
   bool queue_all_;
   size_t max_queue_;
   ips::fw::StereoAdmission admission_;
-  ips::e3d::MonoDepth* mono_;                                      // null: no depth from one camera
-  std::deque<std::tuple<int64_t, int64_t, cv::Mat>> recent_left_;  // LCM thread: seq, stamp, left image
-  std::deque<MonoJob> pending_mono_;                               // LCM thread: waiting for the filter
-  ips::PoseBuffer poses_;                                          // LCM thread
-  std::deque<MonoJob> mono_ready_;                                 // guarded by mutex_
+  ips::e3d::MonoDepth* mono_;                     // null: no depth from one camera
+  std::optional<ips::e3d::MonoPairing> pairing_;  // LCM thread; with mono_
+  std::deque<ips::e3d::MonoJob> mono_ready_;      // guarded by mutex_
   std::mutex mutex_;
   std::condition_variable cv_;
   std::deque<Job> jobs_;
