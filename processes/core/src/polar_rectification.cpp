@@ -85,7 +85,7 @@ Eigen::Vector3d PolarRectification::ray(double u, double v) const {
   const double theta = theta0 + (v + 0.5) * dtheta;
   const double r = r0 + u * dr;
   const Eigen::Vector3d p(epipole.x() + r * std::cos(theta), epipole.y() + r * std::sin(theta), 1.0);
-  return K.inverse() * p;
+  return K.triangularView<Eigen::Upper>().solve(p);  // K is upper triangular: no inverse per pixel
 }
 
 double PolarRectification::disparityOf(const Eigen::Vector3d& X_a) const {
