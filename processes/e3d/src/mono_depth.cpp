@@ -35,8 +35,6 @@ MonoDepthResult MonoDepth::compute(const cv::Mat& raw_a, const cv::Mat& raw_b, c
   cv::Mat left;
   const MatchOutput m = matcher_.matchRaw(rect_.left_is_b ? raw_b : raw_a, rect_.left_is_b ? raw_a : raw_b, &left);
   out.matched = true;
-  out.left_is_b = rect_.left_is_b;
-  out.match_ms = m.total_ms;
   for (int v = 0; v < m.disparity.rows; ++v)
     for (int u = 0; u < m.disparity.cols; ++u) {
       if (!rect_.valid.at<uint8_t>(v, u)) continue;

@@ -35,13 +35,11 @@ struct MonoDepthParams {
 
 struct MonoDepthResult {
   bool matched = false;                 // false: the baseline was below min_baseline_m (nothing else is set)
-  bool left_is_b = true;                // which exposure the polar left image was
   double baseline_m = 0;                // distance between the two exposures
   std::vector<Eigen::Vector3f> points;  // camera a's frame [m]
   std::vector<uint8_t> intensity;       // grey value of the polar left image at the point's pixel
   std::vector<cv::Point> pixels;        // the point's polar pixel (column = distance, row = angle)
   int64_t masked = 0, valid = 0;        // polar pixels in the mask, and those with a disparity
-  double match_ms = 0;                  // the matcher's wall time
 };
 
 // Points from one camera against a stereo map of the earlier exposure (`stereo_disparity`, the matcher's CV_16S of
