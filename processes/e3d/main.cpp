@@ -11,6 +11,7 @@
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
 #include <ips/integrity_t.hpp>
+#include <ips/keyframe_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <limits>
 #include <memory>
@@ -121,6 +122,12 @@ class E3dProcess {
       node_.health().queueLength(static_cast<int>(jobs_.size()));
     }
     cv_.notify_one();
+    // At once, while the filter still holds the pose clone of this pair: it keeps the clone for the alignment of
+    // this pair's map with the next (CLOUD_DELTA), which comes seconds later.
+    ips::keyframe_t keyframe{};
+    keyframe.utime = m.utime;
+    keyframe.seq = m.seq;
+    node_.publish(ips::channels::kKeyframe, keyframe);
   }
 
   // LCM thread: the maps whose later exposure the filter has passed go to the worker with both poses.

@@ -10,6 +10,7 @@
 #include <ips/health_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/integrity_t.hpp>
+#include <ips/keyframe_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>

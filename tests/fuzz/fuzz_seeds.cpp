@@ -10,6 +10,7 @@
 #include <ips/health_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/integrity_t.hpp>
+#include <ips/keyframe_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
@@ -91,6 +92,10 @@ int main(int argc, char** argv) {
   integrity.applied_utime = 1000;
   integrity.alarms = integrity.steps = integrity.corrections = 1;
   writeMessage(dir, integrity);
+  ips::keyframe_t keyframe{};
+  keyframe.utime = 3000;
+  keyframe.seq = 24;
+  writeMessage(dir, keyframe);
 
 #ifdef IPS_FUZZ_PROCMAN
   writeMessage(dir, ips::test_support::sampleOrders(), "fuzz_decode_procman_");

@@ -39,7 +39,7 @@ class Monitor {
       sub<ips::imu_sample_t>(channel);
     else if (channel == kTilt)
       sub<ips::tilt_sample_t>(channel);
-    else if (channel == kTrackerDelta)
+    else if (channel == kTrackerDelta || channel == kCloudDelta)
       sub<ips::tracker_delta_t>(channel);
     else if (channel == kFilterState || channel == kFilterPrior)
       sub<ips::filter_state_t>(channel);
@@ -51,6 +51,8 @@ class Monitor {
       sub<ips::point_cloud_t>(channel);
     else if (channel == kIntegrity)
       sub<ips::integrity_t>(channel);
+    else if (channel == kKeyframe)
+      sub<ips::keyframe_t>(channel);
     else
       throw ips::ArgError("bus_monitor: no known type for channel '" + channel + "'");
   }
@@ -113,7 +115,8 @@ class Monitor {
   static int64_t seqOf(const Msg& m) {
     if constexpr (std::is_same_v<Msg, ips::stereo_pair_t> || std::is_same_v<Msg, ips::imu_sample_t> ||
                   std::is_same_v<Msg, ips::tilt_sample_t> || std::is_same_v<Msg, ips::tracker_delta_t> ||
-                  std::is_same_v<Msg, ips::disparity_map_t> || std::is_same_v<Msg, ips::integrity_t>)
+                  std::is_same_v<Msg, ips::disparity_map_t> || std::is_same_v<Msg, ips::integrity_t> ||
+                  std::is_same_v<Msg, ips::keyframe_t>)
       return m.seq;
     return 0;
   }

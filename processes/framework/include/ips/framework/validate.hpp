@@ -9,6 +9,7 @@
 #include <ips/health_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/integrity_t.hpp>
+#include <ips/keyframe_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
@@ -36,6 +37,8 @@ Verdict validate(const ips::disparity_map_t& m);
 // An integrity message: a known state, finite figures, and an applied correction a head can have (below 5 deg of
 // rotation and 10 % of focal length: anything larger is a broken head or a corrupt message, never a correction).
 Verdict validate(const ips::integrity_t& m);
+// A keyframe announcement: a stamp and a sequence number a pair can have (not negative).
+Verdict validate(const ips::keyframe_t& m);
 // A health message: names a process could have (letters, digits, '_', '-', '.'), non-negative counts, finite
 // rates, and received on the channel of the process it names (HEALTH_ + its name in upper case), so that a
 // damaged or misdirected one cannot invent a process in an overview.
