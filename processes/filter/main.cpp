@@ -1,9 +1,11 @@
-// filter: the IPS state estimation as a process. IMU, TILT, STEREO (image times only) and TRACKER_DELTA in;
+// filter: the IPS state estimation as a process. IMU, TILT, STEREO (image times only), TRACKER_DELTA, and E3D's
+// KEYFRAME with the mapper's CLOUD_DELTA (the alignment of successive dense maps) in;
 // FILTER_STATE (a posteriori, at IMU rate or decimated) and FILTER_PRIOR (a priori at every image time, for the
 // tracker's window prediction) out. Time comes from the message stamps only.
 #include <chrono>
 #include <ips/filter_state_t.hpp>
 #include <ips/imu_sample_t.hpp>
+#include <ips/keyframe_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
@@ -71,6 +73,8 @@ class FilterProcess {
     node_.subscribe<ips::tilt_sample_t>(kTilt, [this](const ips::tilt_sample_t& m) { onTilt(m); });
     node_.subscribe<ips::stereo_pair_t>(kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
     node_.subscribe<ips::tracker_delta_t>(kTrackerDelta, [this](const ips::tracker_delta_t& m) { onDelta(m); });
+    node_.subscribe<ips::keyframe_t>(kKeyframe, [this](const ips::keyframe_t& m) { onKeyframe(m); });
+    node_.subscribe<ips::tracker_delta_t>(kCloudDelta, [this](const ips::tracker_delta_t& m) { onCloudDelta(m); });
   }
 
   // End of input: applies what the reordering window still holds and publishes it, paced, because LCM
@@ -131,6 +135,29 @@ class FilterProcess {
     if (!check(m, delta_order_, "delta")) return;
     if (!m.valid) node_.health().count("tracker_invalid");
     if (!m.valid && !m.far_valid) return;
+    est_.addTrackerDelta(toDelta(m));
+    publishOutputs();
+  }
+
+  void onKeyframe(const ips::keyframe_t& m) {
+    node_.health().received(m.utime);
+    const ips::fw::Verdict v = ips::fw::validate(m);
+    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
+    node_.health().accepted();
+    est_.addKeyframe(m.utime);
+  }
+
+  void onCloudDelta(const ips::tracker_delta_t& m) {
+    if (!check(m, cloud_order_, "cloud delta")) return;
+    if (!m.valid) {
+      node_.health().count("cloud_invalid");
+      return;
+    }
+    est_.addCloudDelta(toDelta(m));
+    publishOutputs();
+  }
+
+  static ips::filter::TrackerDelta toDelta(const ips::tracker_delta_t& m) {
     ips::filter::TrackerDelta d;
     d.utime = m.utime;
     d.utime_prev = m.utime_prev;
@@ -141,8 +168,7 @@ class FilterProcess {
     d.translation = Eigen::Vector3d(m.translation[0], m.translation[1], m.translation[2]);
     d.rotation = ips::fw::quaternionFromArray(m.rotation).normalized();
     d.covariance = ips::fw::matrixFromArray<6>(m.covariance);
-    est_.addTrackerDelta(d);
-    publishOutputs();
+    return d;
   }
 
   void publishOutputs() {
@@ -160,7 +186,7 @@ class FilterProcess {
   ips::fw::Node& node_;
   ips::filter::Estimator& est_;
   std::string state_channel_, prior_channel_;
-  ips::fw::StreamOrder imu_order_, tilt_order_, stereo_order_, delta_order_;
+  ips::fw::StreamOrder imu_order_, tilt_order_, stereo_order_, delta_order_, cloud_order_;
 };
 
 }  // namespace

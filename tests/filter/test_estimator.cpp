@@ -17,7 +17,7 @@ namespace {
 
 struct Msg {
   int64_t arrival;  // when it reaches the estimator
-  int kind;         // 0 imu, 1 tilt, 2 image, 3 delta
+  int kind;         // 0 imu, 1 tilt, 2 image, 3 delta, 4 keyframe (image time in `image`), 5 cloud delta
   ImuSample imu;
   TiltSample tilt;
   int64_t image = 0;
@@ -46,6 +46,8 @@ void feed(Estimator& est, const std::vector<Msg>& msgs) {
     if (m.kind == 1) est.addTilt(m.tilt);
     if (m.kind == 2) est.addImageTime(m.image);
     if (m.kind == 3) est.addTrackerDelta(m.delta);
+    if (m.kind == 4) est.addKeyframe(m.image);
+    if (m.kind == 5) est.addCloudDelta(m.delta);
   }
 }
 
@@ -463,5 +465,62 @@ TEST(FilterEstimator, FarRotationIsGatedOnItsOwnAndSharpensTheHeading) {
     EXPECT_LT(heading_error[1], heading_error[0]) << toString(type);
     std::printf("[ FAR      ] %s heading error after 12 s: %.4f mrad without, %.4f mrad with far rotations\n",
                 toString(type).c_str(), 1e3 * heading_error[0], 1e3 * heading_error[1]);
+  }
+}
+
+TEST(FilterEstimator, CloudDeltaBetweenKeyframesSecondsApartIsFusedAndSharpensThePosition) {
+  // E3D maps every 3 s (24 images at 8 Hz); each keyframe is announced when E3D takes the pair, and the alignment of
+  // two maps arrives 1 s after the later one, long after the 3 image clones have moved on. The tracker's deltas are
+  // weak here (2 cm per axis: a weakly textured corridor); the maps' alignment is good to 5 mm.
+  const AnalyticWalk walk;
+  const ips::StereoCalibration calib = testbedCalibration();
+  constexpr int64_t kKeyframeUs = 3'000'000, kAlignmentLatencyUs = 1'000'000, kEndUs = 13'500'000;
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    double end_error[3] = {0, 0, 0};
+    // 0: tracker only; 1: with the maps' alignment; 2: alignments without keyframe announcements.
+    for (int mode = 0; mode < 3; ++mode) {
+      SensorSimParams sp;
+      sp.tracker_sigma_t = 0.02;
+      SensorSim sim(walk, sp, calib, 31);
+      SensorSimParams cloud_sp;
+      cloud_sp.tracker_sigma_t = 0.005;
+      cloud_sp.tracker_sigma_r = 2e-4;
+      SensorSim cloud_sim(walk, cloud_sp, calib, 32);
+      FilterParams p = paramsFor(type);
+      Estimator est(p, calib);
+      est.initialize(sim.truth(0), initialCovariance(p.init));
+      std::vector<Msg> msgs = makeMessages(sim, 0, kEndUs);
+      std::vector<Msg> extra;
+      for (int64_t t = kKeyframeUs; t <= kEndUs; t += kKeyframeUs) {
+        if (mode == 2) break;
+        if (mode == 1) extra.push_back({t + 1, 4, {}, {}, t, {}});
+        if (mode == 1 && t > kKeyframeUs && t + kAlignmentLatencyUs <= kEndUs)
+          extra.push_back({t + kAlignmentLatencyUs, 5, {}, {}, 0, cloud_sim.delta(t - kKeyframeUs, t)});
+      }
+      if (mode == 2)
+        for (int64_t t = 2 * kKeyframeUs; t + kAlignmentLatencyUs <= kEndUs; t += kKeyframeUs)
+          extra.push_back({t + kAlignmentLatencyUs, 5, {}, {}, 0, cloud_sim.delta(t - kKeyframeUs, t)});
+      msgs.insert(msgs.end(), extra.begin(), extra.end());
+      std::stable_sort(msgs.begin(), msgs.end(), [](const Msg& a, const Msg& b) { return a.arrival < b.arrival; });
+      feed(est, msgs);
+      est.flush();
+      const auto& cloud = est.counters()[kSensorCloud];
+      EXPECT_STREQ(cloud.name, "cloud");
+      if (mode == 1) {
+        EXPECT_EQ(cloud.accepted, 3) << toString(type);  // 3->6, 6->9, 9->12 s
+        EXPECT_EQ(cloud.too_late + cloud.rejected, 0) << toString(type);
+      } else if (mode == 2) {
+        EXPECT_EQ(cloud.accepted, 0) << toString(type);
+        EXPECT_EQ(cloud.too_late, 3) << toString(type);  // no clones were kept for them
+      }
+      // The image clones are never more than max_clones besides the keyframes.
+      EXPECT_LE(static_cast<int>(est.filter().state().clones.size()), p.max_clones + p.max_keyframe_clones);
+      const FilterOutput o = est.current();
+      end_error[mode] = (o.state.position - sim.truth(o.state.utime).position).norm();
+    }
+    EXPECT_LT(end_error[1], 0.7 * end_error[0]) << toString(type);
+    EXPECT_DOUBLE_EQ(end_error[2], end_error[0]) << toString(type);  // unusable alignments change nothing
+    std::printf("[ CLOUD    ] %s position error after 13.5 s: %.4f m tracker only, %.4f m with the maps' alignment\n",
+                toString(type).c_str(), end_error[0], end_error[1]);
   }
 }

@@ -43,7 +43,7 @@ Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
   accel_sigma_ = params_.imu.accel_noise_density * std::sqrt(params_.imu.rate_hz);
   gate2_ = chiSquareQuantile(params_.gate_probability, 2);
   gate6_ = chiSquareQuantile(params_.gate_probability, 6);
-  const char* names[kNumSensors] = {"imu", "tilt", "tracker", "image", "far_rotation"};
+  const char* names[kNumSensors] = {"imu", "tilt", "tracker", "image", "far_rotation", "cloud"};
   for (int i = 0; i < kNumSensors; ++i) counters_[i].name = names[i];
 }
 
@@ -86,11 +86,28 @@ void Estimator::addTilt(const TiltSample& s) {
   insert(std::move(e));
 }
 
-void Estimator::addTrackerDelta(const TrackerDelta& d) {
+void Estimator::addTrackerDelta(const TrackerDelta& d) { addDelta(d, kSensorTracker); }
+
+void Estimator::addCloudDelta(const TrackerDelta& d) {
+  if (!params_.cloud) return;
+  TrackerDelta pose_only = d;
+  pose_only.far_valid = false;
+  addDelta(pose_only, kSensorCloud);
+}
+
+void Estimator::addKeyframe(int64_t utime) {
+  if (!params_.cloud) return;
+  keyframe_times_.insert(utime - params_.camera_latency_us);
+  // Only the newest announcements can still pin a clone (the older ones are pinned or gone already).
+  const size_t keep = static_cast<size_t>(params_.max_keyframe_clones + params_.max_clones);
+  while (keyframe_times_.size() > keep) keyframe_times_.erase(keyframe_times_.begin());
+}
+
+void Estimator::addDelta(const TrackerDelta& d, Sensor sensor) {
   TrackerDelta checked = d;
   if (checked.valid && (!d.translation.allFinite() || !d.rotation.coeffs().allFinite() || !d.covariance.allFinite() ||
                         std::abs(d.rotation.norm() - 1.0) > 1e-3)) {
-    ++counters_[kSensorTracker].rejected;
+    ++counters_[sensor].rejected;
     checked.valid = false;
   }
   if (checked.far_valid && (!d.far_rotation.coeffs().allFinite() || !d.far_covariance.allFinite() ||
@@ -99,19 +116,32 @@ void Estimator::addTrackerDelta(const TrackerDelta& d) {
     checked.far_valid = false;
   }
   if (!params_.far_rotation) checked.far_valid = false;
-  if (!checked.valid && !checked.far_valid) return;  // the tracker found no motion: nothing to fuse
+  if (!checked.valid && !checked.far_valid) return;  // no motion found: nothing to fuse
   Event e;
-  e.sensor = kSensorTracker;
+  e.sensor = sensor;
   e.delta = checked;
   e.delta.utime = d.utime - params_.camera_latency_us;
   e.delta.utime_prev = d.utime_prev - params_.camera_latency_us;
   e.time = e.delta.utime;
   if (e.time <= processed_time_) {
-    // Deltas come late by nature (after the tracker ran): they act on the clones, which are still there.
+    // Deltas come late by nature (after the tracker or the mapper ran): they act on the clones, which are kept.
     if (initialized_) process(e);
     return;
   }
   insert(std::move(e));
+}
+
+void Estimator::pruneClones(KalmanFilter& kf) {
+  // From the newest clone back: the first max_clones are kept (consecutive image times, for the tracker), and of
+  // the older ones the keyframes until max_keyframe_clones keyframes are held in all.
+  int images = 0, keyframes = 0;
+  for (int i = static_cast<int>(kf.state().clones.size()) - 1; i >= 0; --i) {
+    const bool keyframe = keyframe_times_.count(kf.state().clones[i].utime) > 0;
+    const bool recent = ++images <= params_.max_clones;
+    const bool pinned = keyframe && keyframes < params_.max_keyframe_clones;
+    if (keyframe) ++keyframes;
+    if (!recent && !pinned) kf.removeClone(i);
+  }
 }
 
 std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
@@ -262,14 +292,15 @@ void Estimator::process(const Event& e) {
       predictTo(run_, e.time);
       kf.addClone();
       ++counters_[kSensorImage].accepted;
-      while (static_cast<int>(kf.state().clones.size()) > params_.max_clones) kf.removeClone(0);
+      pruneClones(kf);
       break;
     }
+    case kSensorCloud:
     case kSensorTracker: {
       const int i0 = kf.state().findClone(e.delta.utime_prev);
       const int i1 = kf.state().findClone(e.delta.utime);
       if (i0 < 0 || i1 < 0 || i0 == i1) {
-        if (e.delta.valid) ++counters_[kSensorTracker].too_late;
+        if (e.delta.valid) ++counters_[e.sensor].too_late;
         if (e.delta.far_valid) ++counters_[kSensorFarRotation].too_late;
         break;
       }
@@ -286,12 +317,14 @@ void Estimator::process(const Event& e) {
       Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
       T.linear() = e.delta.rotation.normalized().toRotationMatrix();
       T.translation() = e.delta.translation;
+      const bool cloud = e.sensor == kSensorCloud;
       Eigen::Matrix<double, 6, 1> min_sigma;
-      min_sigma << Eigen::Vector3d::Constant(params_.tracker_min_sigma_t),
-          Eigen::Vector3d::Constant(params_.tracker_min_sigma_r);
+      min_sigma << Eigen::Vector3d::Constant(cloud ? params_.cloud_min_sigma_t : params_.tracker_min_sigma_t),
+          Eigen::Vector3d::Constant(cloud ? params_.cloud_min_sigma_r : params_.tracker_min_sigma_r);
       const DeltaMeasurement m(i0, i1, T, symmetrisedWithFloor(e.delta.covariance, min_sigma), T_imu_cam0_);
-      const UpdateResult r = kf.update(m, gateFor(run_, kSensorTracker, 6, params_.gate_tracker));
-      countUpdate(run_, kSensorTracker, r.applied, &counters_);
+      const UpdateResult r =
+          kf.update(m, gateFor(run_, e.sensor, 6, cloud ? params_.gate_cloud : params_.gate_tracker));
+      countUpdate(run_, e.sensor, r.applied, &counters_);
       break;
     }
     default:

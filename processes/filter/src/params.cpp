@@ -69,6 +69,13 @@ FilterParams loadFilterParams(const Config& c) {
   nonNegative(c, "reorder_window_us", static_cast<double>(p.reorder_window_us));
   p.imu_silence_release_us = c.getInt("imu_silence_release_us", static_cast<int>(p.imu_silence_release_us));
   nonNegative(c, "imu_silence_release_us", static_cast<double>(p.imu_silence_release_us));
+  p.cloud = c.getBool("cloud/enabled", p.cloud);
+  p.cloud_min_sigma_t = c.getDouble("cloud/min_sigma_t", p.cloud_min_sigma_t);
+  p.cloud_min_sigma_r = c.getDouble("cloud/min_sigma_r", p.cloud_min_sigma_r);
+  nonNegative(c, "cloud/min_sigma_t", p.cloud_min_sigma_t);
+  nonNegative(c, "cloud/min_sigma_r", p.cloud_min_sigma_r);
+  p.max_keyframe_clones = c.getInt("cloud/max_keyframe_clones", p.max_keyframe_clones);
+  if (p.max_keyframe_clones < 2) throw ConfigError(c.path() + ": key 'cloud/max_keyframe_clones' must be at least 2");
   p.max_clones = c.getInt("max_clones", p.max_clones);
   if (p.max_clones < 2) throw ConfigError(c.path() + ": key 'max_clones' must be at least 2");
 
@@ -79,6 +86,7 @@ FilterParams loadFilterParams(const Config& c) {
   p.gate_tilt = c.getBool("gate/tilt", p.gate_tilt);
   p.gate_tracker = c.getBool("gate/tracker", p.gate_tracker);
   p.gate_far_rotation = c.getBool("gate/far_rotation", p.gate_far_rotation);
+  p.gate_cloud = c.getBool("gate/cloud", p.gate_cloud);
   p.max_consecutive_rejects = c.getInt("gate/max_consecutive_rejects", p.max_consecutive_rejects);
   if (p.max_consecutive_rejects < 1) throw ConfigError(c.path() + ": key 'gate/max_consecutive_rejects' must be >= 1");
 

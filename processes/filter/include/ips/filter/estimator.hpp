@@ -12,6 +12,8 @@
 //   tracker delta-> measurement update on the two clones (may arrive late: the clones are kept), then its
 //                   rotation from far points, if any, as a rotation-only update with its own gate
 //                   (params far_rotation; a delta without a valid 6-DoF part may still carry one)
+//   keyframe     -> the clone at that image time is kept beyond the image clones (E3D maps that pair)
+//   cloud delta  -> measurement update on two keyframe clones (the alignment of two dense maps)
 // Every measurement passes a chi-square gate on its Mahalanobis distance; counts per sensor.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -20,6 +22,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <vector>
 
 #include "ips/calibration.hpp"
@@ -60,7 +63,8 @@ enum Sensor : int {
   kSensorTracker = 2,
   kSensorImage = 3,
   kSensorFarRotation = 4,  // the tracker's rotation from far points (counted apart, gated on its own)
-  kNumSensors = 5
+  kSensorCloud = 5,        // the alignment of two of E3D's dense maps (CLOUD_DELTA)
+  kNumSensors = 6
 };
 
 struct SensorCounters {
@@ -92,6 +96,12 @@ class Estimator {
   // Returns the a-priori state at the image time (nullopt before initialisation or if the time is too old).
   std::optional<FilterOutput> addImageTime(int64_t utime);
   void addTrackerDelta(const TrackerDelta& delta);
+  // E3D takes the pair at utime for a dense map: the pose clone at that time is kept (beside the image clones)
+  // until the map's alignment with the next one has come.
+  void addKeyframe(int64_t utime);
+  // The alignment of the dense maps at utime_prev and utime (both keyframes), same convention as a tracker delta;
+  // the far-rotation fields are not used.
+  void addCloudDelta(const TrackerDelta& delta);
   // Applies everything still buffered (end of a log).
   void flush();
 
@@ -126,6 +136,11 @@ class Estimator {
     bool counts = false;  // the estimator's own runner (not a look-ahead copy): counts and logs
   };
 
+  // A tracker or cloud delta, checked, latency-corrected, applied at once (its clones exist) or buffered.
+  void addDelta(const TrackerDelta& d, Sensor sensor);
+  // Drops the clones no measurement can still use: all but the newest max_clones image clones and the newest
+  // max_keyframe_clones keyframe clones.
+  void pruneClones(KalmanFilter& kf);
   void insert(Event&& e);
   void release(int64_t up_to);
   void process(const Event& e);
@@ -160,6 +175,8 @@ class Estimator {
   int64_t imu_gaps_ = 0;
   int64_t imu_since_output_ = 0;
   std::vector<FilterOutput> outputs_;
+  // Keyframe times (latency-corrected) announced by E3D, newest last; bounded by the clones they can still pin.
+  std::set<int64_t> keyframe_times_;
 
   // Static initialisation.
   std::vector<ImuSample> init_imu_;

@@ -77,6 +77,18 @@ struct FilterParams {
   bool far_rotation = true;
   double far_rotation_min_sigma = 1e-5;  // [rad] floor on its sigma
 
+  // The alignment of E3D's successive dense maps (CLOUD_DELTA, from the mapper; paper section 6, "navigation can be
+  // supported using a dense 3D point cloud") as a relative-pose measurement between the clones at the two maps'
+  // times, which the filter keeps when E3D announces the pair (KEYFRAME). Floors as for the tracker's deltas:
+  // the alignment's covariance comes from its own residuals and may claim more than the maps' systematic errors
+  // (SGM's smoothing, the range limit) allow.
+  bool cloud = true;
+  double cloud_min_sigma_t = 2e-3;  // [m]: a fraction of the maps' 5 cm voxels
+  double cloud_min_sigma_r = 2e-4;  // [rad]: 2 mm over the ~10 m the maps reach
+  // Keyframe clones kept besides the image clones: E3D maps every few seconds, and a map may be skipped (E3D busy),
+  // so the newest three keyframes are kept and the alignment may span one skipped map.
+  int max_keyframe_clones = 3;
+
   // Latencies subtracted from message stamps [us] (zero when drivers already remove them).
   int64_t imu_latency_us = 0;
   int64_t tilt_latency_us = 0;
@@ -95,6 +107,7 @@ struct FilterParams {
   bool gate_tilt = true;
   bool gate_tracker = true;
   bool gate_far_rotation = true;
+  bool gate_cloud = true;
   int max_consecutive_rejects = 20;  // then the next measurement is applied anyway (re-capture)
 
   // IMU gap: a longer pause between IMU samples resets acceleration and angular rate to zero with these
