@@ -1,13 +1,15 @@
 // mapper: every disparity map (DISPARITY) placed in the world by the navigation state at its image's time
 // (FILTER_STATE, or TRACKER_DELTA chained, or GT_POSE: --pose-source), published on POINTS and fused into a
 // voxel map written at shutdown and on SIGUSR1 (--map-out, PLY or PCD). The work is ips_mapper's (no LCM);
-// this file turns messages into its inputs and its frames into messages.
+// this file turns messages into its inputs and its frames into messages. With --cloud-delta-channel each map is
+// also aligned with the previous one (ips::mapper::CloudOdometry) and the relative pose goes to the filter.
 #include <chrono>
 #include <csignal>
 #include <ips/disparity_map_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tracker_delta_t.hpp>
+#include <optional>
 
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
@@ -18,6 +20,7 @@
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/log.hpp"
+#include "ips/mapper/cloud_odometry.hpp"
 #include "ips/mapper/mapper.hpp"
 
 namespace {
@@ -29,13 +32,18 @@ void onSaveRequest(int) { g_save_requested = 1; }
 class MapperProcess {
  public:
   MapperProcess(ips::fw::Node& node, const ips::StereoCalibration& calib, const ips::mapper::MapperParams& params,
-                const std::string& points_channel)
+                const std::string& points_channel, const std::string& cloud_delta_channel,
+                const ips::mapper::CloudOdometryParams& cloud_params)
       : node_(node),
         points_channel_(points_channel),
+        cloud_delta_channel_(cloud_delta_channel),
+        T_body_cam0_(calib.T_imu_cam0),
         mapper_(
             calib, params, [this](const std::string& name, int64_t n) { node_.health().dropped(name, n); },
             [this](const std::string& name, int64_t n) { node_.health().count(name, n); }),
-        stereo_admission_(calib.cam0.width, calib.cam0.height) {}
+        stereo_admission_(calib.cam0.width, calib.cam0.height) {
+    if (!cloud_delta_channel_.empty()) odometry_.emplace(cloud_params);
+  }
 
   void onStereo(const ips::stereo_pair_t& m) {
     // The pairs only give the points their grey values; still, a forged one must not stay among them.
@@ -92,13 +100,46 @@ class MapperProcess {
       if (!f.has_grey) node_.health().count("points_without_grey");
       const ips::point_cloud_t out = ips::fw::pointCloudMessage(f.utime, f.seq, "world", f.pose, f.points, f.intensity);
       node_.publish(points_channel_, out);
+      if (odometry_) align(f);
     }
     node_.health().set("map_voxels", static_cast<int64_t>(mapper_.map().size()));
   }
 
+  // The map aligned with the previous one: a relative pose of camera 0 for the filter (CLOUD_DELTA, with the
+  // convention and covariance order of a tracker delta; seq counts the alignments).
+  void align(const ips::mapper::MappedFrame& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const ips::mapper::CloudDelta d =
+        odometry_->add(f.utime, f.points, f.pose.T_world_body * T_body_cam0_, f.depth_sigma_per_m2);
+    node_.health().set(
+        "cloud_align_ms",
+        static_cast<int64_t>(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()));
+    if (d.reason == "first_map") return;
+    node_.health().count(d.valid ? "cloud_valid" : "cloud_" + d.reason);
+    ips::tracker_delta_t m{};
+    m.utime = d.utime;
+    m.utime_prev = d.utime_prev;
+    m.seq = ++cloud_seq_;
+    m.valid = d.valid;
+    const Eigen::Quaterniond q(d.T_prev_now.linear());
+    const double q_wxyz[4] = {q.w(), q.x(), q.y(), q.z()};
+    for (int i = 0; i < 3; ++i) m.translation[i] = d.T_prev_now.translation()[i];
+    for (int i = 0; i < 4; ++i) m.rotation[i] = q_wxyz[i];
+    for (int r = 0; r < 6; ++r)
+      for (int c = 0; c < 6; ++c) m.covariance[r * 6 + c] = d.valid ? d.covariance(r, c) : 0.0;
+    m.num_features = d.points;
+    m.num_inter_matches = m.num_inliers = d.correspondences;
+    m.residual_rms = d.rmse_m;
+    m.far_rotation[0] = 1;
+    node_.publish(cloud_delta_channel_, m);
+  }
+
   ips::fw::Node& node_;
-  const std::string points_channel_;
+  const std::string points_channel_, cloud_delta_channel_;
+  const Eigen::Isometry3d T_body_cam0_;
   ips::mapper::Mapper mapper_;
+  std::optional<ips::mapper::CloudOdometry> odometry_;
+  int64_t cloud_seq_ = 0;
   ips::fw::StereoAdmission stereo_admission_;
   ips::fw::StreamOrder disparity_order_, pose_order_;
   bool logged_range_ = false;
@@ -118,7 +159,11 @@ int main(int argc, char** argv) {
         .option("--pose-channel", "CHANNEL", "channel of the poses (default: FILTER_STATE, TRACKER_DELTA or GT_POSE)")
         .option("--points-channel", "CHANNEL", "channel the points of each map go to", ips::channels::kPoints)
         .option("--map-out", "FILE", "the fused map written at shutdown and on SIGUSR1 (.ply or .pcd)")
-        .option("--name", "NAME", "process name (health channel HEALTH_<NAME>)", "mapper");
+        .option("--name", "NAME", "process name (health channel HEALTH_<NAME>)", "mapper")
+        .option("--cloud-delta-channel", "CHANNEL",
+                "align each map with the previous one (cloud_odometry in the config) and publish the relative pose "
+                "for the filter on this channel (CLOUD_DELTA); 'none': do not",
+                "none");
     ips::fw::addCommonOptions(args, "config/mapper.yaml");
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
@@ -126,11 +171,15 @@ int main(int argc, char** argv) {
     if (source != "filter" && source != "tracker" && source != "truth")
       throw ips::ArgError("--pose-source must be filter, tracker or truth, not '" + source + "'");
     const auto calib = ips::loadCalibration(args.get("--calib"));
-    const auto params = ips::mapper::loadMapperParams(ips::Config(args.get("--config")));
+    const ips::Config cfg(args.get("--config"));
+    const auto params = ips::mapper::loadMapperParams(cfg);
     const std::string map_out = args.has("--map-out") ? args.get("--map-out") : "";
 
     ips::fw::Node node(args.get("--name"), ips::fw::resolveLcmUrl(args.get("--lcm-url")));
-    MapperProcess mapper(node, calib, params, args.get("--points-channel"));
+    const std::string cloud_delta_channel =
+        args.get("--cloud-delta-channel") == "none" ? "" : args.get("--cloud-delta-channel");
+    MapperProcess mapper(node, calib, params, args.get("--points-channel"), cloud_delta_channel,
+                         ips::mapper::CloudOdometryParams::fromConfig(cfg));
     node.subscribe<ips::stereo_pair_t>(ips::channels::kStereo,
                                        [&](const ips::stereo_pair_t& m) { mapper.onStereo(m); });
     node.subscribe<ips::disparity_map_t>(ips::channels::kDisparity,

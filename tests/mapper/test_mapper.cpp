@@ -4,9 +4,11 @@
 // stays within its bound and round-trips through PLY and PCD.
 #include <gtest/gtest.h>
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <filesystem>
 
+#include "ips/mapper/cloud_odometry.hpp"
 #include "ips/mapper/map_eval.hpp"
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/stereo_points.hpp"
@@ -160,4 +162,100 @@ TEST(MapEval, SelfConsistencyMeasuresADoubledWall) {
   EXPECT_NEAR(c.median_m, 0.04, 1e-9);
   EXPECT_NEAR(c.p90_m, 0.04, 1e-9);
   EXPECT_EQ(selfConsistency(early, {}, 0.2).overlapping, 0u);
+}
+
+namespace {
+
+Eigen::Isometry3d trueCamera(double t) {
+  const auto& h = simHead();
+  return h.head.cam0InWorld(h.traj.pose(t));
+}
+
+Eigen::Matrix3d rotationVector(const Eigen::Vector3d& w) {
+  return Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+}
+
+}  // namespace
+
+TEST(CloudOdometry, AlignsTwoMapsThreeSecondsApartBackToTheTruth) {
+  // Two true disparity maps of the first corridor 3 s apart (2.25 m of walking, E3D's interval); the second is placed
+  // with a pose whose change since the first is 3 cm and 0.3 deg off, as a drifting filter's would be.
+  const double t0 = 6.0, t1 = 9.0;
+  const Eigen::Isometry3d cam0 = trueCamera(t0), cam1 = trueCamera(t1);
+  const Eigen::Isometry3d truth = cam0.inverse() * cam1;
+  Eigen::Isometry3d prior = truth;
+  prior.linear() = rotationVector(Eigen::Vector3d(0.003, -0.004, 0.002)) * prior.linear();
+  prior.translation() += Eigen::Vector3d(0.02, -0.015, 0.015);
+  const Eigen::Isometry3d placed1 = cam0 * prior;
+  const HeadGeometry g = trueGeometry();
+  const MapperParams mp;
+  const Eigen::Isometry3d T_cam_body = g.T_body_cam0.inverse();
+  const PointSet map0 = triangulate(trueDisparity(t0), g, cam0 * T_cam_body, mp);
+  const PointSet map1 = triangulate(trueDisparity(t1), g, placed1 * T_cam_body, mp);
+
+  CloudOdometry odometry{CloudOdometryParams{}};
+  const auto& rect = simHead().renderer->rectification();
+  const double k = mp.disparity_sigma_px / (rect.f * rect.baseline);
+  const CloudDelta first = odometry.add(6'000'000, map0.points, cam0, k);
+  EXPECT_FALSE(first.valid);
+  EXPECT_EQ(first.reason, "first_map");
+  const CloudDelta d = odometry.add(9'000'000, map1.points, placed1, k);
+  ASSERT_TRUE(d.valid) << d.reason;
+  EXPECT_EQ(d.utime_prev, 6'000'000);
+  EXPECT_EQ(d.utime, 9'000'000);
+  EXPECT_GT(d.overlap, 0.5);
+  const double prior_t = (d.prior.translation() - truth.translation()).norm();
+  const double prior_r = Eigen::AngleAxisd(d.prior.linear() * truth.linear().transpose()).angle();
+  const double err_t = (d.T_prev_now.translation() - truth.translation()).norm();
+  const double err_r = Eigen::AngleAxisd(d.T_prev_now.linear() * truth.linear().transpose()).angle();
+  // A corridor: its axis is left to the prior (with the unconstrained sigma), the rest is the maps'.
+  EXPECT_GE(d.constrained_directions, 4);
+  EXPECT_LT(err_t, 0.75 * prior_t);
+  EXPECT_LT(err_r, 0.5 * prior_r);
+  // The covariance is a covariance, and the result lies within it.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(d.covariance);
+  EXPECT_GT(eig.eigenvalues().minCoeff(), 0);
+  Eigen::Matrix<double, 6, 1> e;
+  e << d.T_prev_now.translation() - truth.translation(),
+      Eigen::AngleAxisd(d.T_prev_now.linear() * truth.linear().transpose()).angle() *
+          Eigen::AngleAxisd(d.T_prev_now.linear() * truth.linear().transpose()).axis();
+  EXPECT_LT(e.dot(d.covariance.ldlt().solve(e)), 22.5);  // chi-square 6 dof, 99.9 %
+  std::printf(
+      "[ CLOUD    ] prior off by %.4f m %.3f deg; aligned %.4f m %.4f deg, %d directions fixed, %d pairs, "
+      "overlap %.2f, rmse %.4f m\n",
+      prior_t, prior_r * 180 / M_PI, err_t, err_r * 180 / M_PI, d.constrained_directions, d.correspondences, d.overlap,
+      d.rmse_m);
+}
+
+TEST(CloudOdometry, APlaneLeavesItsOwnDirectionsToThePriorAndSaysSo) {
+  // A wall 3 m ahead (a 4 x 2.5 m plane, 2 cm grid): it fixes the motion towards it and the two rotations that tilt it,
+  // but neither the motion along it nor the turn about its normal. Those stay at the prior with the unconstrained
+  // sigma; the constrained ones come back to the truth (identity) with a small one.
+  std::vector<Eigen::Vector3d> wall;
+  for (double x = -2.0; x <= 2.0; x += 0.02)
+    for (double y = -1.25; y <= 1.25; y += 0.02) wall.emplace_back(x, y, 3.0);
+  Eigen::Isometry3d prior = Eigen::Isometry3d::Identity();
+  prior.translation() = Eigen::Vector3d(0.05, -0.04, 0.03);
+  const CloudOdometryParams params;
+  const CloudOdometry odometry(params);
+  const CloudDelta d = odometry.align(wall, wall, prior, 1e-3);
+  ASSERT_TRUE(d.valid) << d.reason;
+  EXPECT_NEAR(d.T_prev_now.translation().z(), 0.0, 1e-3);
+  EXPECT_NEAR(d.T_prev_now.translation().x(), 0.05, 1e-3);
+  EXPECT_NEAR(d.T_prev_now.translation().y(), -0.04, 1e-3);
+  const Eigen::Matrix<double, 6, 1> sigma = d.covariance.diagonal().cwiseSqrt();
+  EXPECT_GT(sigma[0], 0.9 * params.unconstrained_sigma_t);
+  EXPECT_GT(sigma[1], 0.9 * params.unconstrained_sigma_t);
+  EXPECT_LT(sigma[2], 0.01);
+  EXPECT_LT(sigma[3], 0.01);
+  EXPECT_LT(sigma[4], 0.01);
+  EXPECT_GT(sigma[5], 0.9 * params.unconstrained_sigma_r);
+}
+
+TEST(CloudOdometry, TooFewPointsGiveNoMeasurement) {
+  const std::vector<Eigen::Vector3d> few(100, Eigen::Vector3d(0, 0, 3));
+  const CloudOdometry odometry{CloudOdometryParams{}};
+  const CloudDelta d = odometry.align(few, few, Eigen::Isometry3d::Identity(), 1e-3);
+  EXPECT_FALSE(d.valid);
+  EXPECT_EQ(d.reason, "too_few_points");
 }

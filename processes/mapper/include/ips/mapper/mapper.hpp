@@ -13,9 +13,9 @@
 
 #include "ips/calibration.hpp"
 #include "ips/mapper/params.hpp"
-#include "ips/pose_buffer.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/mapper/voxel_map.hpp"
+#include "ips/pose_buffer.hpp"
 #include "ips/tracker/delta_chain.hpp"
 
 namespace ips::mapper {
@@ -34,6 +34,8 @@ struct MappedFrame {
   std::vector<Eigen::Vector3d> points;
   std::vector<uint8_t> intensity;
   bool has_grey = false;  // the raw left image of that pair was still held
+  // Depth precision of the map's points: sigma_z = depth_sigma_per_m2 * z^2 (sigma_d / (f b)).
+  double depth_sigma_per_m2 = 0;
 };
 
 // Body poses from the tracker's increments alone (a head without IMU): the world is the body at the first
