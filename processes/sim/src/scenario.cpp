@@ -56,6 +56,7 @@ namespace {
 void get(const Config& c, const std::string& key, double& v) { v = c.getDouble(key, v); }
 void get(const Config& c, const std::string& key, int& v) { v = c.getInt(key, v); }
 void get(const Config& c, const std::string& key, std::string& v) { v = c.getString(key, v); }
+void get(const Config& c, const std::string& key, bool& v) { v = c.getBool(key, v); }
 template <int N>
 void get(const Config& c, const std::string& key, Eigen::Matrix<double, N, 1>& v) {
   if (c.has(key)) v = c.getMatrix(key, N, 1);
@@ -170,6 +171,7 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "world/corridor_width_m", w.corridor_width_m);
   get(c, "world/building_size_m", w.building_size_m);
   get(c, "world/weak_texture_share", w.weak_texture_share);
+  get(c, "world/weak_floor", w.weak_floor);
   get(c, "world/poster_spacing_m", w.poster_spacing_m);
   get(c, "world/object_spacing_m", w.object_spacing_m);
   get(c, "world/texel_m", w.texel_m);

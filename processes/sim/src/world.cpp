@@ -328,6 +328,7 @@ World World::build(const WorldConfig& cfg, uint64_t seed) {
   b.weak = world.addTexture("weak plaster", makeRoughTexture(512, ts + 3, 2.5));
   b.floor = world.addTexture("terrazzo floor", makeSpeckleTexture(1024, ts + 4));
   b.ceiling = world.addTexture("ceiling", makeRoughTexture(512, ts + 5, 6));
+  if (cfg.weak_floor) b.floor = b.ceiling = b.weak;  // a painted floor and a plain ceiling
   b.wood = world.addTexture("wood", makeTileTexture(512, 2, ts + 6));
 
   const std::string dir = cfg.data_dir.empty() ? std::string(IPS_SIM_DEFAULT_DATA_DIR) : cfg.data_dir;

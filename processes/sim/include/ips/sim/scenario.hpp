@@ -130,6 +130,7 @@ struct WorldConfig {
   double corridor_width_m = 2.4;
   Eigen::Vector2d building_size_m{30.0, 14.0};  // outer corridor ring
   double weak_texture_share = 0.25;             // share of wall segments with weak (plaster) texture
+  bool weak_floor = false;                      // floor and ceiling with the weak plaster texture too (painted)
   double poster_spacing_m = 4.0;                // along the walls
   double object_spacing_m = 6.0;                // cabinets and boxes along the walls
   double texel_m = 0.004;                       // size of a procedural texel on the walls
