@@ -487,6 +487,7 @@ TEST(FilterEstimator, CloudDeltaBetweenKeyframesSecondsApartIsFusedAndSharpensTh
       cloud_sp.tracker_sigma_r = 2e-4;
       SensorSim cloud_sim(walk, cloud_sp, calib, 32);
       FilterParams p = paramsFor(type);
+      p.cloud = true;  // off by default (the filter README says why)
       Estimator est(p, calib);
       est.initialize(sim.truth(0), initialCovariance(p.init));
       std::vector<Msg> msgs = makeMessages(sim, 0, kEndUs);
