@@ -81,9 +81,9 @@ struct FilterParams {
   // supported using a dense 3D point cloud") as a relative-pose measurement between the clones at the two maps'
   // times, which the filter keeps when E3D announces the pair (KEYFRAME). Floors as for the tracker's deltas:
   // the alignment's covariance comes from its own residuals and may claim more than the maps' systematic errors
-  // (SGM's smoothing, the range limit) allow. Off by default: on the simulated head the alignments of E3D's maps
-  // are worse than what the tracker and the IMU give over the same seconds, and on weakly textured surfaces,
-  // where they should help, they are biased (processes/mapper/README.md has the figures).
+  // (SGM's smoothing, the range limit) allow. Off by default: in the main job they lower the ATE, but on weakly
+  // textured walls, where they should help most, E3D's maps are biased and the end point is further off with them
+  // (processes/mapper/README.md has the figures).
   bool cloud = false;
   double cloud_min_sigma_t = 2e-3;  // [m]: a fraction of the maps' 5 cm voxels
   double cloud_min_sigma_r = 2e-4;  // [rad]: 2 mm over the ~10 m the maps reach
