@@ -58,7 +58,7 @@ CloudOdometryParams CloudOdometryParams::fromConfig(const Config& cfg) {
   return p;
 }
 
-// The previous map, thinned, in its camera frame, with the normals the point-to-plane alignment needs.
+// The previous map: its time, its camera's pose as the filter gave it, and its points in that camera's frame.
 struct CloudOdometry::Reference {
   int64_t utime = 0;
   Eigen::Isometry3d T_world_cam = Eigen::Isometry3d::Identity();
@@ -109,9 +109,9 @@ CloudDelta CloudOdometry::align(const std::vector<Eigen::Vector3d>& prev, const 
 
   // Point-to-plane alignment as a maximum a posteriori estimate: the pairs' residuals n . (R p + t - y) and the
   // prior, with the weak information of the unconstrained sigmas. Open3D's own ICP solves the pairs alone, and in a
-  // corridor, whose axis the walls leave open, it slides by metres (towards the pose where the two range-limited
-  // clouds cover each other); the prior's term keeps such a direction where the filter put it, while every direction
-  // the maps constrain follows them. Steps in the filter's error terms: t + dt, Exp(dtheta) R.
+  // corridor, whose axis the walls leave open, it slides by metres (on the simulated walk: towards no motion at
+  // all); the prior's term keeps such a direction where the filter put it, while every direction the maps constrain
+  // follows them. Steps in the filter's error terms: t + dt, Exp(dtheta) R.
   Vector6d weak;
   weak << Eigen::Vector3d::Constant(1.0 / (params_.unconstrained_sigma_t * params_.unconstrained_sigma_t)),
       Eigen::Vector3d::Constant(1.0 / (params_.unconstrained_sigma_r * params_.unconstrained_sigma_r));
