@@ -15,6 +15,7 @@
 #include "ips/config.hpp"
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/message_poses.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
@@ -121,12 +122,9 @@ class MapperProcess {
     m.utime_prev = d.utime_prev;
     m.seq = ++cloud_seq_;
     m.valid = d.valid;
-    const Eigen::Quaterniond q(d.T_prev_now.linear());
-    const double q_wxyz[4] = {q.w(), q.x(), q.y(), q.z()};
     for (int i = 0; i < 3; ++i) m.translation[i] = d.T_prev_now.translation()[i];
-    for (int i = 0; i < 4; ++i) m.rotation[i] = q_wxyz[i];
-    for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) m.covariance[r * 6 + c] = d.valid ? d.covariance(r, c) : 0.0;
+    ips::fw::quaternionToArray(Eigen::Quaterniond(d.T_prev_now.linear()), m.rotation);
+    if (d.valid) ips::fw::matrixToArray<6>(d.covariance, m.covariance);
     m.num_features = d.points;
     m.num_inter_matches = m.num_inliers = d.correspondences;
     m.residual_rms = d.rmse_m;

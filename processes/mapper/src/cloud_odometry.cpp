@@ -122,7 +122,6 @@ CloudDelta CloudOdometry::align(const std::vector<Eigen::Vector3d>& prev, const 
   Eigen::Vector3d t = prior.translation();
   const double max_d2 = params_.max_correspondence_m * params_.max_correspondence_m;
   const double min_var = params_.min_residual_sigma_m * params_.min_residual_sigma_m;
-  double variance = 1.0;
   std::vector<int> index(1);
   std::vector<double> dist2(1);
   for (int iteration = 0; iteration < params_.max_iterations; ++iteration) {
@@ -157,7 +156,7 @@ CloudDelta CloudOdometry::align(const std::vector<Eigen::Vector3d>& prev, const 
     d.correspondences = pairs;
     if (pairs < params_.min_correspondences) break;
     // The residuals' spread against the model's (1 when the sigmas are right; more when the maps are worse).
-    variance = std::max(sum_w_r2 / std::max(1, pairs - 6), 1.0);
+    const double variance = std::max(sum_w_r2 / std::max(1, pairs - 6), 1.0);
     d.rmse_m = std::sqrt(sum_r2 / pairs);
     // The pairs' information as the result's covariance will state it (correlated errors: inflated).
     const double scale = 1.0 / (variance * params_.covariance_inflation);
