@@ -2,7 +2,7 @@
 // settings; with --peer-cmd, of an external matcher) on
 // the scenes of ../shared/data/stereo. Per scene: bad 0.5/1/2/4 px in the non-occluded region and in all
 // evaluated pixels (pixels without a disparity count as bad), mean absolute error of the valid disparities
-// (all region), density; writes colour-mapped disparity PNGs.
+// (all region), density (all and nonocc); writes colour-mapped disparity PNGs.
 //   e3d_eval [--data DIR] [--scenes a,b,..] [--out-dir DIR] [--opencv] [--device D] [SGM options]
 //   e3d_eval --radiometric [--costs census,ad,sad,mi] [...]: the right image changed before matching (gain 0.7,
 //       offset +30, gamma 1.5, vignetting 40 % at the corners); bad 2.0 (nonocc) of each cost and change, each cost
@@ -88,7 +88,8 @@ Scene loadScene(const std::string& dir) {
 struct Scores {
   double bad_nonocc[4] = {0, 0, 0, 0}, bad_all[4] = {0, 0, 0, 0};
   double mean_error = 0, density = 0;
-  double bad2_valid = 0;  // bad 2.0 % among the valid nonocc pixels: whether added pixels are right ones
+  double density_nonocc = 0;  // share of the nonocc pixels with a disparity (occluded pixels are rightly invalid)
+  double bad2_valid = 0;      // bad 2.0 % among the valid nonocc pixels: whether added pixels are right ones
 };
 
 const double kThresholds[4] = {0.5, 1.0, 2.0, 4.0};
@@ -126,6 +127,7 @@ Scores score(const Scene& s, const cv::Mat& disp /* CV_32F, inf = invalid */) {
   }
   r.mean_error = err_sum / std::max(1L, valid);
   r.density = 100.0 * valid / std::max(1L, n_all);
+  r.density_nonocc = 100.0 * valid_non / std::max(1L, n_non);
   r.bad2_valid = 100.0 * bad2_valid_non / std::max(1L, valid_non);
   return r;
 }
@@ -164,7 +166,8 @@ void printRow(const std::string& scene, const std::string& method, const Scores&
             << std::setprecision(2);
   for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_nonocc[t];
   for (int t = 0; t < 4; ++t) std::cout << std::setw(7) << r.bad_all[t];
-  std::cout << std::setw(7) << r.mean_error << std::setw(8) << r.density << std::setw(8) << r.bad2_valid << "\n";
+  std::cout << std::setw(7) << r.mean_error << std::setw(8) << r.density << std::setw(8) << r.density_nonocc
+            << std::setw(8) << r.bad2_valid << "\n";
 }
 
 // The right image as another camera or exposure would see it: the radiometric changes of --radiometric.
@@ -269,12 +272,13 @@ int main(int argc, char** argv) {
     VulkanContext ctx(args.get("device", ""));
     if (args.has("radiometric")) return radiometricTable(names, data, base, args, ctx);
     std::cout << "E3D: " << base.describe() << " (num_disparities per scene unless given)\n";
-    std::cout << std::left << std::setw(18) << "scene" << std::setw(10) << "method" << std::right
-              << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density  b2.0v\n";
+    std::cout
+        << std::left << std::setw(18) << "scene" << std::setw(10) << "method" << std::right
+        << "  nonocc: b0.5   b1.0   b2.0   b4.0 | all: b0.5   b1.0   b2.0   b4.0   mean  density  dens_n  b2.0v\n";
     // Every method's raw map is scored unfilled and with the same fill (fillInvalid, the CPU reference of E3D's
     // fill), so that no method gains from a post-processing the others lack.
     struct Sums {
-      double bad2_nonocc = 0, bad2_all = 0, density = 0, bad2_valid = 0;
+      double bad2_nonocc = 0, bad2_all = 0, density = 0, density_nonocc = 0, bad2_valid = 0;
     };
     std::map<std::string, Sums> sums;
     std::vector<std::string> order;
@@ -310,6 +314,7 @@ int main(int argc, char** argv) {
           sum.bad2_nonocc += e.bad_nonocc[2];
           sum.bad2_all += e.bad_all[2];
           sum.density += e.density;
+          sum.density_nonocc += e.density_nonocc;
           sum.bad2_valid += e.bad2_valid;
           if (!out_dir.empty())
             cv::imwrite(out_dir + "/" + name + "_" + label + ".png", colourDisparity(disp, s.num_disparities));
@@ -319,12 +324,13 @@ int main(int argc, char** argv) {
     // nonocc: the pixels each scene's evaluation mask marks as evaluated; all: occluded pixels too. Invalid
     // pixels count as bad in both. "+f": with the background fill.
     std::cout << "mean over " << count
-              << " scenes: method  bad2.0 nonocc  bad2.0 all  density  bad2.0 of valid nonocc\n";
+              << " scenes: method  bad2.0 nonocc  bad2.0 all  density  density nonocc  bad2.0 of valid nonocc\n";
     for (const auto& label : order) {
       const Sums& sum = sums[label];
       std::cout << "average " << std::left << std::setw(10) << label << std::right << std::setw(8)
                 << sum.bad2_nonocc / count << std::setw(12) << sum.bad2_all / count << std::setw(9)
-                << sum.density / count << std::setw(9) << sum.bad2_valid / count << "\n";
+                << sum.density / count << std::setw(9) << sum.density_nonocc / count << std::setw(9)
+                << sum.bad2_valid / count << "\n";
     }
     return 0;
   } catch (const std::exception& e) {
