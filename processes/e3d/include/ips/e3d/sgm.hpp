@@ -58,15 +58,24 @@ struct SgmParams {
   Cost cost = Cost::census;      // ips/e3d/matching_cost.hpp
   int mi_levels = 5;             // mi: pyramid levels (1 = full resolution only, from the start disparity)
   int mi_coarse_iterations = 2;  // mi: matches at the coarsest level, each learning from the one before
-  // Defaults: chosen on the six scenes of ../shared/data/stereo (processes/e3d/README.md); one set for all.
-  int p1 = 14;           // penalty for a disparity change of 1 px (census cost units, 0..24)
-  int p2 = 231;          // penalty for larger changes; p2 + 24 <= 255 (path costs fit one byte)
-  int p2_slope = 80;     // adaptive P2: P2' = max(P1, P2 - p2_slope * |dI| / 16); 0 = constant P2
-  int paths = 8;         // 8 or 4 (horizontal + vertical)
-  int uniqueness = 20;   // percent, 0 = off (as OpenCV's uniquenessRatio)
+  // Defaults: the values of rSGM (Spangenberg et al. 2014; its public code kbatsos/Real-Time-Stereo, CPU/sgm) for
+  // the same 5x5 census cost, set by its authors and not fitted here (processes/e3d/README.md shows them on the
+  // six scenes of ../shared/data/stereo, beside a grid around them). P1 is under a third of the cost range, so a
+  // slanted surface (a road steps one disparity every few rows) is cheaper than a wrong constant disparity along every
+  // path.
+  int p1 = 7;        // penalty for a disparity change of 1 px (census cost units, 0..24)
+  int p2 = 50;       // penalty for larger changes; p2 + 24 <= 255 (path costs fit one byte)
+  int p2_slope = 4;  // adaptive P2: P2' = max(P1, P2 - p2_slope * |dI| / 16); rSGM's 50 - 0.25 |dI|; 0 = constant
+  int paths = 8;     // 8 or 4 (horizontal + vertical)
+  // Uniqueness test [percent], 0 = off (as OpenCV's uniquenessRatio). Off: the left-right check already tests each
+  // match; on top of it rSGM's 5 % removes 0.2 % of the pixels, about half of them right ones (README).
+  int uniqueness = 0;
   bool subpixel = true;  // equiangular interpolation (else integer disparities * 16)
   bool median = true;    // 3x3 median on both maps before the left-right check
-  int lr_max_diff = 1;   // left-right check tolerance [px]; < 0 = no check
+  // Left-right check tolerance [px]; < 0 = no check. 2 px is rSGM's "1 px" check: it truncates the difference to
+  // an integer before comparing (int(d_L - d_R) > 1), so it rejects differences of 2 px and more; this check
+  // compares at 1/16 px.
+  int lr_max_diff = 2;
   // How the right image's map for the check is found (see 5. above): diagonal (a search in the aggregated costs
   // of the left match, cheap) or match (a second match right to left, about twice the time).
   RightMap right_map = RightMap::diagonal;
