@@ -2,6 +2,21 @@
 
 namespace ips::tracker {
 
+PriorBuilderParams loadPriorBuilderParams(const Config& cfg) {
+  PriorBuilderParams p;
+  p.gyro_rate_sigma = cfg.getDouble("process/gyro_rate_sigma", p.gyro_rate_sigma);
+  p.filter_rotation_floor = cfg.getDouble("process/filter_prior_rotation_floor", p.filter_rotation_floor);
+  p.filter_translation_floor = cfg.getDouble("process/filter_prior_translation_floor", p.filter_translation_floor);
+  p.max_filter_states = cfg.getInt("process/max_filter_priors", p.max_filter_states);
+  p.gyro_window_s = cfg.getDouble("process/gyro_window_s", p.gyro_window_s);
+  if (!(p.gyro_rate_sigma > 0 && p.filter_rotation_floor >= 0 && p.filter_translation_floor >= 0 &&
+        p.max_filter_states >= 2 && p.gyro_window_s > 0))
+    throw ConfigError(cfg.path() +
+                      ": process/ prior keys out of range (sigmas and floors >= 0, "
+                      "max_filter_priors >= 2, gyro_window_s > 0)");
+  return p;
+}
+
 PriorBuilder::PriorBuilder(const Eigen::Isometry3d& T_imu_cam0, const PriorBuilderParams& params,
                            const PriorParams& motion)
     : T_imu_cam0_(T_imu_cam0), params_(params), motion_(motion) {}

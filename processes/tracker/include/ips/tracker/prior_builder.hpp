@@ -32,6 +32,10 @@ struct PriorBuilderParams {
   double gyro_window_s = 5.0;  // [s] gyro samples held: longer than any image interval the tracker bridges
 };
 
+// process/gyro_rate_sigma, filter_prior_rotation_floor, filter_prior_translation_floor, max_filter_priors,
+// gyro_window_s over the defaults. Throws ConfigError on a value out of range.
+PriorBuilderParams loadPriorBuilderParams(const Config& cfg);
+
 class PriorBuilder {
  public:
   PriorBuilder(const Eigen::Isometry3d& T_imu_cam0, const PriorBuilderParams& params, const PriorParams& motion);
