@@ -11,6 +11,7 @@
 #include "ips/e3d/mono_depth.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
+#include "ips/eval/disparity.hpp"
 #include "ips/polar_rectification.hpp"
 #include "ips/sim/mono_truth.hpp"
 #include "ips/sim/renderer.hpp"
@@ -26,23 +27,13 @@ struct Figures {
   double bad2 = 0, density = 0;
 };
 
-// bad 2.0 (radially, in full-resolution px) and density inside the mask, as mono_disparity_eval scores them.
+// bad 2.0 (radially, in full-resolution px: a polar disparity step is P.dr of them) and density inside the mask,
+// as mono_disparity_eval scores them.
 Figures score(const PolarRectification& P, const cv::Mat& disparity, const cv::Mat& truth) {
-  int64_t masked = 0, valid = 0, evaluated = 0, bad = 0;
-  for (int v = 0; v < disparity.rows; ++v)
-    for (int u = 0; u < disparity.cols; ++u) {
-      if (!P.valid.at<uint8_t>(v, u)) continue;
-      ++masked;
-      const int16_t d = disparity.at<int16_t>(v, u);
-      const bool ok = d != e3d::kInvalidDisparity;
-      valid += ok;
-      const float g = truth.at<float>(v, u);
-      if (!std::isfinite(g)) continue;
-      ++evaluated;
-      bad += !ok || std::abs(double(d) / e3d::kSubpixelScale - g) * P.dr > 2.0;
-    }
-  EXPECT_GT(evaluated, masked / 2);
-  return {100.0 * bad / std::max<int64_t>(1, evaluated), 100.0 * valid / std::max<int64_t>(1, masked)};
+  const eval::DisparityErrors e = eval::disparityErrors(
+      eval::disparityPixels(disparity, e3d::kInvalidDisparity, e3d::kSubpixelScale), truth, {2.0}, P.valid, P.dr);
+  EXPECT_GT(e.evaluated, e.pixels / 2);
+  return {e.badPct(0), e.densityPct()};
 }
 
 // The simulated walk and the deployed E3D configuration.

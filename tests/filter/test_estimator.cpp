@@ -6,12 +6,13 @@
 #include <cmath>
 #include <random>
 
+#include "ips/eval/filter_testbed.hpp"
+#include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
-#include "ips/filter/testbed.hpp"
-#include "ips/filter/trajectory_metrics.hpp"
 #include "ips/log.hpp"
 
 using namespace ips::filter;
+using namespace ips::eval;
 
 namespace {
 

@@ -7,11 +7,12 @@
 #include <limits>
 #include <random>
 
+#include "ips/eval/filter_testbed.hpp"
 #include "ips/filter/kalman.hpp"
 #include "ips/filter/models.hpp"
-#include "ips/filter/testbed.hpp"
 
 using namespace ips::filter;
+using namespace ips::eval;
 
 namespace {
 

@@ -8,8 +8,8 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "ips/eval/map_errors.hpp"
 #include "ips/mapper/cloud_odometry.hpp"
-#include "ips/mapper/map_eval.hpp"
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/mapper/voxel_map.hpp"
@@ -68,7 +68,7 @@ TEST(MapperGeometry, TrueDisparityWithTheTruePoseLiesOnTheWorldsSurfaces) {
     const Eigen::Isometry3d T_world_body = simHead().traj.pose(t);
     const PointSet set = triangulate(trueDisparity(t), trueGeometry(), T_world_body, params);
     ASSERT_GT(set.points.size(), 1000u) << "t = " << t;
-    const SurfaceErrors e = surfaceErrors(set.points, simHead().world);
+    const ips::eval::SurfaceErrors e = ips::eval::surfaceErrors(set.points, simHead().world);
     // Exact disparity and pose: only the rendering's depth sampling remains (millimetres).
     EXPECT_LT(e.median_m, 0.003) << "t = " << t;
     EXPECT_LT(e.p90_m, 0.01) << "t = " << t;
@@ -80,8 +80,8 @@ TEST(MapperGeometry, TrueDisparityWithTheTruePoseLiesOnTheWorldsSurfaces) {
     Eigen::Isometry3d wrong = T_world_body;
     wrong.translation() += Eigen::Vector3d(0.1, 0, 0);
     wrong.linear() = Eigen::AngleAxisd(2 * M_PI / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix() * wrong.linear();
-    const SurfaceErrors off =
-        surfaceErrors(triangulate(trueDisparity(t), trueGeometry(), wrong, params).points, simHead().world);
+    const ips::eval::SurfaceErrors off =
+        ips::eval::surfaceErrors(triangulate(trueDisparity(t), trueGeometry(), wrong, params).points, simHead().world);
     EXPECT_GT(off.median_m, 0.03) << "t = " << t;
   }
 }
@@ -157,11 +157,11 @@ TEST(MapEval, SelfConsistencyMeasuresADoubledWall) {
       late.emplace_back(0.02 * i, 3.04, 0.02 * j);
       late.emplace_back(10 + 0.02 * i, 3.0, 0.02 * j);
     }
-  const SelfConsistency c = selfConsistency(early, late, 0.2);
+  const ips::eval::SelfConsistency c = ips::eval::selfConsistency(early, late, 0.2);
   EXPECT_EQ(c.overlapping, 101u * 101u) << "only the wall seen twice";
   EXPECT_NEAR(c.median_m, 0.04, 1e-9);
   EXPECT_NEAR(c.p90_m, 0.04, 1e-9);
-  EXPECT_EQ(selfConsistency(early, {}, 0.2).overlapping, 0u);
+  EXPECT_EQ(ips::eval::selfConsistency(early, {}, 0.2).overlapping, 0u);
 }
 
 namespace {

@@ -7,7 +7,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "../../tools/tracker/e3d_guide.hpp"
+#include "ips/eval/e3d_guide.hpp"
 #include "ips/sim/renderer.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/sim/sensors.hpp"
@@ -53,8 +53,8 @@ double shareBelow(const std::vector<double>& e, double limit) {
 TEST(GuidedIntraMatching, AgreesWithTheRowSearchAndTheTruthOnSimulatedPairs) {
   static Walk w;
   StereoTracker tracker(w.head.calibration, deployedParams());
-  tools::E3dGuide e3d(w.head.calibration, std::string(IPS_SOURCE_DIR) + "/config/e3d_sim.yaml",
-                      tracker.rectification());
+  ips::eval::E3dGuide e3d(w.head.calibration, std::string(IPS_SOURCE_DIR) + "/config/e3d_sim.yaml",
+                          tracker.rectification());
   const MatcherParams& mp = deployedParams().matcher;
   const int margin = deployedParams().detector.border + mp.ncc_half_window + 1;
   size_t own_total = 0, guided_total = 0, common = 0, same_column = 0;

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 
-#include "../../tools/tracker/sim_eval.hpp"
+#include "ips/eval/tracker_on_sim.hpp"
 
 using namespace ips::tracker;
 
@@ -20,7 +20,8 @@ TEST(TrackerSim, WalkRelativePoseErrorPerFrame) {
     std::fclose(f);
   }
   std::vector<double> rot, pct;
-  const auto errors = tools::runTrackerOnSimulation(scenario, 2.5, TrackerParams(), tools::SimPrior::ConstantVelocity);
+  const auto errors =
+      ips::eval::runTrackerOnSimulation(scenario, 2.5, TrackerParams(), ips::eval::SimPrior::ConstantVelocity);
   ASSERT_EQ(errors.size(), 20u);  // 8 Hz
   for (const auto& e : errors) {
     ASSERT_TRUE(e.result.valid) << "frame " << e.frame;
@@ -48,8 +49,8 @@ TEST(TrackerSim, StreetRotationFromFarPoints) {
   std::vector<double> far_err;
   int pairs = 0, far_valid = 0, fused = 0;
   double nees = 0;
-  tools::runTrackerOnSimulation(
-      scenario, 10.0, params, tools::SimPrior::ConstantVelocity, [&](const tools::SimFrameError& e) {
+  ips::eval::runTrackerOnSimulation(
+      scenario, 10.0, params, ips::eval::SimPrior::ConstantVelocity, [&](const ips::eval::SimFrameError& e) {
         if (e.frame < 64) return;
         ++pairs;
         if (!e.result.far_valid) return;
@@ -84,7 +85,7 @@ TEST(TrackerSim, IntegrityFindsAKnockAndCorrectsIt) {
   int alarms_before = 0;
   IntegrityStatus last;
   Eigen::Vector3d truth = Eigen::Vector3d::Zero();
-  tools::runIntegrityOnSimulation(sc, 11.0, params, integrity, {}, [&](const tools::SimIntegrityFrame& f) {
+  ips::eval::runIntegrityOnSimulation(sc, 11.0, params, integrity, {}, [&](const ips::eval::SimIntegrityFrame& f) {
     if (f.t < 2.0 && f.status->state == IntegrityStatus::State::Alarm) ++alarms_before;
     if (f.t >= 2.0 && alarm_s < 0 && f.status->state == IntegrityStatus::State::Alarm) alarm_s = f.t - 2.0;
     last = *f.status;

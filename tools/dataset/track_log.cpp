@@ -14,9 +14,9 @@
 #include <ips/stereo_pair_t.hpp>
 #include <opencv2/core.hpp>
 
-#include "../tracker/e3d_guide.hpp"
 #include "ips/args.hpp"
 #include "ips/calibration.hpp"
+#include "ips/eval/e3d_guide.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
@@ -52,9 +52,9 @@ int main(int argc, char** argv) {
         ips::loadCalibration(args.has("--calib") ? args.get("--calib") : log_path + ".calib.yaml");
     ips::tracker::StereoTracker tracker(calib, ips::tracker::loadTrackerParams(args.get("--config")));
 
-    std::unique_ptr<ips::tracker::tools::E3dGuide> e3d;
+    std::unique_ptr<ips::eval::E3dGuide> e3d;
     if (args.has("--e3d-config"))
-      e3d = std::make_unique<ips::tracker::tools::E3dGuide>(calib, args.get("--e3d-config"), tracker.rectification());
+      e3d = std::make_unique<ips::eval::E3dGuide>(calib, args.get("--e3d-config"), tracker.rectification());
     double e3d_ms = 0;
     int64_t intra = 0, from_map = 0, inliers = 0, inter = 0;
     ips::fw::LogReader log(log_path);  // a damaged log is an error naming the byte, not a short run

@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "ips/e3d/stereo_matcher.hpp"
+#include "ips/eval/disparity.hpp"
 #include "ips/pfm.hpp"
 #include "tool_common.hpp"
 
@@ -95,40 +96,18 @@ struct Scores {
 const double kThresholds[4] = {0.5, 1.0, 2.0, 4.0};
 
 Scores score(const Scene& s, const cv::Mat& disp /* CV_32F, inf = invalid */) {
+  const std::vector<double> thresholds(std::begin(kThresholds), std::end(kThresholds));
+  const ips::eval::DisparityErrors all = ips::eval::disparityErrors(disp, s.gt, thresholds, s.all);
+  const ips::eval::DisparityErrors non = ips::eval::disparityErrors(disp, s.gt, thresholds, s.all & s.nonocc);
   Scores r;
-  long n_non = 0, n_all = 0, valid = 0, valid_non = 0, bad2_valid_non = 0;
-  double err_sum = 0;
-  for (int y = 0; y < disp.rows; ++y)
-    for (int x = 0; x < disp.cols; ++x) {
-      if (!s.all.at<uint8_t>(y, x)) continue;
-      const float d = disp.at<float>(y, x);
-      const bool ok = std::isfinite(d);
-      const double err = ok ? std::abs(d - s.gt.at<float>(y, x)) : INFINITY;
-      const bool non = s.nonocc.at<uint8_t>(y, x) != 0;
-      ++n_all;
-      n_non += non;
-      if (ok) {
-        ++valid;
-        err_sum += err;
-        if (non) {
-          ++valid_non;
-          bad2_valid_non += err > 2.0;
-        }
-      }
-      for (int t = 0; t < 4; ++t)
-        if (err > kThresholds[t]) {
-          r.bad_all[t] += 1;
-          if (non) r.bad_nonocc[t] += 1;
-        }
-    }
   for (int t = 0; t < 4; ++t) {
-    r.bad_all[t] = 100.0 * r.bad_all[t] / std::max(1L, n_all);
-    r.bad_nonocc[t] = 100.0 * r.bad_nonocc[t] / std::max(1L, n_non);
+    r.bad_all[t] = all.badPct(t);
+    r.bad_nonocc[t] = non.badPct(t);
   }
-  r.mean_error = err_sum / std::max(1L, valid);
-  r.density = 100.0 * valid / std::max(1L, n_all);
-  r.density_nonocc = 100.0 * valid_non / std::max(1L, n_non);
-  r.bad2_valid = 100.0 * bad2_valid_non / std::max(1L, valid_non);
+  r.mean_error = all.meanAbsError();
+  r.density = all.densityPct();
+  r.density_nonocc = non.densityPct();
+  r.bad2_valid = non.badValidPct(2);
   return r;
 }
 

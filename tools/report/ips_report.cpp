@@ -26,12 +26,13 @@
 #include <sstream>
 
 #include "ips/calibration.hpp"
-#include "ips/filter/trajectory_metrics.hpp"
+#include "ips/eval/disparity.hpp"
+#include "ips/eval/map_errors.hpp"
+#include "ips/eval/trajectory.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
-#include "ips/mapper/map_eval.hpp"
 #include "ips/mapper/voxel_map.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/tracker/delta_chain.hpp"
@@ -39,8 +40,8 @@
 
 namespace {
 
-using ips::filter::Trajectory;
-using ips::filter::TrajPoint;
+using ips::eval::Trajectory;
+using ips::eval::TrajPoint;
 
 template <class Msg>
 bool decode(const ips::fw::LogMessage& e, Msg* m) {
@@ -251,39 +252,24 @@ ErrorSeries errorSeries(const FilterRun& run, const Trajectory& est, const Traje
   return out;
 }
 
-cv::Mat disparityMat(const ips::disparity_map_t& m) {
-  cv::Mat d(m.height, m.width, CV_32FC1);
-  for (int r = 0; r < m.height; ++r)
-    for (int c = 0; c < m.width; ++c) {
-      const int16_t v = m.data[r][c];
-      d.at<float>(r, c) = v == m.invalid_value ? -1.f : static_cast<float>(v) / m.subpixel_scale;
-    }
-  return d;
+// A DISPARITY message's map in pixels, NaN where it has none.
+cv::Mat disparityPixels(const ips::disparity_map_t& m) {
+  cv::Mat fixed(m.height, m.width, CV_16SC1);
+  for (int r = 0; r < m.height; ++r) std::copy(m.data[r].begin(), m.data[r].end(), fixed.ptr<int16_t>(r));
+  return ips::eval::disparityPixels(fixed, m.invalid_value, m.subpixel_scale);
 }
 
+// E3D's map against the true one, at E3D's scale (output_scale) and in its pixels, as stereo benchmarks at a
+// reduced resolution count.
 DisparityScore score(const ips::disparity_map_t& est, const ips::disparity_map_t& gt_msg) {
-  cv::Mat e = disparityMat(est), g = disparityMat(gt_msg);
-  if (g.size() != e.size()) {  // E3D ran at a reduced resolution: compare at its scale
-    const double s = static_cast<double>(e.cols) / g.cols;
-    cv::resize(g, g, e.size(), 0, 0, cv::INTER_NEAREST);
-    g.setTo(-1.f, g < 0);
-    cv::Mat valid = g >= 0;
-    g = g * s;
-    g.setTo(-1.f, ~valid);
-  }
+  const cv::Mat e = disparityPixels(est);
+  const cv::Mat g = ips::eval::truthAtSize(disparityPixels(gt_msg), e.size());
+  const ips::eval::DisparityErrors err = ips::eval::disparityErrors(e, g, {kBadDisparityPx});
   DisparityScore sc;
   sc.seq = est.seq;
-  int64_t bad = 0, valid_est = 0;
-  for (int r = 0; r < e.rows; ++r)
-    for (int c = 0; c < e.cols; ++c) {
-      const float ev = e.at<float>(r, c), gv = g.at<float>(r, c);
-      if (ev >= 0) ++valid_est;
-      if (gv < 0) continue;
-      ++sc.evaluated;
-      if (ev < 0 || std::fabs(ev - gv) > kBadDisparityPx) ++bad;
-    }
-  sc.bad2_pct = sc.evaluated ? 100.0 * bad / sc.evaluated : 0;
-  sc.density_pct = 100.0 * valid_est / (static_cast<double>(e.rows) * e.cols);
+  sc.bad2_pct = err.badPct(0);
+  sc.density_pct = err.densityPct();
+  sc.evaluated = err.evaluated;
   return sc;
 }
 
@@ -538,10 +524,10 @@ int main(int argc, char** argv) {
       double ate = NAN, end_err = NAN, end_pct = NAN;
       if (est.size() >= 3 && gt.size() >= 3) {
         Trajectory ea, ra;
-        ips::filter::associate(aligned, gt, 0.05, &ea, &ra);
+        ips::eval::associate(aligned, gt, 0.05, &ea, &ra);
         if (ea.size() >= 3) {
-          ips::filter::Trajectory ealigned = ea;
-          const Eigen::Isometry3d T = ips::filter::alignSE3(ea, ra);
+          ips::eval::Trajectory ealigned = ea;
+          const Eigen::Isometry3d T = ips::eval::alignSE3(ea, ra);
           double se = 0;
           for (size_t i = 0; i < ea.size(); ++i) se += (T * ea[i].p - ra[i].p).squaredNorm();
           ate = std::sqrt(se / ea.size());
@@ -573,12 +559,12 @@ int main(int argc, char** argv) {
         page_errors.push_back(e.str());
       }
       first_run = false;
-      ips::filter::writeTum(out + "/trajectory_" + run.channel + ".tum", aligned);
+      ips::eval::writeTum(out + "/trajectory_" + run.channel + ".tum", aligned);
     }
     js << "\n  ],\n";
     js << "  \"end_error_m\": " << jsonNumber(first_end_err) << ",\n  \"end_error_pct\": " << jsonNumber(first_end_pct)
        << ",\n  \"ate_rmse_m\": " << jsonNumber(first_ate) << ",\n";
-    if (!gt.empty()) ips::filter::writeTum(out + "/trajectory_ground_truth.tum", gt);
+    if (!gt.empty()) ips::eval::writeTum(out + "/trajectory_ground_truth.tum", gt);
 
     // Every estimator that ran against the ground truth, as recordings are judged: ATE (SE(3)-aligned), relative
     // errors over sub-sequences of fixed length (KITTI devkit, every pose a start) and the end-point error with
@@ -631,15 +617,15 @@ int main(int argc, char** argv) {
           q.q = Eigen::Quaterniond(T.linear());
           t.ref.push_back(q);
         }
-        if (!t.ref.empty()) ips::filter::writeTum(out + "/trajectory_ground_truth_cam0.tum", t.ref);
-        ips::filter::writeTum(out + "/trajectory_tracker.tum", t.est);
+        if (!t.ref.empty()) ips::eval::writeTum(out + "/trajectory_ground_truth_cam0.tum", t.ref);
+        ips::eval::writeTum(out + "/trajectory_tracker.tum", t.est);
         {
           // On the page beside the truth: the chain placed at the truth's camera-0 pose at its first pair, as its
           // end error is judged (the camera is a lever arm away from the body the filters and the truth give).
           Trajectory ea, ra;
-          if (t.ref.size() >= 3) ips::filter::associate(t.est, t.ref, 0.05, &ea, &ra);
+          if (t.ref.size() >= 3) ips::eval::associate(t.est, t.ref, 0.05, &ea, &ra);
           trajectoryJson("tracker (camera 0, chained increments)", "tracker",
-                         ea.empty() ? t.est : ips::filter::alignFirstPose(ea, ra));
+                         ea.empty() ? t.est : ips::eval::alignFirstPose(ea, ra));
         }
         estimates.push_back(std::move(t));
       }
@@ -653,15 +639,15 @@ int main(int argc, char** argv) {
       bool first_est = true;
       for (const auto& est : estimates) {
         Trajectory ea, ra;
-        if (est.ref.size() >= 3) ips::filter::associate(est.est, est.ref, 0.05, &ea, &ra);
+        if (est.ref.size() >= 3) ips::eval::associate(est.est, est.ref, 0.05, &ea, &ra);
         double ate = NAN, end_m = NAN, end_pct = NAN, dist = 0;
-        ips::filter::RelativeErrors rel;
+        ips::eval::RelativeErrors rel;
         if (ea.size() >= 3) {
-          const ips::filter::TrajectoryErrors err = ips::filter::evaluate(ea, ra, lengths.front());
+          const ips::eval::TrajectoryErrors err = ips::eval::evaluate(ea, ra, lengths.front());
           ate = err.ate_rmse_m;
           dist = err.distance_m;
-          rel = ips::filter::relativeErrors(ea, ra, lengths);
-          end_m = ips::filter::endErrorFirstPoseAligned(ea, ra);
+          rel = ips::eval::relativeErrors(ea, ra, lengths);
+          end_m = ips::eval::endErrorFirstPoseAligned(ea, ra);
           end_pct = dist > 0 ? 100.0 * end_m / dist : NAN;
         }
         js << (first_est ? "\n" : ",\n") << "    {\"name\": \"" << est.name << "\", \"poses\": " << est.est.size()
@@ -714,7 +700,7 @@ int main(int argc, char** argv) {
       }
       auto surfaceKeys = [&](const std::vector<Eigen::Vector3d>& pts, const Eigen::Isometry3d& T,
                              const std::string& sfx) {
-        const ips::mapper::SurfaceErrors e = ips::mapper::surfaceErrors(pts, *world, T, kMapWithinM);
+        const ips::eval::SurfaceErrors e = ips::eval::surfaceErrors(pts, *world, T, kMapWithinM);
         js << "  \"map_median_surface_error_m" << sfx << "\": " << jsonNumber(e.median_m) << ",\n";
         js << "  \"map_p90_surface_error_m" << sfx << "\": " << jsonNumber(e.p90_m) << ",\n";
         js << "  \"map_within_5cm_pct" << sfx << "\": " << jsonNumber(e.within_pct) << ",\n";
@@ -735,7 +721,7 @@ int main(int argc, char** argv) {
           auto& half = mp.utime < middle ? early : late;
           half.insert(half.end(), mp.points.begin(), mp.points.end());
         }
-        const ips::mapper::SelfConsistency c = ips::mapper::selfConsistency(early, late, kMapOverlapM);
+        const ips::eval::SelfConsistency c = ips::eval::selfConsistency(early, late, kMapOverlapM);
         js << "  \"map_consistency_median_m" << sfx << "\": " << jsonNumber(c.median_m) << ",\n";
         js << "  \"map_consistency_p90_m" << sfx << "\": " << jsonNumber(c.p90_m) << ",\n";
         js << "  \"map_consistency_overlap_pct" << sfx
@@ -754,7 +740,7 @@ int main(int argc, char** argv) {
           const size_t stride = std::max<size_t>(1, all.size() / kSurfaceSamplePoints);
           std::vector<Eigen::Vector3d> sample;
           for (size_t i = 0; i < all.size(); i += stride) sample.push_back(all[i]);
-          const ips::mapper::SurfaceErrors e = ips::mapper::surfaceErrors(sample, *world, T_truth_map, kMapWithinM);
+          const ips::eval::SurfaceErrors e = ips::eval::surfaceErrors(sample, *world, T_truth_map, kMapWithinM);
           js << "  \"" << prefix << "points\": " << all.size() << ",\n";
           js << "  \"" << prefix << "median_surface_error_m\": " << jsonNumber(e.median_m) << ",\n";
           js << "  \"" << prefix << "p90_surface_error_m\": " << jsonNumber(e.p90_m) << ",\n";
@@ -814,15 +800,14 @@ int main(int argc, char** argv) {
         cv::Mat r0, r1;
         ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
         const ips::disparity_map_t& dm = est_disp[p.utime];
-        const cv::Mat d = disparityMat(dm);
+        // The page draws values below zero as "none".
+        cv::Mat d = disparityPixels(dm);
+        cv::patchNaNs(d, -1.0);
         cv::resize(r0, r0, d.size(), 0, 0, cv::INTER_AREA);
         cv::Mat truth;
-        if (gt_disp.count(p.utime)) {  // at the map's scale
-          const cv::Mat g = disparityMat(gt_disp[p.utime]);
-          cv::resize(g, truth, d.size(), 0, 0, cv::INTER_NEAREST);
-          const cv::Mat gt_invalid = truth < 0;
-          truth = truth * (static_cast<double>(d.cols) / g.cols);
-          truth.setTo(-1.f, gt_invalid);
+        if (gt_disp.count(p.utime)) {  // at the map's scale, as scored
+          truth = ips::eval::truthAtSize(disparityPixels(gt_disp[p.utime]), d.size());
+          cv::patchNaNs(truth, -1.0);
         }
         std::ostringstream fields;
         fields << ", \"seq\": " << p.seq << ", \"t\": " << jsonNumber(p.utime * 1e-6 - t0);

@@ -14,11 +14,11 @@
 #include <memory>
 
 #include "common.hpp"
-#include "e3d_scorer.hpp"
 #include "ips/e3d/sgm.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
-#include "sim_eval.hpp"
+#include "ips/eval/e3d_scorer.hpp"
+#include "ips/eval/tracker_on_sim.hpp"
 
 using namespace ips;
 using namespace ips::tracker;
@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
       const bool has_step = sc.camera.relative_rotation_step_deg.norm() > 0;
       const bool perturbed = sc.calibration_errors.any();
       // E3D with the monitor's correction, with none, and with the true one (the reference on the same pairs).
-      std::unique_ptr<E3dScorer> e3d_applied, e3d_plain, e3d_true;
+      std::unique_ptr<eval::E3dScorer> e3d_applied, e3d_plain, e3d_true;
       SeedResult res;
       std::string source;
       // With the true calibration the estimate's zero is the truth's; with a perturbed one (whose own error the monitor
@@ -91,17 +91,17 @@ int main(int argc, char** argv) {
         std::printf(
             "# t_s state points dy_rms_px pair_offset_px pair_chi2 est_wx_deg est_wy_deg est_wz_deg "
             "true_wx_deg true_wy_deg true_wz_deg focal_scale sigma_px corrections\n");
-      tools::runIntegrityOnSimulation(
+      eval::runIntegrityOnSimulation(
           sc, duration, params, ip, [&](int64_t k) { return opts.count("e3d-config") && k % e3d_every == 0; },
-          [&](const tools::SimIntegrityFrame& fr) {
+          [&](const eval::SimIntegrityFrame& fr) {
             const IntegrityStatus& st = *fr.status;
             const double t = fr.t;
             res.monitor_ms.push_back(fr.monitor_ms);
             source = fr.told->source;
             if (opts.count("e3d-config") && !e3d_applied) {
-              e3d_applied = std::make_unique<E3dScorer>(*fr.told, opts["e3d-config"]);
-              e3d_plain = std::make_unique<E3dScorer>(*fr.told, opts["e3d-config"]);
-              e3d_true = std::make_unique<E3dScorer>(*fr.told, opts["e3d-config"]);
+              e3d_applied = std::make_unique<eval::E3dScorer>(*fr.told, opts["e3d-config"]);
+              e3d_plain = std::make_unique<eval::E3dScorer>(*fr.told, opts["e3d-config"]);
+              e3d_true = std::make_unique<eval::E3dScorer>(*fr.told, opts["e3d-config"]);
             }
             // E3D matches this pair with the correction in use when it was taken (the one before this pair's
             // decision).

@@ -19,11 +19,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "common.hpp"
-#include "e3d_scorer.hpp"
 #include "ips/args.hpp"
+#include "ips/eval/disparity.hpp"
+#include "ips/eval/e3d_scorer.hpp"
+#include "ips/eval/tracker_on_sim.hpp"
 #include "ips/polar_rectification.hpp"
 #include "ips/sim/mono_truth.hpp"
-#include "sim_eval.hpp"
 
 using namespace ips;
 using namespace ips::tracker;
@@ -55,34 +56,27 @@ struct MonoScore {
 // Scores a polar disparity map (the matcher's CV_16S) inside P's mask.
 MonoScore scoreMono(const PolarRectification& P, const cv::Mat& disparity, const cv::Mat& gt_disparity,
                     const cv::Mat& gt_range, cv::Size raw_size) {
-  int64_t masked = 0, valid = 0, evaluated = 0, bad = 0;
+  const cv::Mat d = eval::disparityPixels(disparity, e3d::kInvalidDisparity, e3d::kSubpixelScale);
+  // Errors in raw-image pixels: one polar disparity step is P.dr of them.
+  const eval::DisparityErrors e = eval::disparityErrors(d, gt_disparity, {eval::kBadDisparityPx}, P.valid, P.dr);
   std::vector<double> range_err;
   cv::Mat kept = cv::Mat::zeros(raw_size, CV_8U);
-  for (int v = 0; v < disparity.rows; ++v)
-    for (int u = 0; u < disparity.cols; ++u) {
+  for (int v = 0; v < d.rows; ++v)
+    for (int u = 0; u < d.cols; ++u) {
       if (!P.valid.at<uint8_t>(v, u)) continue;
-      ++masked;
       const int x = static_cast<int>(std::lround(P.maps.map0x.at<float>(v, u)));
       const int y = static_cast<int>(std::lround(P.maps.map0y.at<float>(v, u)));
       if (x >= 0 && y >= 0 && x < raw_size.width && y < raw_size.height) kept.at<uint8_t>(y, x) = 1;
-      const int16_t raw = disparity.at<int16_t>(v, u);
-      const bool ok = raw != e3d::kInvalidDisparity;
-      const double d = ok ? double(raw) / e3d::kSubpixelScale : 0;
-      valid += ok;
-      const float g = gt_disparity.at<float>(v, u);
-      if (!std::isfinite(g)) continue;
-      ++evaluated;
-      if (!ok || std::abs(d - g) * P.dr > kBadDisparityPx) ++bad;
-      if (ok) {
-        const Eigen::Vector3d X = P.triangulate(u, v, d);
-        const double range = (X - P.leftCentre()).norm();
-        if (std::isfinite(range))
-          range_err.push_back(std::abs(range - gt_range.at<float>(v, u)) / gt_range.at<float>(v, u));
-      }
+      const float dv = d.at<float>(v, u);
+      if (!std::isfinite(gt_disparity.at<float>(v, u)) || !std::isfinite(dv)) continue;
+      const Eigen::Vector3d X = P.triangulate(u, v, dv);
+      const double range = (X - P.leftCentre()).norm();
+      if (std::isfinite(range))
+        range_err.push_back(std::abs(range - gt_range.at<float>(v, u)) / gt_range.at<float>(v, u));
     }
   MonoScore s;
-  s.bad2 = evaluated ? 100.0 * bad / evaluated : 0;
-  s.density = masked ? 100.0 * valid / masked : 0;
+  s.bad2 = e.badPct(0);
+  s.density = e.densityPct();
   // The image share is of the pixels the masked polar pixels sample; the polar grid samples the outer image more
   // coarsely than one raw pixel, so it is counted on a grid of the polar steps' size.
   cv::Mat grown;
@@ -124,14 +118,14 @@ int main(int argc, char** argv) {
     std::map<int64_t, Eigen::Isometry3d> tracker_delta;
     if (opts.count("params")) {
       const TrackerParams params = loadTrackerParams(opts["params"]);
-      tools::runTrackerOnSimulation(scenario_path, duration, params, tools::SimPrior::Imu,
-                                    [&](const tools::SimFrameError& e) {
-                                      if (!e.result.valid) return;
-                                      Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
-                                      d.linear() = e.result.rotation.toRotationMatrix();
-                                      d.translation() = e.result.translation;
-                                      tracker_delta[e.frame] = d;
-                                    });
+      eval::runTrackerOnSimulation(scenario_path, duration, params, eval::SimPrior::Imu,
+                                   [&](const eval::SimFrameError& e) {
+                                     if (!e.result.valid) return;
+                                     Eigen::Isometry3d d = Eigen::Isometry3d::Identity();
+                                     d.linear() = e.result.rotation.toRotationMatrix();
+                                     d.translation() = e.result.translation;
+                                     tracker_delta[e.frame] = d;
+                                   });
     }
 
     const Config e3d_cfg(opts["e3d-config"]);
@@ -139,7 +133,7 @@ int main(int argc, char** argv) {
         PolarRectificationParams::fromConfig(e3d_cfg.has("mono") ? e3d_cfg.section("mono") : e3d_cfg);
     const e3d::SgmParams sgm = e3d::SgmParams::fromConfig(e3d_cfg.has("sgm") ? e3d_cfg.section("sgm") : e3d_cfg);
     e3d::VulkanContext ctx;
-    E3dScorer stereo(head.calibration, opts["e3d-config"], &ctx);
+    eval::E3dScorer stereo(head.calibration, opts["e3d-config"], &ctx);
     e3d::StereoMatcher mono(ctx, polar_params.size, sgm);
     const cv::Size raw_size(head.calibration.cam0.width, head.calibration.cam0.height);
 

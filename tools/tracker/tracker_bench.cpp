@@ -19,7 +19,7 @@
 
 #include "common.hpp"
 #ifdef IPS_HAVE_SIM
-#include "sim_eval.hpp"
+#include "ips/eval/tracker_on_sim.hpp"
 #endif
 #include "ips/tracker/euroc_calibration.hpp"
 #include "ips/tracker/stereo_tracker.hpp"

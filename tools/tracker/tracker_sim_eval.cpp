@@ -10,8 +10,8 @@
 #include <iostream>
 
 #include "common.hpp"
-#include "e3d_guide.hpp"
-#include "sim_eval.hpp"
+#include "ips/eval/e3d_guide.hpp"
+#include "ips/eval/tracker_on_sim.hpp"
 
 using namespace ips::tracker;
 
@@ -26,27 +26,28 @@ int main(int argc, char** argv) {
     const double duration = opts.count("duration") ? std::stod(opts["duration"]) : 10.0;
     const TrackerParams params = opts.count("params") ? loadTrackerParams(opts["params"]) : TrackerParams();
     const std::string prior_name = opts.count("prior") ? opts["prior"] : "cv";
-    tools::SimPrior prior = tools::SimPrior::ConstantVelocity;
+    ips::eval::SimPrior prior = ips::eval::SimPrior::ConstantVelocity;
     if (prior_name == "imu")
-      prior = tools::SimPrior::Imu;
+      prior = ips::eval::SimPrior::Imu;
     else if (prior_name == "none")
-      prior = tools::SimPrior::None;
+      prior = ips::eval::SimPrior::None;
     else if (prior_name != "cv")
       throw std::invalid_argument("--prior must be cv, imu or none");
     const bool quiet = opts.count("quiet") && opts["quiet"] != "0";
     if (!quiet)
       std::printf("frame valid step_m step_deg rot_err_deg trans_err_m trans_err_pct inliers prior_ok total_ms\n");
-    std::unique_ptr<tools::E3dGuide> e3d;
-    tools::SimGuide guide;
+    std::unique_ptr<ips::eval::E3dGuide> e3d;
+    ips::eval::SimGuide guide;
     if (opts.count("e3d-config"))
       guide = [&](const StereoTracker& tracker, const ips::sim::StereoFrame& f) {
         if (!e3d)
-          e3d = std::make_unique<tools::E3dGuide>(tracker.calibration(), opts["e3d-config"], tracker.rectification());
+          e3d =
+              std::make_unique<ips::eval::E3dGuide>(tracker.calibration(), opts["e3d-config"], tracker.rectification());
         return &e3d->match(f.left, f.right);
       };
-    const auto errors = tools::runTrackerOnSimulation(
+    const auto errors = ips::eval::runTrackerOnSimulation(
         opts.count("scenario") ? opts["scenario"] : "", duration, params, prior,
-        [&](const tools::SimFrameError& e) {
+        [&](const ips::eval::SimFrameError& e) {
           if (quiet) return;
           std::printf("%5lld %d %.4f %.3f %.4f %.4f %.2f %d %d %.1f\n", (long long)e.frame, int(e.result.valid),
                       e.step_m, e.step_deg, e.rot_err_deg, e.trans_err_m,

@@ -13,7 +13,7 @@
 #include "ips/filter/estimator.hpp"
 #include "ips/filter/state.hpp"
 
-namespace ips::filter {
+namespace ips::eval {
 
 // An open meander (not a closed loop, so heading drift shows in the end point): x = forward_speed * s +
 // amp_x sin(W s), y = amp_y (1 - cos(W s)) in the path time s, which stands still for rest_s and ramps up
@@ -77,15 +77,15 @@ StereoCalibration testbedCalibration();
 class SensorSim {
  public:
   SensorSim(const AnalyticWalk& walk, const SensorSimParams& p, const StereoCalibration& calib, uint32_t seed);
-  ImuSample imu(int64_t utime);
-  TiltSample tilt(int64_t utime);
+  filter::ImuSample imu(int64_t utime);
+  filter::TiltSample tilt(int64_t utime);
   // Relative pose of camera 0 between two image times with noise; its covariance is the one used.
-  TrackerDelta delta(int64_t utime_prev, int64_t utime);
+  filter::TrackerDelta delta(int64_t utime_prev, int64_t utime);
   // The exact navigation state (biases = the simulated constants).
-  NavState truth(int64_t utime) const;
+  filter::NavState truth(int64_t utime) const;
   const SensorSimParams& params() const { return p_; }
   // A draw from N(truth, P) on the error state (for starting a Monte Carlo run consistently).
-  NavState sampleAround(const NavState& truth, const Matrix21d& P);
+  filter::NavState sampleAround(const filter::NavState& truth, const filter::Matrix21d& P);
 
  private:
   const AnalyticWalk& walk_;
@@ -99,7 +99,8 @@ class SensorSim {
 // Feeds a whole simulated run to an estimator in time order (IMU, tilt, images + deltas). If P0 is not zero
 // the estimator starts at t_start from a draw of N(truth, P0), else it initialises itself (static start).
 // Returns the posterior outputs.
-std::vector<FilterOutput> runSimulation(Estimator& est, SensorSim& sim, double t_start_s, double t_end_s,
-                                        bool use_tracker, bool use_tilt, const Matrix21d& P0);
+std::vector<filter::FilterOutput> runSimulation(filter::Estimator& est, SensorSim& sim, double t_start_s,
+                                                double t_end_s, bool use_tracker, bool use_tilt,
+                                                const filter::Matrix21d& P0);
 
-}  // namespace ips::filter
+}  // namespace ips::eval

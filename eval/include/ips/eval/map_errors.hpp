@@ -7,7 +7,7 @@
 
 #include "ips/sim/world.hpp"
 
-namespace ips::mapper {
+namespace ips::eval {
 
 struct SurfaceErrors {
   size_t points = 0;
@@ -33,4 +33,4 @@ struct SelfConsistency {
 SelfConsistency selfConsistency(const std::vector<Eigen::Vector3d>& early, const std::vector<Eigen::Vector3d>& late,
                                 double overlap_m);
 
-}  // namespace ips::mapper
+}  // namespace ips::eval

@@ -17,14 +17,15 @@
 #include <vector>
 
 #include "ips/config.hpp"
+#include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
-#include "ips/filter/trajectory_metrics.hpp"
 #include "ips/log.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/trajectory.hpp"
 
 using namespace ips::filter;
+using namespace ips::eval;
 
 int main(int argc, char** argv) {
   int runs = 5;

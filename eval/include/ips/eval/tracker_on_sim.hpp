@@ -18,24 +18,24 @@
 #include "ips/tracker/epipolar_integrity.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
-namespace ips::tracker::tools {
+namespace ips::eval {
 
 enum class SimPrior { None, ConstantVelocity, Imu };
 
 struct SimFrameError {
   int64_t frame = 0;
-  TrackResult result;
+  tracker::TrackResult result;
   double step_m = 0, step_deg = 0;                          // true motion of camera 0 since the previous pair
   double rot_err_deg = 0, trans_err_m = 0;                  // of the estimate against it
   Eigen::Isometry3d truth = Eigen::Isometry3d::Identity();  // that true motion (camera 0 now in camera 0 before)
 };
 
 // A disparity map of a rendered pair for the tracker's intra-matching (nullptr: the tracker's own search).
-using SimGuide = std::function<const DisparityGuide*(const StereoTracker&, const sim::StereoFrame&)>;
+using SimGuide = std::function<const tracker::DisparityGuide*(const tracker::StereoTracker&, const sim::StereoFrame&)>;
 
 // Frames 0 .. floor(duration * rate); `each` sees every frame after the first.
 inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scenario_path, double duration_s,
-                                                         const TrackerParams& params, SimPrior prior_mode,
+                                                         const tracker::TrackerParams& params, SimPrior prior_mode,
                                                          const std::function<void(const SimFrameError&)>& each = {},
                                                          const SimGuide& guide = {}) {
   const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
@@ -46,7 +46,7 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
   sim::ImuSimulator imu(sc.imu, traj, sc.start_utime, sc.seed);
   sim::ImuMeasurement next_imu = imu.next();
 
-  StereoTracker tracker(head.calibration, params);
+  tracker::StereoTracker tracker(head.calibration, params);
   const int64_t frames = int64_t(std::floor(duration_s * sc.camera.rate_hz)) + 1;
   std::vector<SimFrameError> out;
   Eigen::Isometry3d prev_cam = Eigen::Isometry3d::Identity();
@@ -64,16 +64,16 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
       next_imu = imu.next();
     }
     const Eigen::Isometry3d cam = head.cam0InWorld(traj.pose((f.utime_true - sc.start_utime) * 1e-6));
-    MotionPrior prior;
-    const MotionPrior* prior_ptr = nullptr;
+    tracker::MotionPrior prior;
+    const tracker::MotionPrior* prior_ptr = nullptr;
     if (k > 0 && prior_mode == SimPrior::Imu && n_imu > 0) {
       const double dt = (f.utime_stamp - prev_utime) * 1e-6;
-      prior = MotionPrior::fromImuRates(omega_sum / n_imu, head.T_imu_cam0.linear(), dt, 0.01, params.prior);
+      prior = tracker::MotionPrior::fromImuRates(omega_sum / n_imu, head.T_imu_cam0.linear(), dt, 0.01, params.prior);
       prior_ptr = &prior;
     } else if (prior_mode == SimPrior::None) {
       prior_ptr = &prior;  // source None: widest windows every time
     }
-    const TrackResult r =
+    const tracker::TrackResult r =
         tracker.process(f.utime_stamp, f.left, f.right, prior_ptr, guide ? guide(tracker, f) : nullptr);
     if (k > 0) {
       SimFrameError e;
@@ -82,9 +82,10 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
       const Eigen::Isometry3d truth = prev_cam.inverse() * cam;
       e.truth = truth;
       e.step_m = truth.translation().norm();
-      e.step_deg = logSO3(truth.linear()).norm() * 180.0 / M_PI;
+      e.step_deg = tracker::logSO3(truth.linear()).norm() * 180.0 / M_PI;
       if (r.valid) {
-        e.rot_err_deg = logSO3(r.rotation.toRotationMatrix().transpose() * truth.linear()).norm() * 180.0 / M_PI;
+        e.rot_err_deg =
+            tracker::logSO3(r.rotation.toRotationMatrix().transpose() * truth.linear()).norm() * 180.0 / M_PI;
         e.trans_err_m = (r.translation - truth.translation()).norm();
       }
       if (each) each(e);
@@ -99,12 +100,12 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
 // One pair of the epipolar integrity monitor on the simulated head (runIntegrityOnSimulation).
 struct SimIntegrityFrame {
   int64_t frame = 0;
-  double t = 0;                                     // [s] since the scenario start
-  const sim::StereoFrame* pair = nullptr;           // the raw pair (with its true disparity when asked for)
-  const IntegrityStatus* status = nullptr;          // the monitor after this pair
-  const StereoCalibration* told = nullptr;          // the calibration the tracker was given
-  Eigen::Vector3d truth = Eigen::Vector3d::Zero();  // the rotation the right camera's turn needs (monitor's frame)
-  double monitor_ms = 0;                            // the row search and the monitor's update of this pair (one core)
+  double t = 0;                                      // [s] since the scenario start
+  const sim::StereoFrame* pair = nullptr;            // the raw pair (with its true disparity when asked for)
+  const tracker::IntegrityStatus* status = nullptr;  // the monitor after this pair
+  const StereoCalibration* told = nullptr;           // the calibration the tracker was given
+  Eigen::Vector3d truth = Eigen::Vector3d::Zero();   // the rotation the right camera's turn needs (monitor's frame)
+  double monitor_ms = 0;                             // the row search and the monitor's update of this pair (one core)
 };
 
 // The tracker and its epipolar integrity monitor on a scenario whose right camera may turn (CameraFigures::
@@ -112,8 +113,8 @@ struct SimIntegrityFrame {
 // prior; the monitor's corrections go to the tracker as in the tracker process. The truth is the turn alone, in the
 // rectified right frame of the calibration the tracker got (with a perturbed one, the calibration's own error is on
 // top of it). `with_disparity(k)`: render frame k's true disparity too.
-inline void runIntegrityOnSimulation(const sim::Scenario& sc, double duration_s, const TrackerParams& params,
-                                     const IntegrityParams& integrity,
+inline void runIntegrityOnSimulation(const sim::Scenario& sc, double duration_s, const tracker::TrackerParams& params,
+                                     const tracker::IntegrityParams& integrity,
                                      const std::function<bool(int64_t)>& with_disparity,
                                      const std::function<void(const SimIntegrityFrame&)>& each) {
   const sim::World world = sim::World::build(sc.world, sc.seed);
@@ -121,8 +122,8 @@ inline void runIntegrityOnSimulation(const sim::Scenario& sc, double duration_s,
   const sim::Trajectory traj(sc.trajectory, sc.gravity);
   const sim::StereoRenderer renderer(sc, world, head, traj);
   const StereoCalibration told = head.calibrationForProcesses(sc);
-  StereoTracker tracker(told, params);
-  EpipolarMonitor monitor(tracker.rectification(), integrity);
+  tracker::StereoTracker tracker(told, params);
+  tracker::EpipolarMonitor monitor(tracker.rectification(), integrity);
   const Eigen::Matrix3d R_rect1_cam1 = tracker.rectification().R_rect1_cam1;
   const int64_t frames = int64_t(std::floor(duration_s * sc.camera.rate_hz)) + 1;
   for (int64_t k = 0; k < frames; ++k) {
@@ -132,13 +133,13 @@ inline void runIntegrityOnSimulation(const sim::Scenario& sc, double duration_s,
     out.t = (f.utime_true - sc.start_utime) * 1e-6;
     tracker.process(f.utime_stamp, f.left, f.right);
     const auto t0 = std::chrono::steady_clock::now();
-    out.status = &monitorPair(monitor, tracker, f.utime_stamp);
+    out.status = &tracker::monitorPair(monitor, tracker, f.utime_stamp);
     out.monitor_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     out.pair = &f;
     out.told = &told;
-    out.truth = R_rect1_cam1 * logSO3(head.cam1Turn(out.t));
+    out.truth = R_rect1_cam1 * tracker::logSO3(head.cam1Turn(out.t));
     each(out);
   }
 }
 
-}  // namespace ips::tracker::tools
+}  // namespace ips::eval

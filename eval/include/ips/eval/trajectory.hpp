@@ -9,7 +9,7 @@
 
 #include "ips/filter/estimator.hpp"
 
-namespace ips::filter {
+namespace ips::eval {
 
 struct TrajPoint {
   double t = 0;  // [s]
@@ -47,9 +47,9 @@ TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double s
 // averaged over all such sub-sequences. Lengths without any sub-sequence are skipped (and counted in `lengths`).
 struct RelativeErrors {
   size_t subsequences = 0;
-  size_t lengths = 0;            // lengths that had at least one sub-sequence
-  double trans_pct = NAN;        // mean |t(E)| / L * 100
-  double rot_deg_per_m = NAN;    // mean angle(E) / L in deg/m
+  size_t lengths = 0;          // lengths that had at least one sub-sequence
+  double trans_pct = NAN;      // mean |t(E)| / L * 100
+  double rot_deg_per_m = NAN;  // mean angle(E) / L in deg/m
 };
 RelativeErrors relativeErrors(const Trajectory& est, const Trajectory& ref, const std::vector<double>& lengths_m);
 
@@ -61,14 +61,14 @@ Trajectory alignFirstPose(const Trajectory& est, const Trajectory& ref);
 double endErrorFirstPoseAligned(const Trajectory& est, const Trajectory& ref);
 
 // NEES of the pose (position and attitude error, 6 dof) of one filter output against the truth.
-double poseNees(const FilterOutput& out, const NavState& truth);
+double poseNees(const filter::FilterOutput& out, const filter::NavState& truth);
 // NEES of the full 21-dimensional error state.
-double fullNees(const FilterOutput& out, const NavState& truth);
+double fullNees(const filter::FilterOutput& out, const filter::NavState& truth);
 
-Trajectory toTrajectory(const std::vector<FilterOutput>& outputs);
+Trajectory toTrajectory(const std::vector<filter::FilterOutput>& outputs);
 
 // Top-down (x-y) plot of a reference and any number of estimates, written as PNG.
 void plotTopDown(const std::string& path, const Trajectory& ref, const std::vector<Trajectory>& estimates,
                  const std::vector<std::string>& labels);
 
-}  // namespace ips::filter
+}  // namespace ips::eval

@@ -1,8 +1,9 @@
 #pragma once
-// E3D's stereo map of a rendered pair scored against the simulator's true disparity, as the main job's report scores
-// it (shared by the simulation tools).
+// E3D's stereo map of a rendered pair scored against the simulator's true disparity (shared by the simulation
+// tools).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <string>
 #include <utility>
@@ -13,14 +14,15 @@
 #include "ips/e3d/sgm.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
+#include "ips/eval/disparity.hpp"
 
-namespace ips::tracker {
+namespace ips::eval {
 
 constexpr double kBadDisparityPx = 2.0;  // bad 2.0, at full resolution
 
 // E3D at the config's scale with a given right-camera correction, scored against the true disparity (full resolution,
-// 0 = nothing seen) as the main job's report scores it: at E3D's scale, bad when invalid or more than 2 px
-// (full-resolution px) off.
+// 0 = nothing seen) at E3D's scale: bad when invalid or more than 2 full-resolution pixels off (the main job's report
+// counts in E3D's own pixels instead, as benchmarks at a reduced resolution do).
 class E3dScorer {
  public:
   // With ctx null the scorer makes its own Vulkan context.
@@ -48,32 +50,26 @@ class E3dScorer {
                                   double* median_depth_error = nullptr) {
     const e3d::MatchOutput out = matcher_->matchRaw(raw0, raw1);
     last_match_ms_ = out.total_ms;
-    const cv::Mat& d = out.disparity;
-    int64_t evaluated = 0, bad = 0, valid = 0;
-    std::vector<double> depth_errors;
-    for (int r = 0; r < d.rows; ++r)
-      for (int c = 0; c < d.cols; ++c) {
-        const int16_t v = d.at<int16_t>(r, c);
-        const bool ok = v != e3d::kInvalidDisparity;
-        valid += ok;
-        // The true disparity where this map pixel samples the full-resolution image.
-        const int gr = std::min(gt_full.rows - 1, int(std::lround((r + 0.5) / scale_ - 0.5)));
-        const int gc = std::min(gt_full.cols - 1, int(std::lround((c + 0.5) / scale_ - 0.5)));
-        const float g = gt_full.at<float>(gr, gc);
-        if (!(g > 0)) continue;
-        ++evaluated;
-        const float full = float(v) / e3d::kSubpixelScale / scale_;
-        if (!ok || std::abs(full - g) > kBadDisparityPx) ++bad;
-        if (ok && full > 0 && median_depth_error) depth_errors.push_back(std::abs(g - full) / full);
-      }
+    const cv::Mat d = disparityPixels(out.disparity, e3d::kInvalidDisparity, e3d::kSubpixelScale);
+    cv::Mat seen = gt_full.clone();
+    seen.setTo(std::numeric_limits<float>::quiet_NaN(), ~(gt_full > 0));  // 0: nothing seen there
+    const cv::Mat g = truthAtSize(seen, d.size());
+    const DisparityErrors e = disparityErrors(d, g, {kBadDisparityPx}, cv::Mat(), 1.0 / scale_);
     if (median_depth_error) {
+      // |z - z_true| / z_true = |d_true - d| / d over the valid pixels with a true disparity.
+      std::vector<double> depth_errors;
+      for (int r = 0; r < d.rows; ++r)
+        for (int c = 0; c < d.cols; ++c) {
+          const float v = d.at<float>(r, c), t = g.at<float>(r, c);
+          if (std::isfinite(v) && std::isfinite(t) && v > 0) depth_errors.push_back(std::abs(t - v) / v);
+        }
       *median_depth_error = 0;
       if (!depth_errors.empty()) {
         std::nth_element(depth_errors.begin(), depth_errors.begin() + depth_errors.size() / 2, depth_errors.end());
         *median_depth_error = 100.0 * depth_errors[depth_errors.size() / 2];
       }
     }
-    return {evaluated ? 100.0 * bad / evaluated : 0.0, 100.0 * valid / (double(d.rows) * d.cols)};
+    return {e.badPct(0), e.densityPct()};
   }
 
   // Wall time of the last score's matching (upload, rectification, SGM, download) [ms].
@@ -91,4 +87,4 @@ class E3dScorer {
   std::unique_ptr<e3d::StereoMatcher> matcher_;
 };
 
-}  // namespace ips::tracker
+}  // namespace ips::eval

@@ -1,4 +1,4 @@
-#include "ips/filter/trajectory_metrics.hpp"
+#include "ips/eval/trajectory.hpp"
 
 #include <Eigen/SVD>
 #include <algorithm>
@@ -10,7 +10,10 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace ips::filter {
+namespace ips::eval {
+
+// The filter's state layout and error-state helpers (NEES).
+using namespace ips::filter;
 
 Trajectory readTum(const std::string& path) {
   std::ifstream in(path);
@@ -234,4 +237,4 @@ void plotTopDown(const std::string& path, const Trajectory& ref, const std::vect
   if (!cv::imwrite(path, img)) throw std::runtime_error(path + ": cannot write PNG");
 }
 
-}  // namespace ips::filter
+}  // namespace ips::eval

@@ -1,11 +1,11 @@
-#include "ips/mapper/map_eval.hpp"
+#include "ips/eval/map_errors.hpp"
 
 #include <open3d/geometry/KDTreeFlann.h>
 #include <open3d/geometry/PointCloud.h>
 
 #include <algorithm>
 
-namespace ips::mapper {
+namespace ips::eval {
 
 namespace {
 
@@ -56,4 +56,4 @@ SelfConsistency selfConsistency(const std::vector<Eigen::Vector3d>& early, const
   return out;
 }
 
-}  // namespace ips::mapper
+}  // namespace ips::eval

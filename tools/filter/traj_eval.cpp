@@ -22,12 +22,13 @@
 #include <vector>
 
 #include "ips/config.hpp"
+#include "ips/eval/filter_testbed.hpp"
+#include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
-#include "ips/filter/testbed.hpp"
-#include "ips/filter/trajectory_metrics.hpp"
 #include "ips/log.hpp"
 
 using namespace ips::filter;
+using namespace ips::eval;
 
 namespace {
 
@@ -129,10 +130,11 @@ int evaluateFiles(const Args& a) {
     // the first pose aligned).
     const RelativeErrors rel = relativeErrors(e, r, a.lengths);
     const double end_m = endErrorFirstPoseAligned(e, r);
-    std::printf("rpe_trans_pct=%.3f rpe_rot_deg_per_m=%.4f subsequences=%zu end_error_m=%.4f end_error_pct=%.3f "
-                "ate_rmse_m=%.4f distance_m=%.2f\n",
-                rel.trans_pct, rel.rot_deg_per_m, rel.subsequences, end_m,
-                err.distance_m > 0 ? 100.0 * end_m / err.distance_m : NAN, err.ate_rmse_m, err.distance_m);
+    std::printf(
+        "rpe_trans_pct=%.3f rpe_rot_deg_per_m=%.4f subsequences=%zu end_error_m=%.4f end_error_pct=%.3f "
+        "ate_rmse_m=%.4f distance_m=%.2f\n",
+        rel.trans_pct, rel.rot_deg_per_m, rel.subsequences, end_m,
+        err.distance_m > 0 ? 100.0 * end_m / err.distance_m : NAN, err.ate_rmse_m, err.distance_m);
   }
   if (!a.plot.empty()) plotTopDown(a.plot, gt, {est}, {"estimate"});
   return 0;

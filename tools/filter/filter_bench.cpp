@@ -11,10 +11,11 @@
 #include <vector>
 
 #include "ips/config.hpp"
-#include "ips/filter/testbed.hpp"
+#include "ips/eval/filter_testbed.hpp"
 #include "ips/log.hpp"
 
 using namespace ips::filter;
+using namespace ips::eval;
 
 namespace {
 

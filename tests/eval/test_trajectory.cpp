@@ -7,9 +7,12 @@
 #include <filesystem>
 #include <fstream>
 
-#include "ips/filter/trajectory_metrics.hpp"
+#include "ips/eval/trajectory.hpp"
 
-using namespace ips::filter;
+using namespace ips::eval;
+using ips::filter::FilterOutput;
+using ips::filter::Matrix21d;
+using ips::filter::NavState;
 
 namespace {
 

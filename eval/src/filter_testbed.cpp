@@ -1,4 +1,4 @@
-#include "ips/filter/testbed.hpp"
+#include "ips/eval/filter_testbed.hpp"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
@@ -6,7 +6,9 @@
 
 #include "ips/filter/models.hpp"
 
-namespace ips::filter {
+namespace ips::eval {
+
+using namespace ips::filter;
 
 namespace {
 constexpr double kTwoPi = 6.283185307179586;
@@ -209,4 +211,4 @@ std::vector<FilterOutput> runSimulation(Estimator& est, SensorSim& sim, double t
   return out;
 }
 
-}  // namespace ips::filter
+}  // namespace ips::eval

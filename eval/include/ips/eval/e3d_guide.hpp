@@ -14,11 +14,11 @@
 #include "ips/e3d/vulkan_context.hpp"
 #include "ips/tracker/matching.hpp"
 
-namespace ips::tracker::tools {
+namespace ips::eval {
 
 class E3dGuide {
  public:
-  // `tracker_rect`: the tracker's rectification (StereoTracker::rectification()); the map must belong to it.
+  // `tracker_rect`: the tracker's rectification (tracker::StereoTracker::rectification()); the map must belong to it.
   E3dGuide(const StereoCalibration& calib, const std::string& e3d_config, const StereoRectification& tracker_rect) {
     const Config cfg(e3d_config);
     const e3d::SgmParams params = e3d::SgmParams::fromConfig(cfg.has("sgm") ? cfg.section("sgm") : cfg);
@@ -29,7 +29,7 @@ class E3dGuide {
     ctx_ = std::make_unique<e3d::VulkanContext>();
     matcher_ = std::make_unique<e3d::StereoMatcher>(*ctx_, rect_.size, params);
     matcher_->setRectification(rect_, cv::Size(calib.cam0.width, calib.cam0.height));
-    const auto s = guideScale(tracker_rect, rect_.f, rect_.cx, rect_.cy, rect_.baseline, rect_.size);
+    const auto s = tracker::guideScale(tracker_rect, rect_.f, rect_.cx, rect_.cy, rect_.baseline, rect_.size);
     if (!s) throw std::invalid_argument("E3dGuide: E3D's rectification is not the tracker's (rectification_alpha 0?)");
     guide_.scale = *s;
     guide_.subpixel_scale = e3d::kSubpixelScale;
@@ -37,7 +37,7 @@ class E3dGuide {
   }
 
   // The map of a raw pair; `ms` gets E3D's time for it.
-  const DisparityGuide& match(const cv::Mat& raw_left, const cv::Mat& raw_right, double* ms = nullptr) {
+  const tracker::DisparityGuide& match(const cv::Mat& raw_left, const cv::Mat& raw_right, double* ms = nullptr) {
     e3d::MatchOutput out = matcher_->matchRaw(raw_left, raw_right);
     guide_.disparity = out.disparity.clone();
     if (ms) *ms = out.total_ms;
@@ -48,7 +48,7 @@ class E3dGuide {
   StereoRectification rect_;
   std::unique_ptr<e3d::VulkanContext> ctx_;
   std::unique_ptr<e3d::StereoMatcher> matcher_;
-  DisparityGuide guide_;
+  tracker::DisparityGuide guide_;
 };
 
-}  // namespace ips::tracker::tools
+}  // namespace ips::eval
