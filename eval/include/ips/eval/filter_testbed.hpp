@@ -1,8 +1,9 @@
 #pragma once
-// An analytic test bed for the filter, used by its tests, benchmark and trajectory tool until the project's
-// simulator (ips_sim) is available: a closed-form walk with exact derivatives (position, velocity,
-// acceleration, attitude, body angular rate) and sensors generated from it with the paper's figures
-// (MMQ-50 IMU, tilt sensor, a stereo tracker's relative pose with noise).
+// An analytic test bed for the filter: a closed-form walk with exact derivatives (position, velocity, acceleration,
+// attitude, body angular rate) and sensors generated from it with the paper's figures (MMQ-50 IMU, tilt sensor, a
+// stereo tracker's relative pose with noise). The simulator (ips_sim) renders the whole head; this is for what needs
+// closed-form truth and speed: the models' Jacobian tests, and Monte Carlo runs of the filter alone (traj_eval,
+// filter_bench) by the hundred.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
