@@ -1,0 +1,222 @@
+#include "sim_process.hpp"
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <future>
+#include <ips/disparity_map_t.hpp>
+#include <ips/ground_truth_t.hpp>
+#include <ips/imu_sample_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <ips/tilt_sample_t.hpp>
+#include <lcm/lcm-cpp.hpp>
+#include <mutex>
+#include <thread>
+
+#include "ips/framework/channels.hpp"
+#include "ips/framework/image.hpp"
+#include "ips/framework/log_writer.hpp"
+#include "ips/framework/node.hpp"
+#include "ips/framework/process.hpp"
+#include "ips/log.hpp"
+#include "ips/sim/output.hpp"
+
+namespace ips::sim_app {
+
+namespace {
+
+using ips::sim::SimEvent;
+
+using ips::fw::encodeMessage;
+
+void copy3(const Eigen::Vector3d& v, double* out) {
+  for (int i = 0; i < 3; ++i) out[i] = v[i];
+}
+
+// One event as (channel, encoded message).
+struct Encoded {
+  int64_t log_utime;
+  std::string channel;
+  std::vector<uint8_t> data;
+};
+
+Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
+  namespace ch = ips::channels;
+  const ips::sim::Scenario& sc = sim.scenario();
+  switch (e.kind) {
+    case SimEvent::kStereo: {
+      const ips::sim::StereoFrame& f = *e.frame;
+      ips::stereo_pair_t m =
+          ips::fw::makeStereoPair(f.utime_stamp, f.seq, f.left, f.right, sim.head().calibration.cam0.serial,
+                                  sim.head().calibration.cam1.serial);
+      m.exposure_us[0] = m.exposure_us[1] = static_cast<float>(sc.camera.exposure_us);
+      m.gain_db[0] = static_cast<float>(sc.camera.gain_left_db);
+      m.gain_db[1] = static_cast<float>(sc.camera.gain_right_db);
+      return {e.log_utime, ch::kStereo, encodeMessage(m)};
+    }
+    case SimEvent::kGtDisparity: {
+      const ips::sim::StereoFrame& f = *e.frame;
+      const ips::StereoRectification& r = sim.renderer().rectification();
+      ips::disparity_map_t m;
+      m.utime = f.utime_stamp;
+      m.seq = f.seq;
+      m.width = f.gt_disparity.cols;
+      m.height = f.gt_disparity.rows;
+      m.subpixel_scale = ips::sim::FixedPointDisparity::kSubpixelScale;
+      m.invalid_value = ips::sim::FixedPointDisparity::kInvalid;
+      m.focal_px = r.f;
+      m.cx = r.cx;
+      m.cy = r.cy;
+      m.baseline_m = r.baseline;
+      const ips::sim::FixedPointDisparity fixed = ips::sim::toFixedPoint(f.gt_disparity);
+      m.min_disparity = 0;
+      m.num_disparities = fixed.num_disparities;
+      m.data.resize(m.height);
+      for (int y = 0; y < m.height; ++y) {
+        const int16_t* row = fixed.data.ptr<int16_t>(y);
+        m.data[y].assign(row, row + m.width);
+      }
+      m.confidence_size = 0;
+      return {e.log_utime, ch::kGtDisparity, encodeMessage(m)};
+    }
+    case SimEvent::kImu: {
+      ips::imu_sample_t m;
+      m.utime = e.imu.utime_stamp;
+      m.seq = e.imu.seq;
+      copy3(e.imu.angular_rate, m.angular_rate);
+      copy3(e.imu.specific_force, m.specific_force);
+      return {e.log_utime, ch::kImu, encodeMessage(m)};
+    }
+    case SimEvent::kTilt: {
+      ips::tilt_sample_t m;
+      m.utime = e.tilt.utime_stamp;
+      m.seq = e.tilt.seq;
+      m.angle_x = e.tilt.angle_x;
+      m.angle_y = e.tilt.angle_y;
+      return {e.log_utime, ch::kTilt, encodeMessage(m)};
+    }
+    case SimEvent::kGtPose:
+    default: {
+      const ips::sim::GroundTruth& g = e.truth;
+      ips::ground_truth_t m;
+      m.utime = g.utime;
+      copy3(g.position, m.position);
+      m.orientation[0] = g.orientation.w();
+      m.orientation[1] = g.orientation.x();
+      m.orientation[2] = g.orientation.y();
+      m.orientation[3] = g.orientation.z();
+      copy3(g.velocity, m.velocity);
+      copy3(g.acceleration, m.acceleration);
+      copy3(g.angular_rate, m.angular_rate);
+      copy3(g.gyro_bias, m.gyro_bias);
+      copy3(g.accel_bias, m.accel_bias);
+      return {e.log_utime, ch::kGtPose, encodeMessage(m)};
+    }
+  }
+}
+
+}  // namespace
+
+int runBatch(ips::sim::Simulation& sim, const std::string& out) {
+  ips::fw::LogWriter log(out);
+  const auto t0 = std::chrono::steady_clock::now();
+  int64_t pairs = 0;
+  ips::LogThrottle progress(10'000'000);
+  // This thread renders (OpenCV's parallel_for_ on both cores works from the main thread); a writer thread
+  // encodes and writes the previous batch of events meanwhile.
+  std::vector<SimEvent> events;
+  std::future<void> writing;
+  auto write = [&](std::vector<SimEvent> batch) {
+    for (const SimEvent& e : batch) {
+      const Encoded enc = encodeEvent(e, sim);
+      log.write(enc.channel, enc.log_utime, enc.data);
+      if (e.kind == SimEvent::kStereo) {
+        ++pairs;
+        if (progress.allow(e.log_utime))
+          IPS_INFO("pair " << pairs << "/" << sim.frameCount()
+                           << " (t = " << (e.frame->utime_true - sim.scenario().start_utime) * 1e-6 << " s)");
+      }
+    }
+  };
+  while (sim.next(events)) {
+    if (writing.valid()) writing.get();  // rethrows a write error
+    writing = std::async(std::launch::async, write, std::move(events));
+    events = std::vector<SimEvent>();
+  }
+  if (writing.valid()) writing.get();
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  IPS_INFO("wrote " << log.events() << " events (" << pairs << " stereo pairs) to " << out << " in " << wall << " s");
+  return 0;
+}
+
+int runLive(ips::sim::Simulation& sim, const std::string& url, double rate) {
+  ips::fw::installSignalHandlers();
+  ips::fw::Node node("sim", ips::fw::resolveLcmUrl(url));
+  // This thread renders ahead into a short queue (OpenCV's parallel_for_ uses both cores from the main thread);
+  // a publisher thread sends each event at its arrival time, the clock starting 0.5 s after the first event.
+  std::mutex mutex;
+  std::condition_variable cv;
+  std::deque<Encoded> queue;
+  bool done = false;
+  int64_t late = 0;
+  constexpr size_t kMaxQueued = 2000;  // several frames of events
+  std::thread publisher([&] {
+    ips::sim::LiveClock clock(sim.scenario().start_utime, rate);
+    auto last_health = std::chrono::steady_clock::now();
+    while (!ips::fw::stopRequested()) {
+      Encoded enc;
+      {
+        std::unique_lock<std::mutex> lock(mutex);
+        cv.wait_for(lock, std::chrono::milliseconds(100), [&] { return !queue.empty() || done; });
+        if (queue.empty()) {
+          if (done) break;
+          continue;
+        }
+        enc = std::move(queue.front());
+        queue.pop_front();
+        cv.notify_all();
+      }
+      const auto due = clock.due(enc.log_utime, std::chrono::steady_clock::now());
+      const auto now = std::chrono::steady_clock::now();
+      if (due > now)
+        std::this_thread::sleep_until(due);
+      else if (ips::sim::LiveClock::late(due, now))
+        ++late;
+      node.lcm().publish(enc.channel, enc.data.data(), static_cast<unsigned>(enc.data.size()));
+      node.health().published();
+      node.health().received(enc.log_utime);
+      if (std::chrono::steady_clock::now() - last_health > std::chrono::seconds(1)) {
+        node.health().set("late_events", late);
+        node.publishHealth(std::chrono::duration<double>(std::chrono::steady_clock::now() - last_health).count());
+        last_health = std::chrono::steady_clock::now();
+      }
+    }
+  });
+  std::vector<SimEvent> events;
+  try {
+    while (!ips::fw::stopRequested() && sim.next(events)) {
+      for (const SimEvent& e : events) {
+        Encoded enc = encodeEvent(e, sim);
+        std::unique_lock<std::mutex> lock(mutex);
+        cv.wait(lock, [&] { return queue.size() < kMaxQueued || ips::fw::stopRequested(); });
+        queue.push_back(std::move(enc));
+        cv.notify_all();
+      }
+      events.clear();
+    }
+  } catch (...) {
+    ips::fw::requestStop();
+    publisher.join();
+    throw;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    done = true;
+    cv.notify_all();
+  }
+  publisher.join();
+  if (late > 0) IPS_WARN(late << " events were published more than 50 ms late (rendering slower than --rate)");
+  return 0;
+}
+
+}  // namespace ips::sim_app
