@@ -198,6 +198,17 @@ TEST(Args, OptionsFlagsAndErrors) {
   EXPECT_THROW(n.getDouble("--rate"), ips::ArgError);
 }
 
+TEST(Args, HelpOfSeveralLinesIsIndented) {
+  const char* argv[] = {"prog"};
+  ips::Args a(1, const_cast<char**>(argv), "test");
+  a.option("--cost", "NAME", "matching cost\n(default census)", "census");
+  const std::string help = a.help();
+  EXPECT_NE(help.find("  --cost NAME                 matching cost\n" + std::string(30, ' ') +
+                      "(default census) [default: census]\n"),
+            std::string::npos)
+      << help;
+}
+
 TEST(Args, IntegerListsAndTheirErrors) {
   EXPECT_EQ(ips::parseIntList("1,2,4,8", "--gaps", 1), (std::vector<int>{1, 2, 4, 8}));
   EXPECT_EQ(ips::parseIntList("-3", "--offsets", -5), (std::vector<int>{-3}));

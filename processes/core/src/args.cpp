@@ -128,7 +128,11 @@ std::string Args::help() const {
       os << std::string(30 - left.size(), ' ');
     else
       os << "\n" << std::string(30, ' ');
-    os << s.help;
+    // A help text of several lines continues under its first line.
+    for (char c : s.help) {
+      os << c;
+      if (c == '\n') os << std::string(30, ' ');
+    }
     if (s.is_required) os << " (required)";
     if (!s.default_value.empty()) os << " [default: " << s.default_value << "]";
     os << "\n";

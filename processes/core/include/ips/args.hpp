@@ -18,7 +18,8 @@ class Args {
   // `summary` is the first line of --help.
   Args(int argc, char** argv, std::string summary);
 
-  // Declare options before calling parse(); each returns *this for chaining.
+  // Declare options before calling parse(); each returns *this for chaining. A help text may hold several lines
+  // ('\n'); --help indents the following ones under the first.
   Args& option(const std::string& name, const std::string& value_name, const std::string& help,
                const std::string& default_value = "");
   Args& required(const std::string& name, const std::string& value_name, const std::string& help);
