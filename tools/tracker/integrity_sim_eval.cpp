@@ -13,7 +13,7 @@
 #include <iostream>
 #include <memory>
 
-#include "common.hpp"
+#include "ips/args.hpp"
 #include "ips/e3d/sgm.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
@@ -54,27 +54,34 @@ struct SeedResult {
 
 int main(int argc, char** argv) {
   try {
-    auto opts = tools::parseOptions(argc, argv, 1);
-    if (opts.count("help")) {
-      std::cout << "usage: integrity_sim_eval [--scenario FILE.yaml] [--duration S] [--params TRACKER.yaml] "
-                   "[--seeds N (1)] [--first-seed S (1)] [--e3d-config E3D.yaml] [--e3d-every K (16)] [--quiet 1]\n";
-      return 0;
-    }
-    const std::string params_path = opts.count("params") ? opts["params"] : "";
+    ips::Args args(argc, argv, "the epipolar integrity monitor on a simulated head whose right camera turns");
+    args.option("--scenario", "FILE.yaml", "scenario, e.g. config/sim_knock.yaml (default: built-in)")
+        .option("--duration", "SECONDS", "simulated time (default: the scenario's walk)")
+        .option("--params", "TRACKER.yaml", "tracker and integrity parameters (default: built-in)")
+        .option("--seeds", "N", "runs with the seeds S..S+N-1; alarms are counted", "1")
+        .option("--first-seed", "S", "first seed", "1")
+        .option("--e3d-config", "E3D.yaml",
+                "E3D's bad 2.0 and density before the step, and after it with and without the correction")
+        .option("--e3d-every", "K", "E3D scores every K-th pair", "16")
+        .option("--quiet", "0|1", "1: no line per frame, only the summaries", "0");
+    if (!args.parse()) return 0;
+    const std::string params_path = args.get("--params");
     const TrackerParams params = params_path.empty() ? TrackerParams() : loadTrackerParams(params_path);
     const IntegrityParams ip = params_path.empty() ? IntegrityParams() : loadIntegrityParams(Config(params_path));
-    const int seeds = opts.count("seeds") ? std::stoi(opts["seeds"]) : 1;
-    const int first_seed = opts.count("first-seed") ? std::stoi(opts["first-seed"]) : 1;
-    const int e3d_every = opts.count("e3d-every") ? std::stoi(opts["e3d-every"]) : 16;
-    const bool quiet = opts.count("quiet") && opts["quiet"] != "0";
+    const int seeds = static_cast<int>(args.getInt("--seeds"));
+    const int first_seed = static_cast<int>(args.getInt("--first-seed"));
+    const int e3d_every = static_cast<int>(args.getInt("--e3d-every"));
+    const bool quiet = args.get("--quiet") != "0";
+    const bool with_e3d = args.has("--e3d-config");
     if (seeds < 1 || e3d_every < 1) throw std::invalid_argument("--seeds and --e3d-every must be >= 1");
 
     std::vector<SeedResult> results;
     for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
-      sim::Scenario sc = opts.count("scenario") ? sim::Scenario::load(opts["scenario"]) : sim::Scenario::defaults();
+      sim::Scenario sc =
+          args.has("--scenario") ? sim::Scenario::load(args.get("--scenario")) : sim::Scenario::defaults();
       sc.seed = uint64_t(seed);
       const double duration =
-          opts.count("duration") ? std::stod(opts["duration"]) : sim::Trajectory(sc.trajectory, sc.gravity).duration();
+          args.has("--duration") ? args.getDouble("--duration") : sim::Trajectory(sc.trajectory, sc.gravity).duration();
       const double step_s = sc.camera.relative_rotation_step_s;
       const bool has_step = sc.camera.relative_rotation_step_deg.norm() > 0;
       const bool perturbed = sc.calibration_errors.any();
@@ -92,16 +99,16 @@ int main(int argc, char** argv) {
             "# t_s state points dy_rms_px pair_offset_px pair_chi2 est_wx_deg est_wy_deg est_wz_deg "
             "true_wx_deg true_wy_deg true_wz_deg focal_scale sigma_px corrections\n");
       eval::runIntegrityOnSimulation(
-          sc, duration, params, ip, [&](int64_t k) { return opts.count("e3d-config") && k % e3d_every == 0; },
+          sc, duration, params, ip, [&](int64_t k) { return with_e3d && k % e3d_every == 0; },
           [&](const eval::SimIntegrityFrame& fr) {
             const IntegrityStatus& st = *fr.status;
             const double t = fr.t;
             res.monitor_ms.push_back(fr.monitor_ms);
             source = fr.told->source;
-            if (opts.count("e3d-config") && !e3d_applied) {
-              e3d_applied = std::make_unique<eval::E3dScorer>(*fr.told, opts["e3d-config"]);
-              e3d_plain = std::make_unique<eval::E3dScorer>(*fr.told, opts["e3d-config"]);
-              e3d_true = std::make_unique<eval::E3dScorer>(*fr.told, opts["e3d-config"]);
+            if (with_e3d && !e3d_applied) {
+              e3d_applied = std::make_unique<eval::E3dScorer>(*fr.told, args.get("--e3d-config"));
+              e3d_plain = std::make_unique<eval::E3dScorer>(*fr.told, args.get("--e3d-config"));
+              e3d_true = std::make_unique<eval::E3dScorer>(*fr.told, args.get("--e3d-config"));
             }
             // E3D matches this pair with the correction in use when it was taken (the one before this pair's
             // decision).
@@ -181,6 +188,9 @@ int main(int argc, char** argv) {
     std::printf("integrity: alarms %lld on %d seeds, worst correction error %.4f deg, alarm after %.2f s\n",
                 (long long)alarms, seeds, worst, worst_delay);
     return 0;
+  } catch (const ips::ArgError& e) {
+    std::cerr << e.what() << "\n";  // names the program and the option
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "integrity_sim_eval: " << e.what() << "\n";
     return 2;

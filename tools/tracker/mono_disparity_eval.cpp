@@ -18,7 +18,6 @@
 #include <memory>
 #include <opencv2/imgproc.hpp>
 
-#include "common.hpp"
 #include "ips/args.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/eval/e3d_scorer.hpp"
@@ -94,21 +93,24 @@ MonoScore scoreMono(const PolarRectification& P, const cv::Mat& disparity, const
 
 int main(int argc, char** argv) {
   try {
-    auto opts = tools::parseOptions(argc, argv, 1);
-    if (opts.count("help") || !opts.count("e3d-config")) {
-      std::cout << "usage: mono_disparity_eval --e3d-config E3D.yaml [--scenario FILE.yaml] [--gaps 1,2,4,8] "
-                   "[--every 80] [--duration S] [--params TRACKER.yaml] [--quiet 1]\n";
-      return opts.count("help") ? 0 : 2;
-    }
-    const std::string scenario_path = opts.count("scenario") ? opts["scenario"] : "";
+    ips::Args args(argc, argv, "disparity from one camera on the simulated head, scored beside the stereo map");
+    args.required("--e3d-config", "E3D.yaml", "E3D configuration, e.g. config/e3d_sim.yaml")
+        .option("--scenario", "FILE.yaml", "scenario, e.g. config/sim_walk.yaml (default: built-in)")
+        .option("--gaps", "G,G,..", "frame gaps between the two exposures", "1,2,4,8")
+        .option("--every", "N", "scores every N-th frame", "80")
+        .option("--duration", "SECONDS", "simulated time (default: the scenario's walk)")
+        .option("--params", "TRACKER.yaml", "also with the tracker's own pose (its motion chained over the gap)")
+        .option("--quiet", "0|1", "1: no line per frame, only the summaries", "0");
+    if (!args.parse()) return 0;
+    const std::string scenario_path = args.get("--scenario");
     const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
-    const std::vector<int> gaps = parseIntList(opts.count("gaps") ? opts["gaps"] : "1,2,4,8", "--gaps", 1);
-    const int every = opts.count("every") ? std::stoi(opts["every"]) : 80;
-    const bool quiet = opts.count("quiet") && opts["quiet"] != "0";
+    const std::vector<int> gaps = parseIntList(args.get("--gaps"), "--gaps", 1);
+    const int every = static_cast<int>(args.getInt("--every"));
+    const bool quiet = args.get("--quiet") != "0";
     const sim::World world = sim::World::build(sc.world, sc.seed);
     const sim::SensorHead head = sim::SensorHead::make(sc);
     const sim::Trajectory traj(sc.trajectory, sc.gravity);
-    const double duration = opts.count("duration") ? std::stod(opts["duration"]) : traj.duration();
+    const double duration = args.has("--duration") ? args.getDouble("--duration") : traj.duration();
     const sim::StereoRenderer renderer(sc, world, head, traj);
     const sim::SceneRenderer scene(world, sc.camera.near_m);
     const int64_t last_frame = static_cast<int64_t>(std::floor(duration * sc.camera.rate_hz));
@@ -116,8 +118,8 @@ int main(int argc, char** argv) {
 
     // The tracker's frame-to-frame motion (camera 0 now in camera 0 before), when asked for.
     std::map<int64_t, Eigen::Isometry3d> tracker_delta;
-    if (opts.count("params")) {
-      const TrackerParams params = loadTrackerParams(opts["params"]);
+    if (args.has("--params")) {
+      const TrackerParams params = loadTrackerParams(args.get("--params"));
       eval::runTrackerOnSimulation(scenario_path, duration, params, eval::SimPrior::Imu,
                                    [&](const eval::SimFrameError& e) {
                                      if (!e.result.valid) return;
@@ -128,12 +130,12 @@ int main(int argc, char** argv) {
                                    });
     }
 
-    const Config e3d_cfg(opts["e3d-config"]);
+    const Config e3d_cfg(args.get("--e3d-config"));
     const PolarRectificationParams polar_params =
         PolarRectificationParams::fromConfig(e3d_cfg.has("mono") ? e3d_cfg.section("mono") : e3d_cfg);
     const e3d::SgmParams sgm = e3d::SgmParams::fromConfig(e3d_cfg.has("sgm") ? e3d_cfg.section("sgm") : e3d_cfg);
     e3d::VulkanContext ctx;
-    eval::E3dScorer stereo(head.calibration, opts["e3d-config"], &ctx);
+    eval::E3dScorer stereo(head.calibration, args.get("--e3d-config"), &ctx);
     e3d::StereoMatcher mono(ctx, polar_params.size, sgm);
     const cv::Size raw_size(head.calibration.cam0.width, head.calibration.cam0.height);
 
@@ -159,7 +161,7 @@ int main(int argc, char** argv) {
         const sim::StereoFrame fb = renderer.render(k0 + g);
         const Eigen::Isometry3d W_b = cam_pose(fb);
         std::vector<std::pair<std::string, Eigen::Isometry3d>> poses = {{"true", W_a.inverse() * W_b}};
-        if (opts.count("params")) {
+        if (args.has("--params")) {
           Eigen::Isometry3d chained = Eigen::Isometry3d::Identity();
           bool whole = true;
           for (int64_t k = k0 + 1; k <= k0 + g && whole; ++k) {
@@ -225,6 +227,9 @@ int main(int argc, char** argv) {
     std::printf("mono: gap %d bad2 %.2f %% density %.2f %% image %.1f %% (true pose)\n", best_gap, best.bad2,
                 best.density, best.image_share);
     return 0;
+  } catch (const ips::ArgError& e) {
+    std::cerr << e.what() << "\n";  // names the program and the option
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "mono_disparity_eval: " << e.what() << "\n";
     return 1;

@@ -1,36 +1,35 @@
 // Relative motion of camera 0 between two raw stereo pairs. The last output line is
 // "tx ty tz rx ry rz": camera 0 at time 1 in camera 0 at time 0 (metres, rotation vector in radians).
+#include <cmath>
 #include <cstdio>
-#include <iostream>
 
 #include "common.hpp"
+#include "ips/args.hpp"
 #include "ips/calibration.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
-
-namespace {
-const char* kUsage =
-    "usage: track_pair --calib CALIB.yaml --left0 A.png --right0 B.png --left1 C.png --right1 D.png\n"
-    "                  [--params config/tracker.yaml] [--dt SECONDS (default 0.1)]\n"
-    "Prints statistics, then as the LAST line: tx ty tz rx ry rz of camera 0 at time 1 in camera 0 at time 0.\n";
-}
 
 int main(int argc, char** argv) {
   using namespace ips::tracker;
   try {
-    auto opts = tools::parseOptions(argc, argv, 1);
-    if (opts.count("help")) {
-      std::cout << kUsage;
-      return 0;
-    }
-    for (const char* k : {"calib", "left0", "right0", "left1", "right1"})
-      if (!opts.count(k)) throw std::invalid_argument(std::string("missing --") + k);
-    const ips::StereoCalibration calib = ips::loadCalibration(opts["calib"]);
-    const TrackerParams params = opts.count("params") ? loadTrackerParams(opts["params"]) : TrackerParams();
-    const double dt = opts.count("dt") ? std::stod(opts["dt"]) : 0.1;
+    ips::Args args(argc, argv,
+                   "relative motion of camera 0 between two raw stereo pairs\n"
+                   "Prints statistics, then as the LAST line: tx ty tz rx ry rz of camera 0 at time 1 in camera 0 at "
+                   "time 0\n(metres, rotation vector in radians).");
+    args.required("--calib", "CALIB.yaml", "the project's calibration file")
+        .required("--left0", "A.png", "left image at time 0")
+        .required("--right0", "B.png", "right image at time 0")
+        .required("--left1", "C.png", "left image at time 1")
+        .required("--right1", "D.png", "right image at time 1")
+        .option("--params", "TRACKER.yaml", "tracker parameters, e.g. config/tracker.yaml (default: built-in)")
+        .option("--dt", "SECONDS", "time between the pairs", "0.1");
+    if (!args.parse()) return 0;
+    const ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
+    const TrackerParams params = args.has("--params") ? loadTrackerParams(args.get("--params")) : TrackerParams();
+    const double dt = args.getDouble("--dt");
     StereoTracker tracker(calib, params);
-    tracker.process(0, tools::loadGray(opts["left0"]), tools::loadGray(opts["right0"]));
+    tracker.process(0, tools::loadGray(args.get("--left0")), tools::loadGray(args.get("--right0")));
     const TrackResult r =
-        tracker.process(int64_t(dt * 1e6), tools::loadGray(opts["left1"]), tools::loadGray(opts["right1"]));
+        tracker.process(int64_t(dt * 1e6), tools::loadGray(args.get("--left1")), tools::loadGray(args.get("--right1")));
     std::printf("features %d intra %d inter %d inliers %d rms %.4f m %.3f px guided %d\n", r.num_features,
                 r.num_intra_matches, r.num_inter_matches, r.num_inliers, r.residual_rms, r.residual_rms_px,
                 int(r.guided_pass));
@@ -47,8 +46,11 @@ int main(int argc, char** argv) {
     std::printf("%.6f %.6f %.6f %.6f %.6f %.6f\n", r.translation.x(), r.translation.y(), r.translation.z(), rv.x(),
                 rv.y(), rv.z());
     return 0;
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
+    return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "track_pair: %s\n%s", e.what(), kUsage);
+    std::fprintf(stderr, "track_pair: %s\n", e.what());
     return 1;
   }
 }

@@ -11,13 +11,13 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
-#include <iostream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <vector>
 
 #include "common.hpp"
+#include "ips/args.hpp"
 #ifdef IPS_HAVE_SIM
 #include "ips/eval/tracker_on_sim.hpp"
 #endif
@@ -69,18 +69,19 @@ cv::Mat loadResized(const std::string& path, cv::Size size) {
 
 int main(int argc, char** argv) {
   try {
-    auto opts = tools::parseOptions(argc, argv, 1);
-    if (opts.count("help")) {
-      std::cout << "usage: tracker_bench [--repeat N (3)] [--width W (1360)] [--height H (1024)] [--params P]"
-                   " [--data DIR] [--scenario SIM.yaml] [--sim_frames N (40)]\n";
-      return 0;
-    }
-    const int repeat = opts.count("repeat") ? std::stoi(opts["repeat"]) : 3;
-    const cv::Size size(opts.count("width") ? std::stoi(opts["width"]) : 1360,
-                        opts.count("height") ? std::stoi(opts["height"]) : 1024);
-    const std::string data = opts.count("data") ? opts["data"] : std::string(IPS_DATA_DIR);
-    const std::string euroc = data + "/euroc/V1_01_easy";
-    const TrackerParams params = opts.count("params") ? loadTrackerParams(opts["params"]) : TrackerParams();
+    ips::Args args(argc, argv, "per-stage timing of the stereo tracker on one core, on full-size pairs");
+    args.option("--repeat", "N", "repetitions of each case", "3")
+        .option("--width", "W", "image width the frames are resized to", "1360")
+        .option("--height", "H", "image height", "1024")
+        .option("--params", "TRACKER.yaml", "tracker parameters (default: built-in)")
+        .option("--data", "DIR", "the shared data (euroc/V1_01_easy)", IPS_DATA_DIR)
+        .option("--scenario", "SIM.yaml", "simulated walk, when built with the simulator (default: built-in)")
+        .option("--sim_frames", "N", "pairs of the simulated walk", "40");
+    if (!args.parse()) return 0;
+    const int repeat = static_cast<int>(args.getInt("--repeat"));
+    const cv::Size size(static_cast<int>(args.getInt("--width")), static_cast<int>(args.getInt("--height")));
+    const std::string euroc = args.get("--data") + "/euroc/V1_01_easy";
+    const TrackerParams params = args.has("--params") ? loadTrackerParams(args.get("--params")) : TrackerParams();
     cv::setNumThreads(1);
 
     ips::StereoCalibration calib =
@@ -148,9 +149,9 @@ int main(int argc, char** argv) {
     std::printf("  valid %d/%d\n", mov_valid, repeat);
 #ifdef IPS_HAVE_SIM
     {
-      const int sim_frames = opts.count("sim_frames") ? std::stoi(opts["sim_frames"]) : 40;
+      const int sim_frames = static_cast<int>(args.getInt("--sim_frames"));
       const ips::sim::Scenario sc =
-          opts.count("scenario") ? ips::sim::Scenario::load(opts["scenario"]) : ips::sim::Scenario::defaults();
+          args.has("--scenario") ? ips::sim::Scenario::load(args.get("--scenario")) : ips::sim::Scenario::defaults();
       const ips::sim::World world = ips::sim::World::build(sc.world, sc.seed);
       const ips::sim::SensorHead head = ips::sim::SensorHead::make(sc);
       const ips::sim::Trajectory traj(sc.trajectory, sc.gravity);
@@ -180,6 +181,9 @@ int main(int argc, char** argv) {
     }
 #endif
     return 0;
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tracker_bench: %s\n", e.what());
     return 1;

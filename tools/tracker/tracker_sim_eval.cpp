@@ -7,9 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <iostream>
 
-#include "common.hpp"
+#include "ips/args.hpp"
 #include "ips/eval/e3d_guide.hpp"
 #include "ips/eval/tracker_on_sim.hpp"
 
@@ -17,15 +16,18 @@ using namespace ips::tracker;
 
 int main(int argc, char** argv) {
   try {
-    auto opts = tools::parseOptions(argc, argv, 1);
-    if (opts.count("help")) {
-      std::cout << "usage: tracker_sim_eval [--scenario FILE.yaml] [--duration S (10)] [--params P]"
-                   " [--prior cv|imu|none] [--quiet 1] [--e3d-config E3D.yaml]\n";
-      return 0;
-    }
-    const double duration = opts.count("duration") ? std::stod(opts["duration"]) : 10.0;
-    const TrackerParams params = opts.count("params") ? loadTrackerParams(opts["params"]) : TrackerParams();
-    const std::string prior_name = opts.count("prior") ? opts["prior"] : "cv";
+    ips::Args args(argc, argv, "relative pose error per frame of the tracker on a simulated scenario");
+    args.option("--scenario", "FILE.yaml", "scenario, e.g. config/sim_walk.yaml (default: its built-in defaults)")
+        .option("--duration", "SECONDS", "simulated time", "10")
+        .option("--params", "TRACKER.yaml", "tracker parameters (default: built-in)")
+        .option("--prior", "cv|imu|none", "motion prior: constant velocity, the simulated IMU, or none", "cv")
+        .option("--quiet", "0|1", "1: only the summary, not a line per frame", "0")
+        .option("--e3d-config", "E3D.yaml",
+                "E3D (Vulkan) matches every pair and the tracker takes its intra-matches from the map");
+    if (!args.parse()) return 0;
+    const double duration = args.getDouble("--duration");
+    const TrackerParams params = args.has("--params") ? loadTrackerParams(args.get("--params")) : TrackerParams();
+    const std::string prior_name = args.get("--prior");
     ips::eval::SimPrior prior = ips::eval::SimPrior::ConstantVelocity;
     if (prior_name == "imu")
       prior = ips::eval::SimPrior::Imu;
@@ -33,20 +35,20 @@ int main(int argc, char** argv) {
       prior = ips::eval::SimPrior::None;
     else if (prior_name != "cv")
       throw std::invalid_argument("--prior must be cv, imu or none");
-    const bool quiet = opts.count("quiet") && opts["quiet"] != "0";
+    const bool quiet = args.get("--quiet") != "0";
     if (!quiet)
       std::printf("frame valid step_m step_deg rot_err_deg trans_err_m trans_err_pct inliers prior_ok total_ms\n");
     std::unique_ptr<ips::eval::E3dGuide> e3d;
     ips::eval::SimGuide guide;
-    if (opts.count("e3d-config"))
+    if (args.has("--e3d-config"))
       guide = [&](const StereoTracker& tracker, const ips::sim::StereoFrame& f) {
         if (!e3d)
-          e3d =
-              std::make_unique<ips::eval::E3dGuide>(tracker.calibration(), opts["e3d-config"], tracker.rectification());
+          e3d = std::make_unique<ips::eval::E3dGuide>(tracker.calibration(), args.get("--e3d-config"),
+                                                      tracker.rectification());
         return &e3d->match(f.left, f.right);
       };
     const auto errors = ips::eval::runTrackerOnSimulation(
-        opts.count("scenario") ? opts["scenario"] : "", duration, params, prior,
+        args.get("--scenario"), duration, params, prior,
         [&](const ips::eval::SimFrameError& e) {
           if (quiet) return;
           std::printf("%5lld %d %.4f %.3f %.4f %.4f %.2f %d %d %.1f\n", (long long)e.frame, int(e.result.valid),
@@ -142,6 +144,9 @@ int main(int argc, char** argv) {
           (chain.translation() - truth.translation()).norm(),
           path > 0 ? 100 * (chain.translation() - truth.translation()).norm() / path : 0.0, path);
     return 0;
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "tracker_sim_eval: %s\n", e.what());
     return 1;
