@@ -11,11 +11,12 @@
 
 #include "ips/calib/formats.hpp"
 #include "ips/config.hpp"
+#include "ips/shared_data_test.hpp"
 
 namespace {
 
 const std::string kFixtures = CALIB_FIXTURES;
-const std::string kEuroc = std::string(IPS_DATA_DIR) + "/euroc/V1_01_easy";
+const std::string kEuroc = ips::dataDir() + "/euroc/V1_01_easy";
 
 std::string tempPath(const std::string& name) { return ::testing::TempDir() + "calib_" + name; }
 
@@ -52,6 +53,7 @@ void expectSame(const ips::StereoCalibration& a, const ips::StereoCalibration& b
 }  // namespace
 
 TEST(CalibFormats, KalibrFormOfEurocEqualsEurocForm) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy");
   const ips::StereoCalibration euroc =
       ips::calib::readEuroc(kEuroc + "/mav0/cam0/sensor.yaml", kEuroc + "/mav0/cam1/sensor.yaml");
   const ips::StereoCalibration kalibr = ips::calib::readKalibr(kEuroc + "/calib_openvins/kalibr_imucam_chain.yaml");
@@ -112,6 +114,7 @@ TEST(CalibFormats, RosCameraInfoFixture) {
 }
 
 TEST(CalibFormats, RosCameraInfoRoundTripOfEuroc) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy");
   const ips::StereoCalibration euroc =
       ips::calib::readEuroc(kEuroc + "/mav0/cam0/sensor.yaml", kEuroc + "/mav0/cam1/sensor.yaml");
   const std::string left = tempPath("left.yaml"), right = tempPath("right.yaml");

@@ -6,13 +6,14 @@
 #include <fstream>
 
 #include "ips/dataset/dataset.hpp"
+#include "ips/shared_data_test.hpp"
 
 namespace fs = std::filesystem;
 using namespace ips::dataset;
 
 namespace {
 
-const std::string kData = IPS_DATA_DIR;
+const std::string kData = ips::dataDir();
 const std::string kKitti = kData + "/kitti_odometry/06_first51";
 const std::string kMh01 = kData + "/euroc/MH_01_easy_first150";
 const std::string kV101 = kData + "/euroc/V1_01_easy";

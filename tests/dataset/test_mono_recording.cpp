@@ -12,6 +12,7 @@
 #include "ips/e3d/mono_depth.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/e3d/vulkan_context.hpp"
+#include "ips/shared_data_test.hpp"
 
 namespace ips {
 namespace {
@@ -22,7 +23,7 @@ double median(std::vector<double> v) {
 }
 
 TEST(MonoRecording, KittiDepthFromOneCameraAgreesWithTheStereoMap) {
-  const std::string dir = std::string(IPS_DATA_DIR) + "/kitti_odometry/06_first51";
+  const std::string dir = ips::dataDir() + "/kitti_odometry/06_first51";
   if (!std::filesystem::exists(dir)) GTEST_SKIP() << dir << " is not here";
   const dataset::Recording rec = dataset::readRecording("kitti", dir, {});
   ASSERT_GE(rec.ground_truth.size(), 27u);

@@ -12,6 +12,7 @@
 #include "ips/e3d/sgm.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
+#include "ips/shared_data_test.hpp"
 
 using namespace ips;
 using namespace ips::e3d;
@@ -24,7 +25,7 @@ VulkanContext& context() {
 }
 
 cv::Mat loadGrey(const std::string& scene, const std::string& file) {
-  cv::Mat img = cv::imread(std::string(IPS_DATA_DIR) + "/stereo/" + scene + "/" + file, cv::IMREAD_COLOR);
+  cv::Mat img = cv::imread(ips::dataDir() + "/stereo/" + scene + "/" + file, cv::IMREAD_COLOR);
   if (img.empty()) throw std::runtime_error("missing test image " + scene + "/" + file);
   cv::Mat grey;
   cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
@@ -90,9 +91,10 @@ TEST(SgmReference, ShiftedRandomTextureGivesTheShift) {
 }
 
 TEST(SgmReference, TsukubaAgainstGroundTruth) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("tsukuba", "left.png"), right = loadGrey("tsukuba", "right.png");
-  cv::Mat gt = cv::imread(std::string(IPS_DATA_DIR) + "/stereo/tsukuba/disp_gt.png", cv::IMREAD_GRAYSCALE);
-  cv::Mat mask = cv::imread(std::string(IPS_DATA_DIR) + "/stereo/tsukuba/mask_nonocc.png", cv::IMREAD_GRAYSCALE);
+  cv::Mat gt = cv::imread(ips::dataDir() + "/stereo/tsukuba/disp_gt.png", cv::IMREAD_GRAYSCALE);
+  cv::Mat mask = cv::imread(ips::dataDir() + "/stereo/tsukuba/mask_nonocc.png", cv::IMREAD_GRAYSCALE);
   SgmParams p;
   p.num_disparities = 16;
   p.fill_invalid = true;  // invalid pixels count as bad below
@@ -110,12 +112,14 @@ TEST(SgmReference, TsukubaAgainstGroundTruth) {
 }
 
 TEST(StereoMatcher, EqualsReferenceOnTsukuba) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   SgmParams p;
   p.num_disparities = 16;
   expectDeviceEqualsReference(loadGrey("tsukuba", "left.png"), loadGrey("tsukuba", "right.png"), p);
 }
 
 TEST(StereoMatcher, EqualsReferenceOnConesWithAdaptiveP2) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   SgmParams p;
   p.num_disparities = 64;
   p.p2_slope = 12;
@@ -123,6 +127,7 @@ TEST(StereoMatcher, EqualsReferenceOnConesWithAdaptiveP2) {
 }
 
 TEST(StereoMatcher, EqualsReferenceOddSizeFourPathsMinDisparityNoSubpixel) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("teddy", "left.png")(cv::Rect(13, 7, 201, 77)).clone();
   cv::Mat right = loadGrey("teddy", "right.png")(cv::Rect(13, 7, 201, 77)).clone();
   SgmParams p;
@@ -136,6 +141,7 @@ TEST(StereoMatcher, EqualsReferenceOddSizeFourPathsMinDisparityNoSubpixel) {
 }
 
 TEST(StereoMatcher, EqualsReferenceNegativeMinDisparityEightPaths) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("venus", "left.png")(cv::Rect(40, 30, 150, 90)).clone();
   cv::Mat right = loadGrey("venus", "right.png")(cv::Rect(40, 30, 150, 90)).clone();
   SgmParams p;
@@ -146,6 +152,7 @@ TEST(StereoMatcher, EqualsReferenceNegativeMinDisparityEightPaths) {
 }
 
 TEST(StereoMatcher, SecondMatchRightToLeftEqualsReference) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("cones", "left.png")(cv::Rect(20, 30, 300, 200)).clone();
   cv::Mat right = loadGrey("cones", "right.png")(cv::Rect(20, 30, 300, 200)).clone();
   SgmParams p;
@@ -165,6 +172,7 @@ TEST(StereoMatcher, SecondMatchRightToLeftEqualsReference) {
 }
 
 TEST(StereoMatcher, EqualsReferenceWithoutChecks) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("venus", "left.png"), right = loadGrey("venus", "right.png");
   SgmParams p;
   p.num_disparities = 32;
@@ -198,16 +206,19 @@ void expectSplitVolumeEqualsReference(cv::Rect crop, int num_disparities, Aggreg
 }
 
 TEST(StereoMatcher, VolumeSplitOverSeveralBuffersEqualsReference) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   // Lines: 8 paths x 700 x 200 x 128 bytes = 143 MB, over several buffers.
   expectSplitVolumeEqualsReference(cv::Rect(300, 150, 700, 200), 128, Aggregation::lines, size_t(8) * 700 * 200 * 128);
 }
 
 TEST(StereoMatcher, RowPassSumsOverSeveralBufferRangesEqualReference) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   // Rows: sums of 1000 x 300 x 256 disparities x 2 bytes = 154 MB, over two storage-buffer ranges.
   expectSplitVolumeEqualsReference(cv::Rect(200, 60, 1000, 300), 256, Aggregation::rows, size_t(2) * 1000 * 300 * 256);
 }
 
 TEST(StereoMatcher, RepeatedMatchesGiveTheSameResultAndStageTimings) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("tsukuba", "left.png"), right = loadGrey("tsukuba", "right.png");
   SgmParams p;
   p.num_disparities = 16;
@@ -222,6 +233,7 @@ TEST(StereoMatcher, RepeatedMatchesGiveTheSameResultAndStageTimings) {
 }
 
 TEST(StereoMatcher, DeviceRectificationMatchesCpuRemap) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   StereoCalibration calib;
   for (CameraIntrinsics* cam : {&calib.cam0, &calib.cam1}) {
     cam->width = 384;
@@ -282,6 +294,7 @@ TEST(StereoMatcher, BadInputThrows) {
 }
 
 TEST(StereoMatcher, FillInvalidEqualsReferenceAndLeavesNoHoles) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("cones", "left.png"), right = loadGrey("cones", "right.png");
   SgmParams p;
   p.num_disparities = 64;
@@ -338,6 +351,7 @@ TEST(MatchingCost, Log2InQuarterBitsIsWithinItsResolution) {
 }
 
 TEST(MatchingCost, MutualInformationTableFollowsTheGreyMappingOfThePair) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   // The right image is the left one darkened (gain 0.5) at disparity 0: the table must be cheapest where the right
   // grey is half the left grey, which no difference cost would find.
   cv::Mat left = loadGrey("teddy", "left.png");
@@ -366,6 +380,7 @@ TEST(MatchingCost, MutualInformationTableFollowsTheGreyMappingOfThePair) {
 }
 
 TEST(StereoMatcher, AdAndSadEqualReference) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("cones", "left.png")(cv::Rect(60, 40, 240, 150)).clone();
   cv::Mat right = loadGrey("cones", "right.png")(cv::Rect(60, 40, 240, 150)).clone();
   for (const char* cost : {"ad", "sad"}) {
@@ -380,6 +395,7 @@ TEST(StereoMatcher, AdAndSadEqualReference) {
 }
 
 TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("teddy", "left.png")(cv::Rect(30, 50, 300, 180)).clone();
   cv::Mat right = loadGrey("teddy", "right.png")(cv::Rect(30, 50, 300, 180)).clone();
   SgmParams p = SgmParams::forCost(Cost::mi);
@@ -394,6 +410,7 @@ TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
 }
 
 TEST(StereoMatcher, MutualInformationAndCensusHoldWhereTheRightImageIsDarkerAndAdDoesNot) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   // Radiometric robustness, the reason MI and census exist: gain 0.6 and gamma 1.3 on the right image.
   cv::Mat left = loadGrey("cones", "left.png"), right = loadGrey("cones", "right.png");
   cv::Mat changed(right.size(), CV_8UC1);
@@ -401,7 +418,7 @@ TEST(StereoMatcher, MutualInformationAndCensusHoldWhereTheRightImageIsDarkerAndA
     for (int x = 0; x < right.cols; ++x)
       changed.at<uint8_t>(y, x) =
           cv::saturate_cast<uint8_t>(0.6 * 255.0 * std::pow(right.at<uint8_t>(y, x) / 255.0, 1.3));
-  cv::Mat gt = cv::imread(std::string(IPS_DATA_DIR) + "/stereo/cones/disp_gt.png", cv::IMREAD_GRAYSCALE);
+  cv::Mat gt = cv::imread(ips::dataDir() + "/stereo/cones/disp_gt.png", cv::IMREAD_GRAYSCALE);
   auto bad2 = [&](const cv::Mat& d16) {
     int bad = 0, n = 0;
     for (int y = 0; y < gt.rows; ++y)

@@ -15,12 +15,13 @@
 #include "ips/filter/estimator.hpp"
 #include "ips/filter/models.hpp"
 #include "ips/log.hpp"
+#include "ips/shared_data_test.hpp"
 
 using namespace ips::filter;
 
 namespace {
 
-const std::string kDir = std::string(IPS_DATA_DIR) + "/euroc/V1_01_easy";
+const std::string kDir = ips::dataDir() + "/euroc/V1_01_easy";
 
 std::vector<std::vector<double>> readCsv(const std::string& path) {
   std::ifstream in(path);
@@ -89,6 +90,7 @@ FilterParams eurocParams(FilterType type) {
 }  // namespace
 
 TEST(FilterEuroc, GroundTruthConventionsMatchTheImu) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy");
   const EurocData d = load();
   ASSERT_GT(d.imu.size(), 29000u);
   ASSERT_GT(d.gt.size(), 2000u);
@@ -105,6 +107,7 @@ TEST(FilterEuroc, GroundTruthConventionsMatchTheImu) {
 }
 
 TEST(FilterEuroc, ImuPropagationMatchesGroundTruthWithinItsCovariance) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy");
   ips::setLogLevel(ips::LogLevel::Error);
   const EurocData d = load();
   const double window_s = 1.0;

@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ips/calibration.hpp"
+#include "ips/shared_data_test.hpp"
 #include "ips/sim/renderer.hpp"
 
 using namespace ips::sim;
@@ -149,9 +150,10 @@ TEST(SimRender, GroundTruthFramesAreConsistent) {
 }
 
 TEST(SimRender, WorldUsesPhotographsAndFallsBack) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   Scenario sc = Scenario::defaults();
   const World world = World::build(sc.world, sc.seed);
-  EXPECT_GT(world.photo_count, 0) << "no photographs under " << IPS_DATA_DIR;
+  EXPECT_GT(world.photo_count, 0) << "no photographs under " << ips::dataDir();
   sc.world.data_dir = "/nonexistent";
   const World fallback = World::build(sc.world, sc.seed);
   EXPECT_EQ(fallback.photo_count, 0);

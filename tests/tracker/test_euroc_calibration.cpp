@@ -22,6 +22,7 @@ std::string writeTemp(const std::string& name, const std::string& text) {
 }  // namespace
 
 TEST(EurocCalibration, ReadsTheSensorFileValues) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy/mav0");
   const EurocCamera c = readEurocCamera(kCam0);
   EXPECT_EQ(c.width, 752);
   EXPECT_EQ(c.height, 480);
@@ -36,6 +37,7 @@ TEST(EurocCalibration, ReadsTheSensorFileValues) {
 }
 
 TEST(EurocCalibration, StereoGeometryMatchesTheKnownHead) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy/mav0");
   const ips::StereoCalibration calib = calibrationFromEuroc(kCam0, kCam1);
   // The VI-sensor: about 11 cm baseline, camera 1 to the right of camera 0 (t_cam1_cam0 x < 0).
   EXPECT_NEAR(calib.baseline(), 0.110, 0.001);
@@ -50,6 +52,7 @@ TEST(EurocCalibration, StereoGeometryMatchesTheKnownHead) {
 }
 
 TEST(EurocCalibration, SurvivesTheProjectFormat) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy/mav0");
   const ips::StereoCalibration calib = calibrationFromEuroc(kCam0, kCam1);
   const std::string path = ::testing::TempDir() + "euroc_calib.yaml";
   ips::saveCalibration(path, calib);

@@ -49,6 +49,7 @@ std::vector<VerticalMatch> syntheticPair(const EpipolarMonitor& m, const Eigen::
 }  // namespace
 
 TEST(Integrity, RowSearchFindsAKnownVerticalShift) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   // A real image and itself moved 2.3 px down and 12 px left (subpixel by bilinear interpolation): every corner's
   // vertical disparity is 2.3 px.
   const cv::Mat left = cv::imread(test::dataDir() + "/stereo/teddy/left.png", cv::IMREAD_GRAYSCALE);

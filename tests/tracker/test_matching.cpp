@@ -39,6 +39,7 @@ TEST(Matching, PatchNormalisation) {
 
 // Left-right matches on rows of a rectified real pair against the ground truth.
 TEST(Matching, IntraMatchingAgreesWithMiddleburyGroundTruth) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   for (const char* scene : {"cones", "teddy"}) {
     const std::string dir = test::dataDir() + "/stereo/" + scene + "/";
     const cv::Mat left = cv::imread(dir + "left.png", cv::IMREAD_GRAYSCALE);
@@ -93,6 +94,7 @@ TEST(Matching, IntraMatchingRejectsBadInput) {
 // A textured plane seen by a rectified stereo pair at two times with a known motion: every matched point's
 // position in the newer pair is known exactly (ray - plane intersection, then projection).
 TEST(Matching, InterMatchingFollowsKnownPlaneMotion) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   const int w = 640, h = 480;
   const double f = 500, baseline = 0.12;
   test::TexturedPlane plane;
@@ -158,6 +160,7 @@ TEST(Matching, InterMatchingFollowsKnownPlaneMotion) {
 }
 
 TEST(Matching, InterMatchingFindsNothingOutsideAWrongWindow) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
   const int w = 640, h = 480;
   test::TexturedPlane plane;
   plane.texture = test::realTexture(w, h);

@@ -49,6 +49,7 @@ Eigen::Isometry3d groundTruthDelta(const std::string& source, const std::string&
 
 // The real two-frame test: EuRoC pairs 0.5 s apart, 0.32 m and 15.6 deg, no prior.
 TEST(TrackerEuroc, MovingPairsAgainstBothGroundTruths) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy/moving_pairs");
   const std::string t0 = "1403715400262142976", t1 = "1403715400762142976";
   const EurocCase c = loadEuroc(t0, t1);
   ASSERT_FALSE(c.l0.empty());
@@ -119,6 +120,7 @@ void expectDelta(const TrackResult& r, const Eigen::Isometry3d& truth, double ma
 }  // namespace
 
 TEST(TrackerPlane, SequenceWithConstantVelocityPrior) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   StereoTracker tracker(seq.calib, TrackerParams());
   cv::Mat l, r;
@@ -153,6 +155,7 @@ TEST(TrackerPlane, SequenceWithConstantVelocityPrior) {
 }
 
 TEST(TrackerPlane, FilterPriorPlacesSmallWindows) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   cv::Mat l0, r0, l1, r1;
   seq.render(0, l0, r0);
@@ -186,6 +189,7 @@ TEST(TrackerPlane, FilterPriorPlacesSmallWindows) {
 }
 
 TEST(TrackerPlane, ImuPriorPredictsRotation) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   cv::Mat l0, r0, l1, r1;
   seq.render(0, l0, r0);
@@ -208,6 +212,7 @@ TEST(TrackerPlane, ImuPriorPredictsRotation) {
 }
 
 TEST(TrackerPlane, ExposureChangeAndNoise) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   cv::Mat l0, r0, l1, r1;
   seq.render(0, l0, r0);
@@ -227,6 +232,7 @@ TEST(TrackerPlane, ExposureChangeAndNoise) {
 }
 
 TEST(TrackerPlane, BlankPairKeepsTheReferenceAndFailedMatchRecovers) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   cv::Mat l0, r0, l1, r1, l2, r2;
   seq.render(0, l0, r0);
@@ -264,6 +270,7 @@ TEST(TrackerPlane, BlankPairKeepsTheReferenceAndFailedMatchRecovers) {
 }
 
 TEST(TrackerPlane, TimeGoingBackwardsRestarts) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   cv::Mat l0, r0, l1, r1;
   seq.render(0, l0, r0);
@@ -278,6 +285,7 @@ TEST(TrackerPlane, TimeGoingBackwardsRestarts) {
 }
 
 TEST(TrackerPlane, BadInputThrows) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   StereoTracker tracker(seq.calib, TrackerParams());
   cv::Mat l, r;
@@ -300,6 +308,7 @@ TEST(TrackerPlane, BadInputThrows) {
 // 8 cm sideways per frame on its own while the head moves; its matches are consistent among themselves but
 // not with the scene, and RANSAC must keep the background.
 TEST(TrackerPlane, IndependentlyMovingObjectIsIgnored) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;
   test::TexturedPlane board;  // its own texture: a blurred random pattern, seen from the reference camera
   cv::Mat noise(PlaneSequence::kHeight, PlaneSequence::kWidth, CV_8UC1);

@@ -11,11 +11,12 @@
 #include <string>
 
 #include "ips/calibration.hpp"
+#include "ips/shared_data_test.hpp"
 #include "ips/tracker/motion.hpp"
 
 namespace ips::tracker::test {
 
-inline std::string dataDir() { return IPS_DATA_DIR; }
+inline std::string dataDir() { return ips::dataDir(); }
 
 // A plane n^T X = d in the reference camera (camera 0 at time 0) whose texture is `texture` as that camera
 // sees it. Renders any camera posed by X_ref = R * X_cam + t.

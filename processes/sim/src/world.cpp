@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "ips/data_dir.hpp"
 #include "ips/log.hpp"
 #include "ips/sim/rng.hpp"
 
@@ -331,7 +332,7 @@ World World::build(const WorldConfig& cfg, uint64_t seed) {
   if (cfg.weak_floor) b.floor = b.ceiling = b.weak;  // a painted floor and a plain ceiling
   b.wood = world.addTexture("wood", makeTileTexture(512, 2, ts + 6));
 
-  const std::string dir = cfg.data_dir.empty() ? std::string(IPS_SIM_DEFAULT_DATA_DIR) : cfg.data_dir;
+  const std::string dir = cfg.data_dir.empty() ? dataDir() : cfg.data_dir;
   for (const std::string& path : photoPaths(dir)) {
     cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
     if (img.empty()) continue;

@@ -122,7 +122,7 @@ struct CalibrationErrors {
 };
 
 struct WorldConfig {
-  std::string data_dir;  // photographs (stereo/*/left.png, ...); empty = IPS_DATA_DIR of the build
+  std::string data_dir;  // photographs (stereo/*/left.png, ...); empty = ips::dataDir()
   // building: the indoor corridor ring of the paper's walk (the keys down to texel_m);
   // street: outdoors, facades along the streets of `route` and buildings 50-500 m away under a sky (street_*).
   std::string type = "building";

@@ -1,0 +1,13 @@
+#pragma once
+// Where the shared evaluation data is (stereo/, euroc/, kitti_odometry/: ../shared/data beside the project): the
+// environment variable IPS_DATA_DIR when set, else the folder the build was configured with (the CMake cache entry
+// IPS_DATA_DIR). One place for every tool and test, so that the data can move without a rebuild.
+#include <string>
+
+namespace ips {
+
+std::string dataDir();
+// dataDir() + "/" + relative.
+std::string dataPath(const std::string& relative);
+
+}  // namespace ips
