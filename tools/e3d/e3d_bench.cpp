@@ -36,35 +36,34 @@ double benchOpenCv(const cv::Mat& left, const cv::Mat& right, int num_disparitie
 
 int main(int argc, char** argv) {
   try {
-    std::vector<std::string> flags = paramFlags();
-    flags.push_back("no-opencv");
-    flags.push_back("help");
-    Args args(argc, argv, flags);
-    if (args.has("help")) {
-      std::cout << "usage: e3d_bench [--scene DIR] [--size WxH] [--frames N] [--opencv-frames N] [--no-opencv]\n"
-                   "                 [--device D]\n"
-                << paramUsage();
-      return 0;
-    }
-    std::vector<std::string> known = paramKeys();
-    for (const char* k : {"scene", "size", "frames", "opencv-frames", "device"}) known.push_back(k);
-    for (const auto& f : flags) known.push_back(f);
-    args.checkKnown(known);
-    const std::string scene = args.get("scene", std::string(IPS_DATA_DIR) + "/stereo/motorcycle_q");
-    cv::Size size(640, 480);
-    if (args.has("size") && std::sscanf(args.get("size", "").c_str(), "%dx%d", &size.width, &size.height) != 2)
+    ips::Args args(argc, argv,
+                   "speed of E3D on the Vulkan device beside OpenCV StereoSGBM (MODE_HH and MODE_SGBM_3WAY) on the "
+                   "same pair,\nwith 128 disparities unless --num-disparities is given");
+    args.option("--scene", "DIR", "a scene with left.png and right.png",
+                std::string(IPS_DATA_DIR) + "/stereo/motorcycle_q")
+        .option("--size", "WxH", "the pair is scaled to this size", "640x480")
+        .option("--frames", "N", "E3D matches timed", "20")
+        .option("--opencv-frames", "N", "OpenCV matches timed, per mode", "8")
+        .flag("--no-opencv", "E3D alone")
+        .option("--device", "D", "Vulkan device (default: env IPS_VK_DEVICE, else the first)");
+    addSgmOptions(args);
+    if (!args.parse()) return 0;
+    const std::string scene = args.get("--scene");
+    cv::Size size;
+    if (std::sscanf(args.get("--size").c_str(), "%dx%d", &size.width, &size.height) != 2)
       throw std::invalid_argument("--size needs WxH");
-    const int frames = args.getInt("frames", 20), cv_frames = args.getInt("opencv-frames", 8);
+    const int frames = static_cast<int>(args.getInt("--frames"));
+    const int cv_frames = static_cast<int>(args.getInt("--opencv-frames"));
     if (frames < 1 || cv_frames < 1) throw std::invalid_argument("--frames and --opencv-frames must be >= 1");
-    SgmParams params = paramsFromArgs(args);
-    if (!args.has("num-disparities")) params.num_disparities = 128;
+    SgmParams params = sgmParamsFromArgs(args);
+    if (!args.has("--num-disparities")) params.num_disparities = 128;
 
     cv::Mat left, right;
     cv::resize(loadGrey(scene + "/left.png"), left, size, 0, 0, cv::INTER_AREA);
     cv::resize(loadGrey(scene + "/right.png"), right, size, 0, 0, cv::INTER_AREA);
     const double evals = double(size.area()) * params.num_disparities / 1e6;
 
-    VulkanContext ctx(args.get("device", ""));
+    VulkanContext ctx(args.get("--device"));
     StereoMatcher matcher(ctx, size, params);
     matcher.match(left, right);  // warm-up (pipeline compilation happens at construction)
     std::map<std::string, double> stage_ms;
@@ -91,7 +90,7 @@ int main(int argc, char** argv) {
       std::cout << "  " << std::left << std::setw(10) << name << std::right << std::setw(8) << stage_ms[name] / frames
                 << " ms\n";
     double fps_hh = 0, fps_3way = 0;
-    if (!args.has("no-opencv")) {
+    if (!args.getFlag("--no-opencv")) {
       fps_hh = benchOpenCv(left, right, params.num_disparities, cv::StereoSGBM::MODE_HH, cv_frames);
       fps_3way = benchOpenCv(left, right, params.num_disparities, cv::StereoSGBM::MODE_SGBM_3WAY, cv_frames);
       std::cout << "OpenCV HH     " << std::setw(7) << fps_hh << " fps  " << std::setw(8) << evals * fps_hh
@@ -106,6 +105,9 @@ int main(int argc, char** argv) {
               << " ratio_3way=" << (fps_3way > 0 ? fps / fps_3way : 0)
               << " memory_mib=" << matcher.deviceMemoryBytes() / 1048576.0 << "\n";
     return 0;
+  } catch (const ips::ArgError& e) {
+    std::cerr << e.what() << "\n";  // names the program and the option
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "e3d_bench: " << e.what() << "\n";
     return 1;

@@ -170,11 +170,11 @@ cv::Mat changeRadiometry(const cv::Mat& image, const std::string& change) {
 
 // --radiometric: bad 2.0 (nonocc) of each cost under each change of the right image.
 int radiometricTable(const std::vector<std::string>& names, const std::string& data, const SgmParams& base,
-                     const Args& args, VulkanContext& ctx) {
+                     const ips::Args& args, VulkanContext& ctx) {
   std::vector<std::string> costs = {"census", "ad", "sad", "mi"};
-  if (args.has("costs")) {
+  if (args.has("--costs")) {
     costs.clear();
-    std::stringstream ss(args.get("costs", ""));
+    std::stringstream ss(args.get("--costs"));
     for (std::string c; std::getline(ss, c, ',');) costs.push_back(c);
   }
   for (const auto& cost : costs) parseCost(cost);  // a bad name fails before any matching
@@ -187,7 +187,7 @@ int radiometricTable(const std::vector<std::string>& names, const std::string& d
     Scene s = loadScene(data + "/" + name);
     for (const auto& cost : costs) {
       SgmParams p = base.withCost(parseCost(cost));
-      if (!args.has("num-disparities")) p.num_disparities = s.num_disparities;
+      if (!args.has("--num-disparities")) p.num_disparities = s.num_disparities;
       StereoMatcher matcher(ctx, s.left.size(), p);
       std::cout << std::left << std::setw(18) << name << std::setw(8) << cost << std::right << std::fixed
                 << std::setprecision(2);
@@ -214,29 +214,30 @@ int radiometricTable(const std::vector<std::string>& names, const std::string& d
 
 int main(int argc, char** argv) {
   try {
-    std::vector<std::string> flags = paramFlags();
-    flags.push_back("opencv");
-    flags.push_back("radiometric");
-    flags.push_back("help");
-    Args args(argc, argv, flags);
-    if (args.has("help")) {
-      std::cout << "usage: e3d_eval [--data DIR] [--scenes a,b] [--out-dir DIR] [--opencv] [--device D]\n"
-                << "         [--peer-cmd CMD [--peer-name NAME] [--peer-tmp FILE.pfm]]\n"
-                << "  every method unfilled and with the same background fill (+f); a peer is run as\n"
-                << "  CMD LEFT.png RIGHT.png NUM_DISPARITIES OUT.pfm (PFM, inf = invalid)\n"
-                << "       e3d_eval --radiometric [--costs census,ad,sad,mi] [...]\n"
-                << paramUsage();
-      return 0;
-    }
-    std::vector<std::string> known = paramKeys();
-    for (const char* k : {"data", "scenes", "out-dir", "device", "costs", "peer-cmd", "peer-name", "peer-tmp"})
-      known.push_back(k);
-    for (const auto& f : flags) known.push_back(f);
-    args.checkKnown(known);
-    const std::string data = args.get("data", std::string(IPS_DATA_DIR) + "/stereo");
+    ips::Args args(argc, argv,
+                   "accuracy of E3D (and of OpenCV StereoSGBM, or an external matcher) on the stereo scenes;\n"
+                   "every method unfilled and with the same background fill (+f). The search range is the scene's\n"
+                   "num_disparities unless --num-disparities is given.");
+    args.option("--data", "DIR", "folder of the scenes", std::string(IPS_DATA_DIR) + "/stereo")
+        .option("--scenes", "a,b,..", "these scenes only (default: every folder in --data)")
+        .option("--out-dir", "DIR", "write colour-mapped disparity PNGs here")
+        .flag("--opencv", "also OpenCV StereoSGBM MODE_HH and MODE_SGBM_3WAY with fixed settings")
+        .option("--device", "D", "Vulkan device (default: env IPS_VK_DEVICE, else the first)")
+        .option("--peer-cmd", "CMD",
+                "also an external matcher, run as CMD LEFT.png RIGHT.png NUM_DISPARITIES OUT.pfm\n"
+                "(PFM, inf = invalid)")
+        .option("--peer-name", "NAME", "its name in the table", "peer")
+        .option("--peer-tmp", "FILE.pfm", "its output file", "/tmp/e3d_eval_peer.pfm")
+        .flag("--radiometric",
+              "instead: bad 2.0 (nonocc) of each cost with the right image changed (gain, offset, gamma,\n"
+              "vignetting), each cost with its own penalties and the other options as given")
+        .option("--costs", "census,ad,sad,mi", "the costs of --radiometric (default: all)");
+    addSgmOptions(args);
+    if (!args.parse()) return 0;
+    const std::string data = args.get("--data");
     std::vector<std::string> names;
-    if (args.has("scenes")) {
-      std::stringstream ss(args.get("scenes", ""));
+    if (args.has("--scenes")) {
+      std::stringstream ss(args.get("--scenes"));
       for (std::string n; std::getline(ss, n, ',');) names.push_back(n);
     } else {
       DIR* d = opendir(data.c_str());
@@ -246,10 +247,10 @@ int main(int argc, char** argv) {
       closedir(d);
       std::sort(names.begin(), names.end());
     }
-    const std::string out_dir = args.get("out-dir", "");
-    const SgmParams base = paramsFromArgs(args);
-    VulkanContext ctx(args.get("device", ""));
-    if (args.has("radiometric")) return radiometricTable(names, data, base, args, ctx);
+    const std::string out_dir = args.get("--out-dir");
+    const SgmParams base = sgmParamsFromArgs(args);
+    VulkanContext ctx(args.get("--device"));
+    if (args.getFlag("--radiometric")) return radiometricTable(names, data, base, args, ctx);
     std::cout << "E3D: " << base.describe() << " (num_disparities per scene unless given)\n";
     std::cout
         << std::left << std::setw(18) << "scene" << std::setw(10) << "method" << std::right
@@ -265,23 +266,22 @@ int main(int argc, char** argv) {
     for (const auto& name : names) {
       Scene s = loadScene(data + "/" + name);
       SgmParams p = base;
-      if (!args.has("num-disparities")) p.num_disparities = s.num_disparities;
+      if (!args.has("--num-disparities")) p.num_disparities = s.num_disparities;
       const bool fill_requested = p.fill_invalid;
       p.fill_invalid = false;
       StereoMatcher matcher(ctx, s.left.size(), p);
       std::vector<std::pair<std::string, cv::Mat>> raw = {{"e3d", matcher.match(s.left, s.right).disparity}};
-      if (args.has("opencv")) {
+      if (args.getFlag("--opencv")) {
         raw.emplace_back("cv_hh", openCvSgbm(s, p.num_disparities, cv::StereoSGBM::MODE_HH));
         raw.emplace_back("cv_3way", openCvSgbm(s, p.num_disparities, cv::StereoSGBM::MODE_SGBM_3WAY));
       }
-      if (args.has("peer-cmd"))
-        raw.emplace_back(args.get("peer-name", "peer"),
-                         peerMatch(args.get("peer-cmd", ""), data + "/" + name, p.num_disparities,
-                                   args.get("peer-tmp", "/tmp/e3d_eval_peer.pfm")));
+      if (args.has("--peer-cmd"))
+        raw.emplace_back(args.get("--peer-name"), peerMatch(args.get("--peer-cmd"), data + "/" + name,
+                                                            p.num_disparities, args.get("--peer-tmp")));
       for (const auto& [method, d16] : raw)
         for (const bool filled : {false, true}) {
           // Without --opencv or a peer the E3D row follows the configuration's fill alone, as before.
-          if (!args.has("opencv") && !args.has("peer-cmd") && filled != fill_requested) continue;
+          if (!args.getFlag("--opencv") && !args.has("--peer-cmd") && filled != fill_requested) continue;
           cv::Mat map = d16.clone();
           if (filled) fillInvalid(map);
           const std::string label = method + (filled ? "+f" : "");
@@ -312,6 +312,9 @@ int main(int argc, char** argv) {
                 << sum.bad2_valid / count << "\n";
     }
     return 0;
+  } catch (const ips::ArgError& e) {
+    std::cerr << e.what() << "\n";  // names the program and the option
+    return 1;
   } catch (const std::exception& e) {
     std::cerr << "e3d_eval: " << e.what() << "\n";
     return 1;
