@@ -2,194 +2,18 @@
 // KEYFRAME with the mapper's CLOUD_DELTA (the alignment of successive dense maps) in;
 // FILTER_STATE (a posteriori, at IMU rate or decimated) and FILTER_PRIOR (a priori at every image time, for the
 // tracker's window prediction) out. Time comes from the message stamps only.
-#include <chrono>
-#include <ips/filter_state_t.hpp>
-#include <ips/imu_sample_t.hpp>
-#include <ips/keyframe_t.hpp>
-#include <ips/stereo_pair_t.hpp>
-#include <ips/tilt_sample_t.hpp>
-#include <ips/tracker_delta_t.hpp>
-#include <thread>
+#include <optional>
+#include <string>
 
+#include "app/filter_process.hpp"
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
 #include "ips/filter/estimator.hpp"
 #include "ips/filter/params.hpp"
 #include "ips/framework/channels.hpp"
-#include "ips/framework/filter_state_layout.hpp"
-#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
-#include "ips/framework/validate.hpp"
-
-namespace {
-
-constexpr int kFlushPacingUs = 1000;  // between the held-back states published at shutdown
-
-ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
-  ips::filter_state_t m{};
-  const ips::filter::NavState& s = out.state;
-  m.utime = s.utime;
-  m.filter_type = static_cast<int8_t>(out.type);
-  m.a_priori = out.a_priori;
-  for (int i = 0; i < 3; ++i) {
-    m.position[i] = s.position[i];
-    m.velocity[i] = s.velocity[i];
-    m.acceleration[i] = s.acceleration[i];
-    m.accel_bias[i] = s.accel_bias[i];
-    m.angular_rate[i] = s.angular_rate[i];
-    m.gyro_bias[i] = s.gyro_bias[i];
-  }
-  const Eigen::Vector4d q_wxyz(s.orientation.w(), s.orientation.x(), s.orientation.y(), s.orientation.z());
-  for (int i = 0; i < 4; ++i) m.orientation[i] = q_wxyz[i];
-  namespace layout = ips::fw::filter_state_layout;
-  static_assert(layout::kVelocity == ips::filter::kErrV && layout::kAngularRate == ips::filter::kErrW &&
-                layout::kGyroBias == ips::filter::kErrBg && layout::kDim == ips::filter::kCoreErrorDim);
-  m.cov_dim = layout::kDim;
-  m.covariance.assign(layout::kDim, std::vector<double>(layout::kDim));
-  for (int r = 0; r < layout::kDim; ++r)
-    for (int c = 0; c < layout::kDim; ++c) m.covariance[r][c] = out.covariance(r, c);
-  for (const auto& sensor : out.sensors) {
-    if (!sensor.name || !*sensor.name) continue;
-    m.sensor_names.push_back(sensor.name);
-    m.accepted.push_back(sensor.accepted);
-    m.rejected.push_back(sensor.rejected);
-    m.too_late.push_back(sensor.too_late);
-  }
-  m.num_sensors = static_cast<int32_t>(m.sensor_names.size());
-  return m;
-}
-
-class FilterProcess {
- public:
-  FilterProcess(ips::fw::Node& node, ips::filter::Estimator& estimator, std::string state_channel,
-                std::string prior_channel)
-      : node_(node),
-        est_(estimator),
-        state_channel_(std::move(state_channel)),
-        prior_channel_(std::move(prior_channel)) {
-    using namespace ips::channels;
-    node_.subscribe<ips::imu_sample_t>(kImu, [this](const ips::imu_sample_t& m) { onImu(m); });
-    node_.subscribe<ips::tilt_sample_t>(kTilt, [this](const ips::tilt_sample_t& m) { onTilt(m); });
-    node_.subscribe<ips::stereo_pair_t>(kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
-    node_.subscribe<ips::tracker_delta_t>(kTrackerDelta, [this](const ips::tracker_delta_t& m) { onDelta(m); });
-    node_.subscribe<ips::keyframe_t>(kKeyframe, [this](const ips::keyframe_t& m) { onKeyframe(m); });
-    node_.subscribe<ips::tracker_delta_t>(kCloudDelta, [this](const ips::tracker_delta_t& m) { onCloudDelta(m); });
-  }
-
-  // End of input: applies what the reordering window still holds and publishes it, paced, because LCM
-  // receivers drop a burst of hundreds of messages sent back to back (their receive queue overflows).
-  void flush() {
-    est_.flush();
-    for (const auto& out : est_.takeOutputs()) {
-      node_.publish(state_channel_, toMessage(out));
-      std::this_thread::sleep_for(std::chrono::microseconds(kFlushPacingUs));
-    }
-    publishOutputs();
-  }
-
- private:
-  template <class Msg>
-  bool check(const Msg& m, ips::fw::StreamOrder& order, const char* what) {
-    node_.health().received(m.utime);
-    ips::fw::Verdict v = ips::fw::validate(m);
-    if (!v.ok()) {
-      node_.health().bad(v.reason, v.detail);
-      return false;
-    }
-    // Across streams the estimator sorts (and counts what comes too late); within one stream a stamp that
-    // does not increase, or leaps implausibly far, is a fault of the source and is never adopted.
-    if (!ips::fw::admitInOrder(order, m.utime, m.seq, node_.health(), what, node_.arrivalUs())) return false;
-    node_.health().accepted();
-    return true;
-  }
-
-  void onImu(const ips::imu_sample_t& m) {
-    if (!check(m, imu_order_, "imu")) return;
-    ips::filter::ImuSample s;
-    s.utime = m.utime;
-    s.angular_rate = Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2]);
-    s.specific_force = Eigen::Vector3d(m.specific_force[0], m.specific_force[1], m.specific_force[2]);
-    est_.addImu(s);
-    publishOutputs();
-  }
-
-  void onTilt(const ips::tilt_sample_t& m) {
-    if (!check(m, tilt_order_, "tilt")) return;
-    est_.addTilt(ips::filter::TiltSample{m.utime, m.angle_x, m.angle_y});
-    publishOutputs();
-  }
-
-  void onStereo(const ips::stereo_pair_t& m) {
-    if (!check(m, stereo_order_, "stereo")) return;
-    auto prior = est_.addImageTime(m.utime);
-    if (prior && !prior_channel_.empty())
-      node_.publish(prior_channel_, toMessage(*prior));
-    else
-      node_.health().count("no_prior_yet");
-  }
-
-  void onDelta(const ips::tracker_delta_t& m) {
-    // A delta repeated, or sent by a second tracker for the same pair, does not advance the stream's time
-    // and is dropped here: each image interval is fused once.
-    if (!check(m, delta_order_, "delta")) return;
-    if (!m.valid) node_.health().count("tracker_invalid");
-    if (!m.valid && !m.far_valid) return;
-    est_.addTrackerDelta(toDelta(m));
-    publishOutputs();
-  }
-
-  void onKeyframe(const ips::keyframe_t& m) {
-    node_.health().received(m.utime);
-    const ips::fw::Verdict v = ips::fw::validate(m);
-    if (!v.ok()) return node_.health().bad(v.reason, v.detail);
-    node_.health().accepted();
-    est_.addKeyframe(m.utime);
-  }
-
-  void onCloudDelta(const ips::tracker_delta_t& m) {
-    if (!check(m, cloud_order_, "cloud delta")) return;
-    if (!m.valid) {
-      node_.health().count("cloud_invalid");
-      return;
-    }
-    est_.addCloudDelta(toDelta(m));
-    publishOutputs();
-  }
-
-  static ips::filter::TrackerDelta toDelta(const ips::tracker_delta_t& m) {
-    ips::filter::TrackerDelta d;
-    d.utime = m.utime;
-    d.utime_prev = m.utime_prev;
-    d.valid = m.valid;
-    d.far_valid = m.far_valid;
-    d.far_rotation = ips::fw::quaternionFromArray(m.far_rotation).normalized();
-    d.far_covariance = ips::fw::matrixFromArray<3>(m.far_rotation_covariance);
-    d.translation = Eigen::Vector3d(m.translation[0], m.translation[1], m.translation[2]);
-    d.rotation = ips::fw::quaternionFromArray(m.rotation).normalized();
-    d.covariance = ips::fw::matrixFromArray<6>(m.covariance);
-    return d;
-  }
-
-  void publishOutputs() {
-    for (const auto& out : est_.takeOutputs()) node_.publish(state_channel_, toMessage(out));
-    for (const auto& c : est_.counters()) {
-      if (!c.name || !*c.name) continue;
-      node_.health().set(std::string(c.name) + "_accepted", c.accepted);
-      node_.health().set(std::string(c.name) + "_rejected", c.rejected);
-      node_.health().set(std::string(c.name) + "_too_late", c.too_late);
-    }
-    node_.health().set("imu_gaps", est_.imuGaps());
-    node_.health().set("starts_in_motion", est_.startsInMotion());
-  }
-
-  ips::fw::Node& node_;
-  ips::filter::Estimator& est_;
-  std::string state_channel_, prior_channel_;
-  ips::fw::StreamOrder imu_order_, tilt_order_, stereo_order_, delta_order_, cloud_order_;
-};
-
-}  // namespace
+#include "ips/log.hpp"
 
 int main(int argc, char** argv) {
   return ips::fw::guardedMain("filter", [&]() {
@@ -208,18 +32,14 @@ int main(int argc, char** argv) {
     const ips::Config cfg(args.get("--config"));
     ips::filter::FilterParams params = ips::filter::loadFilterParams(cfg.has("filter") ? cfg.section("filter") : cfg);
     if (args.has("--filter")) {
-      const std::string t = args.get("--filter");
-      if (t == "ekf")
-        params.type = ips::filter::FilterType::Ekf;
-      else if (t == "ukf")
-        params.type = ips::filter::FilterType::Ukf;
-      else
-        throw ips::ArgError("--filter must be ekf or ukf");
+      const std::optional<ips::filter::FilterType> type = ips::filter::filterTypeFromString(args.get("--filter"));
+      if (!type) throw ips::ArgError("--filter must be ekf or ukf");
+      params.type = *type;
     }
     ips::filter::Estimator estimator(params, calib);
     ips::fw::Node node(args.get("--name"), args.get("--lcm-url"));
     const std::string prior_channel = args.get("--prior-channel") == "none" ? "" : args.get("--prior-channel");
-    FilterProcess process(node, estimator, args.get("--state-channel"), prior_channel);
+    ips::filter_app::FilterProcess process(node, estimator, args.get("--state-channel"), prior_channel);
     IPS_INFO("running the " << ips::filter::toString(params.type) << " filter");
     const int rc = node.run();
     process.flush();

@@ -15,15 +15,18 @@ void nonNegative(const Config& cfg, const std::string& key, double v) {
 
 std::string toString(FilterType type) { return type == FilterType::Ekf ? "ekf" : "ukf"; }
 
+std::optional<FilterType> filterTypeFromString(const std::string& name) {
+  if (name == "ekf") return FilterType::Ekf;
+  if (name == "ukf") return FilterType::Ukf;
+  return std::nullopt;
+}
+
 FilterParams loadFilterParams(const Config& c) {
   FilterParams p;
   const std::string type = c.getString("type", "ekf");
-  if (type == "ekf")
-    p.type = FilterType::Ekf;
-  else if (type == "ukf")
-    p.type = FilterType::Ukf;
-  else
-    throw ConfigError(c.path() + ": key 'type' must be 'ekf' or 'ukf', not '" + type + "'");
+  const std::optional<FilterType> t = filterTypeFromString(type);
+  if (!t) throw ConfigError(c.path() + ": key 'type' must be 'ekf' or 'ukf', not '" + type + "'");
+  p.type = *t;
   p.gravity = c.getDouble("gravity", p.gravity);
   positive(c, "gravity", p.gravity);
 

@@ -3,6 +3,7 @@
 // every key). Defaults are the paper's sensor head: Systron Donner MMQ-50 IMU at 200 Hz, PEI Z260 tilt sensor.
 #include <Eigen/Core>
 #include <cstdint>
+#include <optional>
 #include <string>
 
 #include "ips/config.hpp"
@@ -128,5 +129,7 @@ struct FilterParams {
 // keep their defaults, wrong ones throw ConfigError naming file and key.
 FilterParams loadFilterParams(const Config& cfg);
 std::string toString(FilterType type);
+// "ekf" or "ukf" (as toString gives them); nothing for any other name.
+std::optional<FilterType> filterTypeFromString(const std::string& name);
 
 }  // namespace ips::filter

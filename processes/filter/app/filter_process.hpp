@@ -1,0 +1,43 @@
+#pragma once
+// The filter's LCM side: IMU, TILT, STEREO (image times), TRACKER_DELTA, KEYFRAME and CLOUD_DELTA in, checked and
+// converted to the estimator's plain types; FILTER_STATE and FILTER_PRIOR out; the estimator's counters as health.
+#include <ips/imu_sample_t.hpp>
+#include <ips/keyframe_t.hpp>
+#include <ips/stereo_pair_t.hpp>
+#include <ips/tilt_sample_t.hpp>
+#include <ips/tracker_delta_t.hpp>
+#include <string>
+
+#include "ips/filter/estimator.hpp"
+#include "ips/framework/node.hpp"
+#include "ips/framework/validate.hpp"
+
+namespace ips::filter_app {
+
+class FilterProcess {
+ public:
+  // prior_channel empty: no a-priori states published.
+  FilterProcess(fw::Node& node, filter::Estimator& estimator, std::string state_channel, std::string prior_channel);
+
+  // End of input: applies what the reordering window still holds and publishes it, paced, because LCM
+  // receivers drop a burst of hundreds of messages sent back to back (their receive queue overflows).
+  void flush();
+
+ private:
+  template <class Msg>
+  bool check(const Msg& m, fw::StreamOrder& order, const char* what);
+  void onImu(const imu_sample_t& m);
+  void onTilt(const tilt_sample_t& m);
+  void onStereo(const stereo_pair_t& m);
+  void onDelta(const tracker_delta_t& m);
+  void onKeyframe(const keyframe_t& m);
+  void onCloudDelta(const tracker_delta_t& m);
+  void publishOutputs();
+
+  fw::Node& node_;
+  filter::Estimator& est_;
+  std::string state_channel_, prior_channel_;
+  fw::StreamOrder imu_order_, tilt_order_, stereo_order_, delta_order_, cloud_order_;
+};
+
+}  // namespace ips::filter_app
