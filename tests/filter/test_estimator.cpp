@@ -369,8 +369,9 @@ TEST(FilterEstimator, AStampAheadOfTheImuDoesNotMakeRealMeasurementsLate) {
     naive.flush();
     EXPECT_GT(naive.counters()[kSensorTilt].too_late, 10);
     for (int s = 0; s < kNumSensors; ++s)
-      if (s != kSensorTracker && s != kSensorImage)
+      if (s != kSensorTracker && s != kSensorImage) {
         EXPECT_EQ(est.counters()[s].too_late, 0) << est.counters()[s].name << " " << toString(type);
+      }
     const FilterOutput a = est.current(), b = reference.current();
     EXPECT_EQ(a.state.utime, b.state.utime);
     EXPECT_LT((a.state.position - b.state.position).norm(), 1e-3) << toString(type);

@@ -88,7 +88,9 @@ TEST(PolarRectification, ForwardMotionKeepsTheViewAroundTheEpipole) {
   for (int v = 0; v < P.maps.size.height; v += 7)
     for (int u = 0; u < P.maps.size.width; u += 5) {
       const double angle = std::acos(std::abs(P.ray(u, v).normalized().dot(motion))) * 180 / M_PI;
-      if (P.valid.at<uint8_t>(v, u)) EXPECT_GE(angle, 5.0 - 1e-9);
+      if (P.valid.at<uint8_t>(v, u)) {
+        EXPECT_GE(angle, 5.0 - 1e-9);
+      }
       masked += !P.valid.at<uint8_t>(v, u);
     }
   EXPECT_GT(masked, 0);

@@ -73,7 +73,8 @@ TEST(PriorBuilder, HoldsABoundedNumberOfStates) {
   PriorBuilderParams params;
   params.max_filter_states = 3;
   PriorBuilder b(imuToCam(), params, ips::tracker::PriorParams{});
-  for (int64_t t = 1; t <= 5; ++t) b.addFilterState(state(t * 100'000, Eigen::Isometry3d::Identity(), {}));
+  for (int64_t t = 1; t <= 5; ++t)
+    b.addFilterState(state(t * 100'000, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero()));
   EXPECT_TRUE(b.filterSeen());
   EXPECT_FALSE(b.hasFilterState(200'000));
   EXPECT_TRUE(b.hasFilterState(300'000));
