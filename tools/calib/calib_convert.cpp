@@ -1,64 +1,39 @@
 // calib_convert: reads the calibration files of Kalibr, ROS camera_info, OpenCV's stereo_calib or EuRoC and
 // writes the project's calibration file. Formats and conventions: processes/calib/include/ips/calib/formats.hpp.
 #include <cstdio>
-#include <cstring>
 #include <stdexcept>
 #include <string>
 #include <vector>
 
+#include "ips/args.hpp"
 #include "ips/calib/formats.hpp"
 #include "ips/config.hpp"
 
-namespace {
-
-const char* kUsage =
-    "usage: calib_convert --from kalibr   CAMCHAIN.yaml                   --out CALIB.yaml\n"
-    "       calib_convert --from ros      LEFT.yaml RIGHT.yaml            --out CALIB.yaml\n"
-    "       calib_convert --from opencv   INTRINSICS.yml [EXTRINSICS.yml] --size WxH [--units-per-metre N] --out "
-    "CALIB.yaml\n"
-    "       calib_convert --from euroc    CAM0/sensor.yaml CAM1/sensor.yaml --out CALIB.yaml\n"
-    "Kalibr: camchain or imu-camchain (T_cn_cnm1, T_cam_imu; radtan or equidistant). ROS: camera_info of the\n"
-    "left and right camera. OpenCV: stereo_calib's M1 D1 M2 D2 R T (the image size is not in them).\n";
-
-struct Usage : std::runtime_error {
-  using std::runtime_error::runtime_error;
-};
-
-}  // namespace
-
 int main(int argc, char** argv) {
   try {
-    std::string from, out;
-    std::vector<std::string> files;
+    ips::Args args(argc, argv,
+                   "another tool's calibration files -> the project's calibration file\n"
+                   "  --from kalibr  CAMCHAIN.yaml: camchain or imu-camchain (T_cn_cnm1, T_cam_imu;\n"
+                   "                 radtan or equidistant)\n"
+                   "  --from ros     LEFT.yaml RIGHT.yaml: camera_info of the left and right camera\n"
+                   "  --from opencv  INTRINSICS.yml [EXTRINSICS.yml] --size WxH: stereo_calib's M1 D1 M2 D2 R T\n"
+                   "                 (the image size is not in them)\n"
+                   "  --from euroc   CAM0/sensor.yaml CAM1/sensor.yaml");
+    args.required("--from", "FORMAT", "kalibr, ros, opencv or euroc")
+        .required("--out", "CALIB.yaml", "calibration file to write")
+        .option("--size", "WxH", "--from opencv: the image size")
+        .option("--units-per-metre", "N", "--from opencv: units of T per metre", "1")
+        .positionals("FILE", "the calibration files of the format", 1, 2);
+    if (!args.parse()) return 0;
+    const std::string from = args.get("--from"), out = args.get("--out");
+    const std::vector<std::string>& files = args.positional();
     cv::Size size;
-    double units_per_metre = 1.0;
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        if (i + 1 >= argc) throw Usage(a + " needs a value");
-        return argv[++i];
-      };
-      if (a == "-h" || a == "--help") {
-        std::fputs(kUsage, stdout);
-        return 0;
-      } else if (a == "--from") {
-        from = value();
-      } else if (a == "--out") {
-        out = value();
-      } else if (a == "--size") {
-        const std::string v = value();
-        if (std::sscanf(v.c_str(), "%dx%d", &size.width, &size.height) != 2) throw Usage("--size needs WxH");
-      } else if (a == "--units-per-metre") {
-        units_per_metre = std::stod(value());
-      } else if (!a.empty() && a[0] == '-') {
-        throw Usage("unknown option " + a);
-      } else {
-        files.push_back(a);
-      }
-    }
-    if (out.empty()) throw Usage("--out is required");
+    if (args.has("--size") && std::sscanf(args.get("--size").c_str(), "%dx%d", &size.width, &size.height) != 2)
+      throw ips::ArgError("calib_convert: --size needs WxH");
+    const double units_per_metre = args.getDouble("--units-per-metre");
     auto need = [&](size_t lo, size_t hi) {
-      if (files.size() < lo || files.size() > hi) throw Usage("--from " + from + ": wrong number of files");
+      if (files.size() < lo || files.size() > hi)
+        throw ips::ArgError("calib_convert: --from " + from + ": wrong number of files");
     };
     ips::StereoCalibration calib;
     if (from == "kalibr") {
@@ -74,15 +49,15 @@ int main(int argc, char** argv) {
       need(2, 2);
       calib = ips::calib::readEuroc(files[0], files[1]);
     } else {
-      throw Usage("--from needs kalibr, ros, opencv or euroc");
+      throw ips::ArgError("calib_convert: --from needs kalibr, ros, opencv or euroc");
     }
     ips::saveCalibration(out, calib);
     std::printf("wrote %s: %dx%d, %s, baseline %.5f m\n", out.c_str(), calib.cam0.width, calib.cam0.height,
                 calib.cam0.model == ips::DistortionModel::kEquidistant ? "equidistant" : "radial-tangential",
                 calib.baseline());
     return 0;
-  } catch (const Usage& e) {
-    std::fprintf(stderr, "calib_convert: %s\n%s", e.what(), kUsage);
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "calib_convert: %s\n", e.what());

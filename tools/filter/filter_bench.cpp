@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "ips/args.hpp"
 #include "ips/config.hpp"
 #include "ips/eval/filter_testbed.hpp"
 #include "ips/log.hpp"
@@ -56,24 +57,17 @@ std::vector<Message> generate(double seconds, const ips::StereoCalibration& cali
 }  // namespace
 
 int main(int argc, char** argv) {
-  double seconds = 60;
-  int repeat = 3;
-  std::string config;
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    if (k == "--seconds" && i + 1 < argc)
-      seconds = std::stod(argv[++i]);
-    else if (k == "--repeat" && i + 1 < argc)
-      repeat = std::stoi(argv[++i]);
-    else if (k == "--config" && i + 1 < argc)
-      config = argv[++i];
-    else {
-      std::fprintf(stderr, "usage: filter_bench [--seconds 60] [--repeat 3] [--config filter.yaml]\n");
-      return 2;
-    }
-  }
   ips::setLogLevel(ips::LogLevel::Warn);
   try {
+    ips::Args args(argc, argv,
+                   "speed of both filters in IMU samples per second on one core, with the real message mix");
+    args.option("--seconds", "S", "generated sensor data", "60")
+        .option("--repeat", "N", "runs per filter; the best counts", "3")
+        .option("--config", "FILE", "filter configuration (section filter; default: built-in)");
+    if (!args.parse()) return 0;
+    const double seconds = args.getDouble("--seconds");
+    const int repeat = static_cast<int>(args.getInt("--repeat"));
+    const std::string config = args.get("--config");
     FilterParams base;
     if (!config.empty()) base = loadFilterParams(ips::Config(config).section("filter"));
     const ips::StereoCalibration calib = testbedCalibration();
@@ -118,6 +112,9 @@ int main(int argc, char** argv) {
           kCoreErrorDim + kCloneErrorDim * clones, outputs / repeat);
     }
     std::printf("ekf_imu_per_s=%.0f ukf_imu_per_s=%.0f\n", rate[0], rate[1]);
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
+    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "filter_bench: %s\n", e.what());
     return 1;

@@ -16,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "ips/args.hpp"
 #include "ips/config.hpp"
 #include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
@@ -28,49 +29,25 @@ using namespace ips::filter;
 using namespace ips::eval;
 
 int main(int argc, char** argv) {
-  int runs = 5;
-  unsigned seed = 1;
-  std::string scenario_path, config, out_dir = ".";
-  bool use_tilt = true, static_start = false;
-  double sigma_t = 0.002, sigma_r = 1e-4;
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    auto val = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument("missing value after " + k);
-      return argv[++i];
-    };
-    try {
-      if (k == "--runs")
-        runs = std::stoi(val());
-      else if (k == "--seed")
-        seed = static_cast<unsigned>(std::stoul(val()));
-      else if (k == "--scenario")
-        scenario_path = val();
-      else if (k == "--config")
-        config = val();
-      else if (k == "--out-dir")
-        out_dir = val();
-      else if (k == "--no-tilt")
-        use_tilt = false;
-      else if (k == "--static-start")
-        static_start = true;
-      else if (k == "--tracker-sigma-t")
-        sigma_t = std::stod(val());
-      else if (k == "--tracker-sigma-r")
-        sigma_r = std::stod(val());
-      else
-        throw std::invalid_argument("unknown option " + k);
-    } catch (const std::exception& e) {
-      std::fprintf(stderr,
-                   "filter_sim_eval: %s\nusage: filter_sim_eval [--runs N] [--seed S] [--scenario f.yaml] "
-                   "[--config filter.yaml] [--no-tilt] [--static-start] [--tracker-sigma-t m] [--tracker-sigma-r rad] "
-                   "[--out-dir DIR]\n",
-                   e.what());
-      return 2;
-    }
-  }
   ips::setLogLevel(ips::LogLevel::Warn);
   try {
+    ips::Args args(argc, argv, "both filters on the simulator's sensor head, Monte Carlo over seeds");
+    args.option("--runs", "N", "runs with the seeds S..S+N-1", "5")
+        .option("--seed", "S", "first seed", "1")
+        .option("--scenario", "FILE.yaml", "scenario (default: built-in walk)")
+        .option("--config", "FILE", "filter configuration (section filter; default: built-in)")
+        .option("--out-dir", "DIR", "TUM files and plots of run 0", ".")
+        .flag("--no-tilt", "without the tilt sensor")
+        .flag("--static-start", "the filter initialises itself while the head stands still")
+        .option("--tracker-sigma-t", "M", "noise of the tracker deltas' translation", "0.002")
+        .option("--tracker-sigma-r", "RAD", "noise of the tracker deltas' rotation", "1e-4");
+    if (!args.parse()) return 0;
+    const int runs = static_cast<int>(args.getInt("--runs"));
+    const unsigned seed = static_cast<unsigned>(args.getInt("--seed"));
+    const std::string scenario_path = args.get("--scenario"), config = args.get("--config");
+    const std::string out_dir = args.get("--out-dir");
+    const bool use_tilt = !args.getFlag("--no-tilt"), static_start = args.getFlag("--static-start");
+    const double sigma_t = args.getDouble("--tracker-sigma-t"), sigma_r = args.getDouble("--tracker-sigma-r");
     FilterParams base;
     if (!config.empty()) base = loadFilterParams(ips::Config(config).section("filter"));
     std::filesystem::create_directories(out_dir);
@@ -198,6 +175,9 @@ int main(int argc, char** argv) {
       summary += buf;
     }
     std::printf("%s\n", summary.c_str());
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
+    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "filter_sim_eval: %s\n", e.what());
     return 1;

@@ -5,9 +5,8 @@
 //       --lengths a second line: KITTI-devkit relative errors over sub-sequences of those lengths (every frame a
 //       start) and the end-point error with only the first pose aligned.
 //   traj_eval --simulate [--filter ekf|ukf|both] [--runs 10] [--seed 1] [--duration 125] [--config f.yaml]
-//             [--calib calib.yaml] [--no-tracker] [--no-tilt] [--init-from-truth] [--image-hz 8] [--tracker-sigma-t
-//             0.003]
-//             [--tracker-sigma-r 3e-4] [--segment 10] [--out-dir DIR]
+//             [--calib calib.yaml] [--no-tracker] [--no-tilt] [--init-from-truth] [--image-hz 8]
+//             [--tracker-sigma-t 0.002] [--tracker-sigma-r 1e-4] [--segment 10] [--out-dir DIR]
 //       Monte Carlo runs of the fused filter on the analytic walk (3 s at rest for the static initialisation,
 //       then ~90 m in 2 minutes) (the test bed; ips_sim once it exists):
 //       the same figures per filter plus NEES of the pose averaged over runs with its 95 % bounds; writes
@@ -21,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "ips/args.hpp"
 #include "ips/config.hpp"
 #include "ips/eval/filter_testbed.hpp"
 #include "ips/eval/trajectory.hpp"
@@ -32,80 +32,67 @@ using namespace ips::eval;
 
 namespace {
 
-void usage() {
-  std::cerr << "usage: traj_eval --est est.tum --gt gt.tum [--segment m] [--lengths 10,20,40] [--plot out.png]\n"
-               "       traj_eval --simulate [--filter ekf|ukf|both] [--runs N] [--seed S] [--duration s]\n"
-               "                 [--config filter.yaml] [--calib calib.yaml] [--no-tracker] [--no-tilt]\n"
-               "                 [--image-hz f] [--tracker-sigma-t m] [--tracker-sigma-r rad] [--segment m]\n"
-               "                 [--out-dir DIR]\n";
-}
-
-struct Args {
-  std::string est, gt, plot, config, calib, out_dir = ".";
+struct Options {
+  std::string est, gt, plot, config, calib, out_dir;
   std::vector<double> lengths;  // --lengths 10,20,40: relative errors of sub-sequences of these lengths
   bool simulate = false, tracker = true, tilt = true;
-  std::string filter = "both";
-  int runs = 10;
-  unsigned seed = 1;
-  double duration = 125.0, segment = 10.0;
+  std::string filter;
+  int runs = 0;
+  unsigned seed = 0;
+  double duration = 0, segment = 0;
   bool from_truth = false;
-  double image_hz = 8.0, sigma_t = 0.002, sigma_r = 1e-4;
+  double image_hz = 0, sigma_t = 0, sigma_r = 0;
 };
 
-Args parse(int argc, char** argv) {
-  Args a;
-  for (int i = 1; i < argc; ++i) {
-    const std::string k = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument("missing value after " + k);
-      return argv[++i];
-    };
-    if (k == "--est")
-      a.est = value();
-    else if (k == "--gt")
-      a.gt = value();
-    else if (k == "--plot")
-      a.plot = value();
-    else if (k == "--config")
-      a.config = value();
-    else if (k == "--calib")
-      a.calib = value();
-    else if (k == "--out-dir")
-      a.out_dir = value();
-    else if (k == "--simulate")
-      a.simulate = true;
-    else if (k == "--no-tracker")
-      a.tracker = false;
-    else if (k == "--no-tilt")
-      a.tilt = false;
-    else if (k == "--init-from-truth")
-      a.from_truth = true;
-    else if (k == "--filter")
-      a.filter = value();
-    else if (k == "--runs")
-      a.runs = std::stoi(value());
-    else if (k == "--seed")
-      a.seed = static_cast<unsigned>(std::stoul(value()));
-    else if (k == "--duration")
-      a.duration = std::stod(value());
-    else if (k == "--lengths") {
-      std::stringstream ss(value());
-      std::string item;
-      while (std::getline(ss, item, ',')) a.lengths.push_back(std::stod(item));
-    } else if (k == "--segment")
-      a.segment = std::stod(value());
-    else if (k == "--image-hz")
-      a.image_hz = std::stod(value());
-    else if (k == "--tracker-sigma-t")
-      a.sigma_t = std::stod(value());
-    else if (k == "--tracker-sigma-r")
-      a.sigma_r = std::stod(value());
-    else if (k == "-h" || k == "--help") {
-      usage();
-      std::exit(0);
-    } else
-      throw std::invalid_argument("unknown option " + k);
+void declareOptions(ips::Args& args) {
+  args.option("--est", "est.tum", "estimated trajectory (TUM)")
+      .option("--gt", "gt.tum", "ground truth (TUM)")
+      .option("--segment", "M", "segment length of the relative error", "10")
+      .option("--lengths", "10,20,40",
+              "also KITTI-devkit relative errors over sub-sequences of these lengths and the end-point error\n"
+              "with only the first pose aligned")
+      .option("--plot", "out.png", "top-down plot of the trajectories")
+      .flag("--simulate", "Monte Carlo runs of the fused filter on the analytic walk instead")
+      .option("--filter", "ekf|ukf|both", "--simulate: the filters", "both")
+      .option("--runs", "N", "--simulate: runs", "10")
+      .option("--seed", "S", "--simulate: first seed", "1")
+      .option("--duration", "S", "--simulate: walk duration", "125")
+      .option("--config", "filter.yaml", "--simulate: filter configuration (default: built-in)")
+      .option("--calib", "calib.yaml", "--simulate: calibration (default: the test bed's)")
+      .flag("--no-tracker", "--simulate: without tracker deltas")
+      .flag("--no-tilt", "--simulate: without the tilt sensor")
+      .flag("--init-from-truth", "--simulate: the filter starts from the truth with its initial covariance")
+      .option("--image-hz", "F", "--simulate: image rate", "8")
+      .option("--tracker-sigma-t", "M", "--simulate: noise of the tracker deltas' translation", "0.002")
+      .option("--tracker-sigma-r", "RAD", "--simulate: noise of the tracker deltas' rotation", "1e-4")
+      .option("--out-dir", "DIR", "--simulate: TUM files and the plot", ".");
+}
+
+Options readOptions(const ips::Args& args) {
+  Options a;
+  a.est = args.get("--est");
+  a.gt = args.get("--gt");
+  a.plot = args.get("--plot");
+  a.config = args.get("--config");
+  a.calib = args.get("--calib");
+  a.out_dir = args.get("--out-dir");
+  a.simulate = args.getFlag("--simulate");
+  a.tracker = !args.getFlag("--no-tracker");
+  a.tilt = !args.getFlag("--no-tilt");
+  a.from_truth = args.getFlag("--init-from-truth");
+  a.filter = args.get("--filter");
+  a.runs = static_cast<int>(args.getInt("--runs"));
+  a.seed = static_cast<unsigned>(args.getInt("--seed"));
+  a.duration = args.getDouble("--duration");
+  if (args.has("--lengths")) {
+    std::stringstream ss(args.get("--lengths"));
+    std::string item;
+    while (std::getline(ss, item, ',')) a.lengths.push_back(std::stod(item));
   }
+  a.segment = args.getDouble("--segment");
+  a.image_hz = args.getDouble("--image-hz");
+  a.sigma_t = args.getDouble("--tracker-sigma-t");
+  a.sigma_r = args.getDouble("--tracker-sigma-r");
   if (a.runs < 1) throw std::invalid_argument("--runs must be >= 1");
   if (a.filter != "ekf" && a.filter != "ukf" && a.filter != "both")
     throw std::invalid_argument("--filter ekf|ukf|both");
@@ -118,7 +105,7 @@ void printErrors(const std::string& name, const TrajectoryErrors& e) {
               e.endpoint_percent);
 }
 
-int evaluateFiles(const Args& a) {
+int evaluateFiles(const Options& a) {
   const Trajectory est = readTum(a.est), gt = readTum(a.gt);
   Trajectory e, r;
   associate(est, gt, 0.02, &e, &r);
@@ -140,7 +127,7 @@ int evaluateFiles(const Args& a) {
   return 0;
 }
 
-int simulate(const Args& a) {
+int simulate(const Options& a) {
   FilterParams base;
   if (!a.config.empty()) base = loadFilterParams(ips::Config(a.config).section("filter"));
   const ips::StereoCalibration calib = a.calib.empty() ? testbedCalibration() : ips::loadCalibration(a.calib);
@@ -247,13 +234,21 @@ int simulate(const Args& a) {
 int main(int argc, char** argv) {
   try {
     ips::setLogLevel(ips::LogLevel::Warn);
-    const Args a = parse(argc, argv);
+    ips::Args args(argc, argv,
+                   "evaluates trajectories against ground truth (--est, --gt), or the fused filter by Monte Carlo "
+                   "runs\non the analytic walk (--simulate)");
+    declareOptions(args);
+    if (!args.parse()) return 0;
+    const Options a = readOptions(args);
     if (a.simulate) return simulate(a);
     if (a.est.empty() || a.gt.empty()) {
-      usage();
+      std::fputs(args.help().c_str(), stderr);
       return 2;
     }
     return evaluateFiles(a);
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());  // names the program and the option
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "traj_eval: %s\n", e.what());
     return 1;

@@ -8,25 +8,19 @@
 #include <iostream>
 #include <string>
 
+#include "ips/args.hpp"
 #include "ips/sim/renderer.hpp"
 
 int main(int argc, char** argv) {
-  std::string scenario_path;
-  double duration = -1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--scenario" && i + 1 < argc)
-      scenario_path = argv[++i];
-    else if (a == "--duration" && i + 1 < argc)
-      duration = std::stod(argv[++i]);
-    else {
-      std::cerr << "usage: sim_bench [--scenario FILE.yaml] [--duration SECONDS]\n";
-      return 2;
-    }
-  }
   using Clock = std::chrono::steady_clock;
   auto seconds = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
   try {
+    ips::Args args(argc, argv, "the time to generate a scenario, without writing it");
+    args.option("--scenario", "FILE.yaml", "scenario (default: the built-in 2-minute walk)")
+        .option("--duration", "SECONDS", "simulated time (default: the scenario's trajectory)");
+    if (!args.parse()) return 0;
+    const std::string scenario_path = args.get("--scenario");
+    double duration = args.has("--duration") ? args.getDouble("--duration") : -1;
     const auto t0 = Clock::now();
     const ips::sim::Scenario sc =
         scenario_path.empty() ? ips::sim::Scenario::defaults() : ips::sim::Scenario::load(scenario_path);
@@ -71,6 +65,9 @@ int main(int argc, char** argv) {
     std::cout << "IMU + tilt + ground truth: " << sensors_s << " s\n";
     std::cout << "total generation: " << total << " s for " << duration << " s simulated = " << duration / total
               << " x real time (checksum " << checksum << ")\n";
+  } catch (const ips::ArgError& e) {
+    std::cerr << e.what() << "\n";  // names the program and the option
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "sim_bench: " << e.what() << "\n";
     return 1;

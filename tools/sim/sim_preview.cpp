@@ -7,35 +7,22 @@
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 
+#include "ips/args.hpp"
 #include "ips/sim/renderer.hpp"
 
 int main(int argc, char** argv) {
-  std::string scenario_path, prefix = "sim_preview";
-  double time_s = 10;
-  long seed = -1;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::cerr << "missing value for " << a << "\n";
-        std::exit(2);
-      }
-      return argv[++i];
-    };
-    if (a == "--scenario")
-      scenario_path = value();
-    else if (a == "--seed")
-      seed = std::stol(value());
-    else if (a == "--time")
-      time_s = std::stod(value());
-    else if (a == "--out")
-      prefix = value();
-    else {
-      std::cerr << "usage: sim_preview [--scenario FILE.yaml] [--seed N] [--time SECONDS] [--out PREFIX]\n";
-      return 2;
-    }
-  }
   try {
+    ips::Args args(
+        argc, argv,
+        "one frame of a scenario as PNGs: raw and rectified pair, ground-truth disparity (scaled for viewing)");
+    args.option("--scenario", "FILE.yaml", "scenario (default: built-in)")
+        .option("--seed", "N", "the scenario's seed instead of its own")
+        .option("--time", "SECONDS", "time of the frame", "10")
+        .option("--out", "PREFIX", "files PREFIX_left.png, PREFIX_right.png, ...", "sim_preview");
+    if (!args.parse()) return 0;
+    const std::string scenario_path = args.get("--scenario"), prefix = args.get("--out");
+    const double time_s = args.getDouble("--time");
+    const long long seed = args.has("--seed") ? args.getInt("--seed") : -1;
     ips::sim::Scenario sc =
         scenario_path.empty() ? ips::sim::Scenario::defaults() : ips::sim::Scenario::load(scenario_path);
     if (seed >= 0) sc.seed = static_cast<uint64_t>(seed);
@@ -57,6 +44,9 @@ int main(int argc, char** argv) {
     cv::minMaxLoc(f.gt_disparity, &mn, &mx);
     std::cout << "frame " << k << " t=" << time_s << " s, " << world.quads.size() << " quads, " << world.photo_count
               << " photographs, disparity " << mn << ".." << mx << " px; wrote " << prefix << "_*.png\n";
+  } catch (const ips::ArgError& e) {
+    std::cerr << e.what() << "\n";  // names the program and the option
+    return 2;
   } catch (const std::exception& e) {
     std::cerr << "sim_preview: " << e.what() << "\n";
     return 1;
