@@ -23,13 +23,10 @@ int main(int argc, char** argv) {
     ips::fw::applyCommonOptions(args);
 
     const ips::Config cfg(args.get("--config"));
-    ips::drivers::SerialReaderConfig rc;
-    rc.port = ips::drivers::SerialSettings::fromConfig(cfg.section("imu/port"));
-    if (args.has("--device")) rc.port.device = args.get("--device");
     const auto format = ips::drivers::Mmq50Format::fromConfig(cfg.section("imu/packet"));
-    rc.delay_us = cfg.getInt("imu/delay_us", 0);
-    rc.silence_s = cfg.getDouble("imu/silence_s", 10.0 / format.rate_hz);
-    rc.reopen_interval_s = cfg.getDouble("imu/reopen_interval_s", 1.0);
+    // Silent after 10 sample periods: a 200 Hz IMU that misses 50 ms has stalled.
+    auto rc = ips::drivers::SerialReaderConfig::fromConfig(cfg, "imu", 10.0 / format.rate_hz);
+    if (args.has("--device")) rc.port.device = args.get("--device");
     // Counter stamps: the sample counter times the nominal period, mapped onto the common clock by the lower
     // envelope of arrivals; removes the jitter of serial delivery.
     const bool stamp_from_counter = cfg.getBool("imu/stamp_from_counter", true);

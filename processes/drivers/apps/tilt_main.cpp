@@ -22,13 +22,10 @@ int main(int argc, char** argv) {
     ips::fw::applyCommonOptions(args);
 
     const ips::Config cfg(args.get("--config"));
-    ips::drivers::SerialReaderConfig rc;
-    rc.port = ips::drivers::SerialSettings::fromConfig(cfg.section("tilt/port"));
-    if (args.has("--device")) rc.port.device = args.get("--device");
     const auto format = ips::drivers::Z260Format::fromConfig(cfg.section("tilt/format"));
-    rc.delay_us = cfg.getInt("tilt/delay_us", 0);
-    rc.silence_s = cfg.getDouble("tilt/silence_s", 5.0 / format.rate_hz);
-    rc.reopen_interval_s = cfg.getDouble("tilt/reopen_interval_s", 1.0);
+    // Silent after 5 sample periods (the inclinometer's rate is low: 5 periods are already a third of a second).
+    auto rc = ips::drivers::SerialReaderConfig::fromConfig(cfg, "tilt", 5.0 / format.rate_hz);
+    if (args.has("--device")) rc.port.device = args.get("--device");
 
     ips::drivers::SerialReader<ips::drivers::Z260Parser> reader(rc, ips::drivers::Z260Parser(format));
     ips::fw::Node node("tilt", args.get("--lcm-url"));

@@ -22,6 +22,10 @@ struct SerialReaderConfig {
   int64_t delay_us = 0;    // calibrated constant delay of the sensor: subtracted from the arrival time
   double silence_s = 0.5;  // no good frame for this long: the line is silent
   double reopen_interval_s = 1.0;
+
+  // A driver's reader settings from the section `sensor` of its config: <sensor>/port, delay_us, silence_s
+  // (default `default_silence_s`: a few of the sensor's periods), reopen_interval_s.
+  static SerialReaderConfig fromConfig(const Config& cfg, const std::string& sensor, double default_silence_s);
 };
 
 template <class Parser>
