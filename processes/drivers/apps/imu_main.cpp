@@ -13,6 +13,7 @@
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
+#include "serial_driver.hpp"
 
 int main(int argc, char** argv) {
   return ips::fw::guardedMain("imu", [&] {
@@ -39,52 +40,22 @@ int main(int argc, char** argv) {
     ips::drivers::SerialReader<ips::drivers::Mmq50Parser> reader(rc, ips::drivers::Mmq50Parser(format));
     ips::fw::Node node("imu", args.get("--lcm-url"));
     const double period_us = 1e6 / format.rate_hz;
-    auto last_health = std::chrono::steady_clock::now();
-    // Unusable input counted by the reader also goes into the health message's "bad" total, by reason.
-    std::map<std::string, int64_t> reported;
-    auto reportBad = [&] {
-      const auto counters = reader.counters();
-      for (const char* reason : {"checksum_errors", "bad_frames", "partial_frames"}) {
-        const int64_t now_count = counters.at(reason);
-        for (int64_t i = reported[reason]; i < now_count; ++i)
-          node.health().bad(reason, std::string(reason) + " on " + rc.port.device);
-        reported[reason] = now_count;
-      }
-    };
-    while (!ips::fw::stopRequested()) {
-      for (const auto& s : reader.poll(50)) {
-        ips::imu_sample_t msg;
-        msg.utime = s.utime;
-        if (stamp_from_counter) {
-          // s.utime is arrival minus delay; the mapping keeps the delay and removes the jitter.
-          msg.utime = counter_clock.update(static_cast<int64_t>(s.counter * period_us), s.utime);
-        }
-        msg.seq = s.counter;
-        for (int i = 0; i < 3; ++i) {
-          msg.angular_rate[i] = s.angular_rate[i];
-          msg.specific_force[i] = s.specific_force[i];
-        }
-        node.health().received(msg.utime);
-        const auto verdict = ips::fw::validate(msg);
-        if (!verdict.ok()) {
-          node.health().bad(verdict.reason, verdict.detail);
-          continue;
-        }
-        node.health().accepted();
-        node.publish(ips::channels::kImu, msg);
-      }
-      reportBad();
-      const auto now = std::chrono::steady_clock::now();
-      const double since = std::chrono::duration<double>(now - last_health).count();
-      if (since >= 1.0) {
-        for (const auto& [name, value] : reader.counters()) node.health().set(name, value);
-        node.health().set("clock_resets", static_cast<int64_t>(counter_clock.resets()));
-        node.publishHealth(since);
-        last_health = now;
-      }
-    }
-    for (const auto& [name, value] : reader.counters()) node.health().set(name, value);
-    node.publishHealth(1.0);
-    return 0;
+    return ips::drivers::runSerialDriver(
+        node, reader, rc.port.device, ips::channels::kImu,
+        [&](const ips::drivers::ImuSample& s) {
+          ips::imu_sample_t msg;
+          msg.utime = s.utime;
+          if (stamp_from_counter) {
+            // s.utime is arrival minus delay; the mapping keeps the delay and removes the jitter.
+            msg.utime = counter_clock.update(static_cast<int64_t>(s.counter * period_us), s.utime);
+          }
+          msg.seq = s.counter;
+          for (int i = 0; i < 3; ++i) {
+            msg.angular_rate[i] = s.angular_rate[i];
+            msg.specific_force[i] = s.specific_force[i];
+          }
+          return msg;
+        },
+        [&](ips::fw::Health& h) { h.set("clock_resets", static_cast<int64_t>(counter_clock.resets())); });
   });
 }

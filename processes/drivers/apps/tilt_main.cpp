@@ -12,6 +12,7 @@
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
+#include "serial_driver.hpp"
 
 int main(int argc, char** argv) {
   return ips::fw::guardedMain("tilt", [&] {
@@ -29,45 +30,14 @@ int main(int argc, char** argv) {
 
     ips::drivers::SerialReader<ips::drivers::Z260Parser> reader(rc, ips::drivers::Z260Parser(format));
     ips::fw::Node node("tilt", args.get("--lcm-url"));
-    auto last_health = std::chrono::steady_clock::now();
-    // Unusable input counted by the reader also goes into the health message's "bad" total, by reason.
-    std::map<std::string, int64_t> reported;
-    auto reportBad = [&] {
-      const auto counters = reader.counters();
-      for (const char* reason : {"checksum_errors", "bad_frames", "partial_frames"}) {
-        const int64_t now_count = counters.at(reason);
-        for (int64_t i = reported[reason]; i < now_count; ++i)
-          node.health().bad(reason, std::string(reason) + " on " + rc.port.device);
-        reported[reason] = now_count;
-      }
-    };
-    while (!ips::fw::stopRequested()) {
-      for (const auto& s : reader.poll(50)) {
-        ips::tilt_sample_t msg;
-        msg.utime = s.utime;
-        msg.seq = s.seq;
-        msg.angle_x = s.angle_x;
-        msg.angle_y = s.angle_y;
-        node.health().received(msg.utime);
-        const auto verdict = ips::fw::validate(msg);
-        if (!verdict.ok()) {
-          node.health().bad(verdict.reason, verdict.detail);
-          continue;
-        }
-        node.health().accepted();
-        node.publish(ips::channels::kTilt, msg);
-      }
-      reportBad();
-      const auto now = std::chrono::steady_clock::now();
-      const double since = std::chrono::duration<double>(now - last_health).count();
-      if (since >= 1.0) {
-        for (const auto& [name, value] : reader.counters()) node.health().set(name, value);
-        node.publishHealth(since);
-        last_health = now;
-      }
-    }
-    for (const auto& [name, value] : reader.counters()) node.health().set(name, value);
-    node.publishHealth(1.0);
-    return 0;
+    return ips::drivers::runSerialDriver(node, reader, rc.port.device, ips::channels::kTilt,
+                                         [](const ips::drivers::TiltSample& s) {
+                                           ips::tilt_sample_t msg;
+                                           msg.utime = s.utime;
+                                           msg.seq = s.seq;
+                                           msg.angle_x = s.angle_x;
+                                           msg.angle_y = s.angle_y;
+                                           return msg;
+                                         });
   });
 }
