@@ -12,6 +12,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "ips/data_dir.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "tool_common.hpp"
 
@@ -39,8 +40,7 @@ int main(int argc, char** argv) {
     ips::Args args(argc, argv,
                    "speed of E3D on the Vulkan device beside OpenCV StereoSGBM (MODE_HH and MODE_SGBM_3WAY) on the "
                    "same pair,\nwith 128 disparities unless --num-disparities is given");
-    args.option("--scene", "DIR", "a scene with left.png and right.png",
-                std::string(IPS_DATA_DIR) + "/stereo/motorcycle_q")
+    args.option("--scene", "DIR", "a scene with left.png and right.png", ips::dataPath("stereo/motorcycle_q"))
         .option("--size", "WxH", "the pair is scaled to this size", "640x480")
         .option("--frames", "N", "E3D matches timed", "20")
         .option("--opencv-frames", "N", "OpenCV matches timed, per mode", "8")

@@ -19,6 +19,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "ips/data_dir.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/pfm.hpp"
@@ -218,7 +219,7 @@ int main(int argc, char** argv) {
                    "accuracy of E3D (and of OpenCV StereoSGBM, or an external matcher) on the stereo scenes;\n"
                    "every method unfilled and with the same background fill (+f). The search range is the scene's\n"
                    "num_disparities unless --num-disparities is given.");
-    args.option("--data", "DIR", "folder of the scenes", std::string(IPS_DATA_DIR) + "/stereo")
+    args.option("--data", "DIR", "folder of the scenes", ips::dataPath("stereo"))
         .option("--scenes", "a,b,..", "these scenes only (default: every folder in --data)")
         .option("--out-dir", "DIR", "write colour-mapped disparity PNGs here")
         .flag("--opencv", "also OpenCV StereoSGBM MODE_HH and MODE_SGBM_3WAY with fixed settings")

@@ -18,6 +18,7 @@
 
 #include "common.hpp"
 #include "ips/args.hpp"
+#include "ips/data_dir.hpp"
 #ifdef IPS_HAVE_SIM
 #include "ips/eval/tracker_on_sim.hpp"
 #endif
@@ -74,7 +75,7 @@ int main(int argc, char** argv) {
         .option("--width", "W", "image width the frames are resized to", "1360")
         .option("--height", "H", "image height", "1024")
         .option("--params", "TRACKER.yaml", "tracker parameters (default: built-in)")
-        .option("--data", "DIR", "the shared data (euroc/V1_01_easy)", IPS_DATA_DIR)
+        .option("--data", "DIR", "the shared data (euroc/V1_01_easy)", ips::dataDir())
         .option("--scenario", "SIM.yaml", "simulated walk, when built with the simulator (default: built-in)")
         .option("--sim_frames", "N", "pairs of the simulated walk", "40");
     if (!args.parse()) return 0;
