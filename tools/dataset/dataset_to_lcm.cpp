@@ -11,6 +11,7 @@
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_writer.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/log.hpp"
 
@@ -18,22 +19,15 @@ namespace {
 
 namespace ch = ips::channels;
 
-void copy3(const Eigen::Vector3d& v, double* out) {
-  for (int i = 0; i < 3; ++i) out[i] = v[i];
-}
-
 // Velocity and biases are zero when the source has none (GroundTruthPose::has_state).
 void writeGroundTruth(ips::fw::LogWriter& log, const ips::dataset::GroundTruthPose& g) {
   ips::ground_truth_t m{};
   m.utime = g.utime;
-  copy3(g.position, m.position);
-  m.orientation[0] = g.orientation.w();
-  m.orientation[1] = g.orientation.x();
-  m.orientation[2] = g.orientation.y();
-  m.orientation[3] = g.orientation.z();
-  copy3(g.velocity, m.velocity);
-  copy3(g.gyro_bias, m.gyro_bias);
-  copy3(g.accel_bias, m.accel_bias);
+  ips::fw::vectorToArray(g.position, m.position);
+  ips::fw::quaternionToArray(g.orientation, m.orientation);
+  ips::fw::vectorToArray(g.velocity, m.velocity);
+  ips::fw::vectorToArray(g.gyro_bias, m.gyro_bias);
+  ips::fw::vectorToArray(g.accel_bias, m.accel_bias);
   log.write(ch::kGtPose, m.utime, m);
 }
 
@@ -82,8 +76,8 @@ int main(int argc, char** argv) {
           ips::imu_sample_t m;
           m.utime = s.utime;
           m.seq = static_cast<int64_t>(i_imu);
-          copy3(s.angular_rate, m.angular_rate);
-          copy3(s.specific_force, m.specific_force);
+          ips::fw::vectorToArray(s.angular_rate, m.angular_rate);
+          ips::fw::vectorToArray(s.specific_force, m.specific_force);
           log.write(ch::kImu, m.utime, m);
         }
         for (; i_gt < rec.ground_truth.size() && rec.ground_truth[i_gt].utime <= f.utime; ++i_gt, ++gt) {

@@ -16,6 +16,7 @@
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_writer.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/log.hpp"
@@ -28,10 +29,6 @@ namespace {
 using ips::sim::SimEvent;
 
 using ips::fw::encodeMessage;
-
-void copy3(const Eigen::Vector3d& v, double* out) {
-  for (int i = 0; i < 3; ++i) out[i] = v[i];
-}
 
 // One event as (channel, encoded message).
 struct Encoded {
@@ -83,8 +80,8 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
       ips::imu_sample_t m;
       m.utime = e.imu.utime_stamp;
       m.seq = e.imu.seq;
-      copy3(e.imu.angular_rate, m.angular_rate);
-      copy3(e.imu.specific_force, m.specific_force);
+      ips::fw::vectorToArray(e.imu.angular_rate, m.angular_rate);
+      ips::fw::vectorToArray(e.imu.specific_force, m.specific_force);
       return {e.log_utime, ch::kImu, encodeMessage(m)};
     }
     case SimEvent::kTilt: {
@@ -100,16 +97,13 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
       const ips::sim::GroundTruth& g = e.truth;
       ips::ground_truth_t m;
       m.utime = g.utime;
-      copy3(g.position, m.position);
-      m.orientation[0] = g.orientation.w();
-      m.orientation[1] = g.orientation.x();
-      m.orientation[2] = g.orientation.y();
-      m.orientation[3] = g.orientation.z();
-      copy3(g.velocity, m.velocity);
-      copy3(g.acceleration, m.acceleration);
-      copy3(g.angular_rate, m.angular_rate);
-      copy3(g.gyro_bias, m.gyro_bias);
-      copy3(g.accel_bias, m.accel_bias);
+      ips::fw::vectorToArray(g.position, m.position);
+      ips::fw::quaternionToArray(g.orientation, m.orientation);
+      ips::fw::vectorToArray(g.velocity, m.velocity);
+      ips::fw::vectorToArray(g.acceleration, m.acceleration);
+      ips::fw::vectorToArray(g.angular_rate, m.angular_rate);
+      ips::fw::vectorToArray(g.gyro_bias, m.gyro_bias);
+      ips::fw::vectorToArray(g.accel_bias, m.accel_bias);
       return {e.log_utime, ch::kGtPose, encodeMessage(m)};
     }
   }

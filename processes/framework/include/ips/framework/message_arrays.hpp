@@ -17,6 +17,10 @@ inline void quaternionToArray(const Eigen::Quaterniond& q, double* wxyz) {
   wxyz[3] = q.z();
 }
 
+inline void vectorToArray(const Eigen::Vector3d& v, double* xyz) {
+  for (int i = 0; i < 3; ++i) xyz[i] = v[i];
+}
+
 template <int N>
 Eigen::Matrix<double, N, N> matrixFromArray(const double* row_major) {
   return Eigen::Map<const Eigen::Matrix<double, N, N, Eigen::RowMajor>>(row_major);
