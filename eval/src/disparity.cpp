@@ -1,7 +1,9 @@
 #include "ips/eval/disparity.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 namespace ips::eval {
@@ -67,6 +69,21 @@ cv::Mat truthAtSize(const cv::Mat& truth, cv::Size size) {
     }
   }
   return out;
+}
+
+cv::Mat colourDisparity(const cv::Mat& disparity, double max_disparity) {
+  cv::Mat scaled(disparity.size(), CV_8U), valid(disparity.size(), CV_8U);
+  for (int y = 0; y < disparity.rows; ++y)
+    for (int x = 0; x < disparity.cols; ++x) {
+      float d = disparity.at<float>(y, x);
+      valid.at<uint8_t>(y, x) = std::isfinite(d) ? 255 : 0;
+      scaled.at<uint8_t>(y, x) =
+          std::isfinite(d) ? cv::saturate_cast<uint8_t>(255.0 * std::max(0.0, double(d)) / max_disparity) : 0;
+    }
+  cv::Mat colour;
+  cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
+  colour.setTo(cv::Scalar(0, 0, 0), valid == 0);
+  return colour;
 }
 
 }  // namespace ips::eval

@@ -13,8 +13,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ips/data_dir.hpp"
+#include "ips/e3d/sgm_options.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
-#include "tool_common.hpp"
+#include "ips/eval/disparity.hpp"
+#include "ips/image_file.hpp"
 
 using namespace ips::e3d;
 
@@ -59,8 +61,8 @@ int main(int argc, char** argv) {
     if (!args.has("--num-disparities")) params.num_disparities = 128;
 
     cv::Mat left, right;
-    cv::resize(loadGrey(scene + "/left.png"), left, size, 0, 0, cv::INTER_AREA);
-    cv::resize(loadGrey(scene + "/right.png"), right, size, 0, 0, cv::INTER_AREA);
+    cv::resize(ips::loadGrey(scene + "/left.png"), left, size, 0, 0, cv::INTER_AREA);
+    cv::resize(ips::loadGrey(scene + "/right.png"), right, size, 0, 0, cv::INTER_AREA);
     const double evals = double(size.area()) * params.num_disparities / 1e6;
 
     VulkanContext ctx(args.get("--device"));

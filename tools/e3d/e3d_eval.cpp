@@ -20,10 +20,11 @@
 #include <sstream>
 
 #include "ips/data_dir.hpp"
+#include "ips/e3d/sgm_options.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
+#include "ips/image_file.hpp"
 #include "ips/pfm.hpp"
-#include "tool_common.hpp"
 
 using namespace ips::e3d;
 
@@ -44,8 +45,8 @@ Scene loadScene(const std::string& dir) {
   Scene s;
   s.dir = dir;
   s.name = (std::string)fs["name"];
-  s.left = loadGrey(dir + "/" + (std::string)fs["left"]);
-  s.right = loadGrey(dir + "/" + (std::string)fs["right"]);
+  s.left = ips::loadGrey(dir + "/" + (std::string)fs["left"]);
+  s.right = ips::loadGrey(dir + "/" + (std::string)fs["right"]);
   s.num_disparities = (int)fs["num_disparities"];
   const std::string format = (std::string)fs["gt_format"];
   const double scale = (double)fs["gt_scale"];
@@ -297,7 +298,8 @@ int main(int argc, char** argv) {
           sum.density_nonocc += e.density_nonocc;
           sum.bad2_valid += e.bad2_valid;
           if (!out_dir.empty())
-            cv::imwrite(out_dir + "/" + name + "_" + label + ".png", colourDisparity(disp, s.num_disparities));
+            cv::imwrite(out_dir + "/" + name + "_" + label + ".png",
+                        ips::eval::colourDisparity(disp, s.num_disparities));
         }
       ++count;
     }

@@ -6,9 +6,11 @@
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "ips/e3d/sgm_options.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
+#include "ips/eval/disparity.hpp"
+#include "ips/image_file.hpp"
 #include "ips/pfm.hpp"
-#include "tool_common.hpp"
 
 using namespace ips::e3d;
 
@@ -30,7 +32,7 @@ int main(int argc, char** argv) {
     }
     if (!args.parse()) return 0;
     const SgmParams params = sgmParamsFromArgs(args);
-    const cv::Mat left = loadGrey(args.get("--left")), right = loadGrey(args.get("--right"));
+    const cv::Mat left = ips::loadGrey(args.get("--left")), right = ips::loadGrey(args.get("--right"));
     const std::string out_path = args.get("--out");
     if (left.size() != right.size()) throw std::invalid_argument("left and right images differ in size");
 
@@ -42,8 +44,8 @@ int main(int argc, char** argv) {
     if (args.has("--out-png")) {
       const std::string png = args.get("--out-png");
       // imwrite reports an unwritable path by returning false (or throwing for an unknown extension).
-      if (!cv::imwrite(png,
-                       colourDisparity(disparityToFloat(out.disparity), params.min_disparity + params.num_disparities)))
+      if (!cv::imwrite(png, ips::eval::colourDisparity(disparityToFloat(out.disparity),
+                                                       params.min_disparity + params.num_disparities)))
         throw std::runtime_error("cannot write " + png);
     }
     const int valid = cv::countNonZero(out.disparity != kInvalidDisparity);

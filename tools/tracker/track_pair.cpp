@@ -3,9 +3,9 @@
 #include <cmath>
 #include <cstdio>
 
-#include "common.hpp"
 #include "ips/args.hpp"
 #include "ips/calibration.hpp"
+#include "ips/image_file.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
 int main(int argc, char** argv) {
@@ -27,9 +27,9 @@ int main(int argc, char** argv) {
     const TrackerParams params = args.has("--params") ? loadTrackerParams(args.get("--params")) : TrackerParams();
     const double dt = args.getDouble("--dt");
     StereoTracker tracker(calib, params);
-    tracker.process(0, tools::loadGray(args.get("--left0")), tools::loadGray(args.get("--right0")));
+    tracker.process(0, ips::loadGrey(args.get("--left0")), ips::loadGrey(args.get("--right0")));
     const TrackResult r =
-        tracker.process(int64_t(dt * 1e6), tools::loadGray(args.get("--left1")), tools::loadGray(args.get("--right1")));
+        tracker.process(int64_t(dt * 1e6), ips::loadGrey(args.get("--left1")), ips::loadGrey(args.get("--right1")));
     std::printf("features %d intra %d inter %d inliers %d rms %.4f m %.3f px guided %d\n", r.num_features,
                 r.num_intra_matches, r.num_inter_matches, r.num_inliers, r.residual_rms, r.residual_rms_px,
                 int(r.guided_pass));

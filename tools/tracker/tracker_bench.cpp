@@ -16,9 +16,9 @@
 #include <sstream>
 #include <vector>
 
-#include "common.hpp"
 #include "ips/args.hpp"
 #include "ips/data_dir.hpp"
+#include "ips/image_file.hpp"
 #ifdef IPS_HAVE_SIM
 #include "ips/eval/tracker_on_sim.hpp"
 #endif
@@ -61,7 +61,7 @@ void printStats(const char* title, const Stats& s) {
 }
 
 cv::Mat loadResized(const std::string& path, cv::Size size) {
-  cv::Mat img = tools::loadGray(path), out;
+  cv::Mat img = ips::loadGrey(path), out;
   cv::resize(img, out, size, 0, 0, cv::INTER_LINEAR);
   return out;
 }

@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "ips/config.hpp"
+#include "ips/image_file.hpp"
 #include "ips/tracker/euroc_calibration.hpp"
 
 namespace fs = std::filesystem;
@@ -370,8 +371,12 @@ Recording readRecording(const std::string& format, const std::string& dir, const
 }
 
 cv::Mat loadImage(const std::string& path, int width, int height) {
-  const cv::Mat img = cv::imread(path, cv::IMREAD_GRAYSCALE);
-  if (img.empty()) fail(path, 0, "not a readable image");
+  cv::Mat img;
+  try {
+    img = loadGrey(path);
+  } catch (const std::exception&) {
+    fail(path, 0, "not a readable image");
+  }
   if (img.cols != width || img.rows != height)
     fail(path, 0,
          "image is " + std::to_string(img.cols) + "x" + std::to_string(img.rows) + ", the calibration's " +

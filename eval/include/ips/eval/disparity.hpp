@@ -42,4 +42,7 @@ cv::Mat disparityPixels(const cv::Mat& fixed_point, int invalid_value, double su
 // places it), its disparity multiplied by s so that it is in the map's pixels.
 cv::Mat truthAtSize(const cv::Mat& truth, cv::Size size);
 
+// A disparity map (CV_32F, non-finite = none, drawn black) colour-mapped over [0, max_disparity], for looking at.
+cv::Mat colourDisparity(const cv::Mat& disparity, double max_disparity);
+
 }  // namespace ips::eval

@@ -1,10 +1,6 @@
-#include "tool_common.hpp"
+#include "ips/e3d/sgm_options.hpp"
 
-#include <algorithm>
-#include <cmath>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-#include <stdexcept>
+#include <string>
 
 #include "ips/config.hpp"
 
@@ -80,35 +76,6 @@ SgmParams sgmParamsFromArgs(const ips::Args& a) {
   if (a.has("--aggregation")) p.aggregation = parseAggregation(a.get("--aggregation"));
   p.validate();
   return p;
-}
-
-cv::Mat loadGrey(const std::string& path) {
-  cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
-  if (img.empty()) throw std::runtime_error("cannot read image '" + path + "'");
-  if (img.depth() == CV_16U) img.convertTo(img, CV_8U, 1.0 / 256);
-  cv::Mat grey;
-  if (img.channels() == 3)
-    cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
-  else if (img.channels() == 4)
-    cv::cvtColor(img, grey, cv::COLOR_BGRA2GRAY);
-  else
-    grey = img;
-  return grey;
-}
-
-cv::Mat colourDisparity(const cv::Mat& disparity, double max_disparity) {
-  cv::Mat scaled(disparity.size(), CV_8U), valid(disparity.size(), CV_8U);
-  for (int y = 0; y < disparity.rows; ++y)
-    for (int x = 0; x < disparity.cols; ++x) {
-      float d = disparity.at<float>(y, x);
-      valid.at<uint8_t>(y, x) = std::isfinite(d) ? 255 : 0;
-      scaled.at<uint8_t>(y, x) =
-          std::isfinite(d) ? cv::saturate_cast<uint8_t>(255.0 * std::max(0.0, double(d)) / max_disparity) : 0;
-    }
-  cv::Mat colour;
-  cv::applyColorMap(scaled, colour, cv::COLORMAP_JET);
-  colour.setTo(cv::Scalar(0, 0, 0), valid == 0);
-  return colour;
 }
 
 }  // namespace e3d
