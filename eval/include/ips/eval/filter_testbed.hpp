@@ -1,8 +1,8 @@
 #pragma once
-// An analytic test bed for the filter: a closed-form walk with exact derivatives (position, velocity, acceleration,
-// attitude, body angular rate) and sensors generated from it with the paper's figures (MMQ-50 IMU, tilt sensor, a
-// stereo tracker's relative pose with noise). The simulator (ips_sim) renders the whole head; this is for what needs
-// closed-form truth and speed: the models' Jacobian tests, and Monte Carlo runs of the filter alone (traj_eval,
+// An analytic test bed for the filter: the simulator's closed-form walk (ips/sim/analytic_walk.hpp: exact position,
+// velocity, acceleration, attitude, body angular rate) and the filter's sensors generated from it with the paper's
+// figures (MMQ-50 IMU, tilt sensor, a stereo tracker's relative pose with noise), without rendering: for what needs
+// closed-form truth and speed, the models' Jacobian tests and Monte Carlo runs of the filter alone (traj_eval,
 // filter_bench) by the hundred.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -13,50 +13,14 @@
 #include "ips/calibration.hpp"
 #include "ips/filter/estimator.hpp"
 #include "ips/filter/state.hpp"
+#include "ips/sim/analytic_walk.hpp"
 
 namespace ips::eval {
 
-// An open meander (not a closed loop, so heading drift shows in the end point): x = forward_speed * s +
-// amp_x sin(W s), y = amp_y (1 - cos(W s)) in the path time s, which stands still for rest_s and ramps up
-// smoothly (C2) over ramp_s: ~90 m in 2 minutes of walking.
-struct WalkParams {
-  double duration_s = 125.0;   // rest + the paper's 2-minute walk
-  double rest_s = 3.0;         // standing still at the start (static initialisation)
-  double ramp_s = 2.0;         // smooth start
-  double forward_speed = 0.6;  // [m/s]
-  double period_s = 40.0;      // of the meander
-  double amp_x = 2.0;          // [m]
-  double amp_y = 4.0;          // [m]
-  double step_hz = 1.8;        // gait: vertical bounce and sway
-  double bounce_m = 0.025;
-  double sway_m = 0.02;
-  double head_yaw_rad = 0.15;  // looking around
-  double head_pitch_rad = 0.05;
-  double head_roll_rad = 0.03;
-  bool at_rest = false;  // a still head (for the static initialisation), attitude from the fixed angles
-  double rest_roll_rad = 0.0, rest_pitch_rad = 0.0, rest_yaw_rad = 0.0;
-};
-
-struct TruthSample {
-  int64_t utime = 0;
-  Eigen::Vector3d p, v, a;  // world
-  Eigen::Quaterniond q;     // body to world
-  Eigen::Vector3d w;        // body angular rate
-};
-
-class AnalyticWalk {
- public:
-  explicit AnalyticWalk(const WalkParams& p = {}) : p_(p) {}
-  // Path time s(t) and its first two derivatives.
-  void pathTime(double t, double* s, double* ds, double* dds) const;
-  TruthSample at(double t_s) const;
-  const WalkParams& params() const { return p_; }
-  // Path length between t0 and t1 (numerically, 1 ms steps).
-  double distance(double t0_s, double t1_s) const;
-
- private:
-  WalkParams p_;
-};
+// The walk is the simulator's closed-form one (ips/sim/analytic_walk.hpp).
+using sim::AnalyticWalk;
+using sim::TruthSample;
+using sim::WalkParams;
 
 struct SensorSimParams {
   double imu_rate_hz = 200.0;
