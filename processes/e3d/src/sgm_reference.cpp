@@ -25,6 +25,9 @@ int equiangularOffset16(int c0, int c1, int c2) {
   return num < 0 ? -mag : mag;
 }
 
+}  // namespace
+
+// Step 6: the 3x3 median (the device's median3x3).
 cv::Mat median3x3(const cv::Mat& in) {
   cv::Mat out(in.size(), CV_16S);
   for (int y = 0; y < in.rows; ++y)
@@ -40,13 +43,8 @@ cv::Mat median3x3(const cv::Mat& in) {
   return out;
 }
 
-}  // namespace
-
-namespace {
-
-// Steps 3-5: from the matching costs [y][x][k], the left map by winner-takes-all and the right map by the
-// diagonal search, before the median.
-void rawMaps(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& p, cv::Mat& dl, cv::Mat& dr) {
+// Step 3: the sums of the path costs [y][x][k].
+std::vector<uint16_t> aggregateCosts(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& p) {
   const int W = left.cols, H = left.rows, D = p.num_disparities;
 
   std::vector<uint16_t> sum(cost.size(), 0);
@@ -83,7 +81,12 @@ void rawMaps(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmPar
     }
     for (size_t i = 0; i < sum.size(); ++i) sum[i] = static_cast<uint16_t>(sum[i] + path[i]);
   }
+  return sum;
+}
 
+// Steps 4-5: the left map by winner-takes-all and the right map by the diagonal search, before the median.
+void winnerTakesAll(const std::vector<uint16_t>& sum, cv::Size size, const SgmParams& p, cv::Mat& dl, cv::Mat& dr) {
+  const int W = size.width, H = size.height, D = p.num_disparities;
   dl.create(H, W, CV_16S);
   dr.create(H, W, CV_16S);
   for (int y = 0; y < H; ++y) {
@@ -117,6 +120,30 @@ void rawMaps(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmPar
   }
 }
 
+// Step 6: the left-right check, in place.
+void leftRightCheck(cv::Mat& dl, const cv::Mat& dr, int max_diff) {
+  const int W = dl.cols, H = dl.rows;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      int16_t& d = dl.at<int16_t>(y, x);
+      if (d == kInvalidDisparity) continue;
+      const int xr = x - ((d + kSubpixelScale / 2) >> 4);
+      if (xr < 0 || xr >= W) {
+        d = kInvalidDisparity;
+        continue;
+      }
+      const int16_t r = dr.at<int16_t>(y, xr);
+      if (r == kInvalidDisparity || std::abs(int(d) - int(r)) > max_diff * kSubpixelScale) d = kInvalidDisparity;
+    }
+}
+
+namespace {
+
+// Steps 3-5: from the matching costs [y][x][k], the left and right maps before the median.
+void rawMaps(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& p, cv::Mat& dl, cv::Mat& dr) {
+  winnerTakesAll(aggregateCosts(left, cost, p), left.size(), p, dl, dr);
+}
+
 // The parameters of pyramid level l (0 = full resolution) of the Mutual Information hierarchy: the level's
 // search range (the tables learn from the checked maps, before any fill).
 SgmParams levelParams(const SgmParams& p, int level) {
@@ -127,7 +154,6 @@ SgmParams levelParams(const SgmParams& p, int level) {
 
 // One match with a given Mutual Information table (ignored by the other costs): steps 3-6 (no fill).
 SgmResult matchWithTable(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, const cv::Mat& mi_table) {
-  const int W = left.cols, H = left.rows;
   cv::Mat dl, dr;
   rawMaps(left, costVolume(left, right, p, mi_table), p, dl, dr);
   if (p.right_map == RightMap::match) {
@@ -146,20 +172,7 @@ SgmResult matchWithTable(const cv::Mat& left, const cv::Mat& right, const SgmPar
     dl = median3x3(dl);
     dr = median3x3(dr);
   }
-  if (p.lr_max_diff >= 0) {
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x) {
-        int16_t& d = dl.at<int16_t>(y, x);
-        if (d == kInvalidDisparity) continue;
-        const int xr = x - ((d + kSubpixelScale / 2) >> 4);
-        if (xr < 0 || xr >= W) {
-          d = kInvalidDisparity;
-          continue;
-        }
-        const int16_t r = dr.at<int16_t>(y, xr);
-        if (r == kInvalidDisparity || std::abs(int(d) - int(r)) > p.lr_max_diff * kSubpixelScale) d = kInvalidDisparity;
-      }
-  }
+  if (p.lr_max_diff >= 0) leftRightCheck(dl, dr, p.lr_max_diff);
   return {dl, dr};
 }
 

@@ -105,6 +105,19 @@ struct SgmResult {
 // left, right: CV_8UC1, same size. Throws std::invalid_argument on bad input.
 SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params);
 
+// The single steps of sgmReference, each the CPU reference of one device stage (its tests compare them alone).
+// Step 3: the sums over the paths of the path costs [y][x][k] of the matching costs `cost` ([y][x][k], as
+// costVolume) of the image `left` (CV_8UC1, for the adaptive P2).
+std::vector<uint16_t> aggregateCosts(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& params);
+// Steps 4-5: the left map (winner-takes-all, uniqueness, subpixel) and the right map (diagonal search) of the sums
+// [y][x][k] of an image of `size`; both CV_16S, before the median.
+void winnerTakesAll(const std::vector<uint16_t>& sums, cv::Size size, const SgmParams& params, cv::Mat& left16,
+                    cv::Mat& right16);
+// Step 6: the 3x3 median of a CV_16S map (border replicated; invalid pixels take part with their value).
+cv::Mat median3x3(const cv::Mat& disparity16);
+// Step 6: the left-right check of the CV_16S left map against the right one, in place (max_diff in px).
+void leftRightCheck(cv::Mat& left16, const cv::Mat& right16, int max_diff);
+
 // Step 7 on any CV_16S map (invalid = kInvalidDisparity), in place: each invalid pixel takes the smaller
 // (background) of the nearest valid disparities left and right on its row. The CPU reference of the device's fill,
 // so that an evaluation can apply the same fill to every method's raw map.
