@@ -34,7 +34,9 @@ void main() {
     const float fx = sx - float(x0), fy = sy - float(y0);
     const float v = mix(mix(rawAt(cam1, x0, y0), rawAt(cam1, x0 + 1, y0), fx),
                         mix(rawAt(cam1, x0, y0 + 1), rawAt(cam1, x0 + 1, y0 + 1), fx), fy);
-    packed |= uint(clamp(round(v), 0.0, 255.0)) << (8 * i);
+    // Half-way values up, as cv::remap rounds: GLSL leaves round() at .5 to the implementation (lavapipe rounds to
+    // even), and the rectified images must not depend on the device.
+    packed |= uint(clamp(floor(v + 0.5), 0.0, 255.0)) << (8 * i);
   }
   if (cam1) out1[word] = packed;
   else out0[word] = packed;
