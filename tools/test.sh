@@ -24,7 +24,8 @@ if [ $sanitize = 1 ]; then
   # Only the tests' targets (and the libraries and tools they declare): the process mains, the other tools and
   # the benchmarks serve the process tests, which run in build/.
   make -C $dir/tests -j"$jobs"
-  # Unit tests under the sanitizers; tests of whole processes and benchmarks are labelled and run in build/.
+  # Unit tests under the sanitizers; tests of whole processes, system tests and the longest unit tests are labelled
+  # (process, slow) and run in build/.
   export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1
   (cd $dir && ctest -j"$jobs" --output-on-failure --timeout 900 -LE "process|slow" "${ctest_args[@]}")
 else
