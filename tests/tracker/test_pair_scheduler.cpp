@@ -106,11 +106,14 @@ TEST(PairScheduler, MapsOfTrackedPairsAndBeyondTheBoundAreNotKept) {
   EXPECT_EQ(s.lastTracked(), 0);
   s.tracked(pair(0).utime);
   EXPECT_EQ(s.lastTracked(), pair(0).utime);
-  EXPECT_FALSE(s.addMap(pair(0).utime, 0, guide(1.0)));  // its pair is tracked
+  EXPECT_FALSE(s.acceptsMap(pair(0).utime));  // its pair is tracked
+  EXPECT_FALSE(s.addMap(pair(0).utime, 0, guide(1.0)));
   for (int seq = 1; seq <= 3; ++seq) EXPECT_TRUE(s.addMap(pair(seq).utime, seq, guide(1.0)));
-  EXPECT_FALSE(s.addMap(pair(4).utime, 4, guide(1.0)));  // 3 held already
+  EXPECT_FALSE(s.acceptsMap(pair(4).utime));  // 3 held already
+  EXPECT_FALSE(s.addMap(pair(4).utime, 4, guide(1.0)));
   // Tracking pair 2 drops its map and the older one: room for two more.
   s.tracked(pair(2).utime);
+  EXPECT_TRUE(s.acceptsMap(pair(4).utime));
   EXPECT_EQ(s.mapFor(pair(1)), nullptr);
   EXPECT_EQ(s.mapFor(pair(2)), nullptr);
   EXPECT_NE(s.mapFor(pair(3)), nullptr);

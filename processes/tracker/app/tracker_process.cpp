@@ -8,6 +8,7 @@
 #include "ips/framework/filter_state_layout.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/message_arrays.hpp"
+#include "ips/framework/message_poses.hpp"
 #include "ips/log.hpp"
 
 namespace ips::tracker_app {
@@ -19,10 +20,7 @@ tracker::FilterPriorState fromMessage(const filter_state_t& s) {
   namespace layout = fw::filter_state_layout;
   tracker::FilterPriorState p;
   p.utime = s.utime;
-  p.T_world_body.linear() = Eigen::Quaterniond(s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3])
-                                .normalized()
-                                .toRotationMatrix();
-  p.T_world_body.translation() = Eigen::Vector3d(s.position[0], s.position[1], s.position[2]);
+  p.T_world_body = fw::bodyPose(s).T_world_body;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 3; ++c) {
       p.velocity_cov(r, c) = s.covariance[layout::kVelocity + r][layout::kVelocity + c];
@@ -144,10 +142,11 @@ void TrackerProcess::onDisparity(const disparity_map_t& m) {
   // Stamps checked against the stream's rhythm: a forged stamp far ahead would end every pair's wait.
   if (!fw::admitInOrder(disparity_order_, m.utime, 0, node_.health(), "disparity", node_.arrivalUs())) return;
   // Maps of pairs already tracked, or far ahead of what the tracker holds, are of no use.
-  if (!pairs_.addMap(m.utime, m.seq, fromMessage(m, *scale))) {
+  if (!pairs_.acceptsMap(m.utime)) {
     node_.health().count("disparity_unused");
     return;
   }
+  pairs_.addMap(m.utime, m.seq, fromMessage(m, *scale));
   drain();
 }
 

@@ -27,8 +27,12 @@ void PairScheduler::addPair(PendingPair p) {
   pending_.emplace(utime, std::move(p));
 }
 
+bool PairScheduler::acceptsMap(int64_t utime) const {
+  return utime > last_utime_ && maps_.size() < static_cast<size_t>(wait_.max_pending);
+}
+
 bool PairScheduler::addMap(int64_t utime, int64_t seq, DisparityGuide guide) {
-  if (utime <= last_utime_ || maps_.size() >= static_cast<size_t>(wait_.max_pending)) return false;
+  if (!acceptsMap(utime)) return false;
   newest_map_utime_ = std::max(newest_map_utime_, utime);
   maps_[utime] = StoredMap{seq, std::move(guide)};
   return true;

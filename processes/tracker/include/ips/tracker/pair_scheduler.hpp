@@ -50,8 +50,10 @@ class PairScheduler {
   size_t size() const { return pending_.size(); }
   int64_t oldestUtime() const { return pending_.begin()->first; }
 
-  // Keeps E3D's map of the pair with this stamp and seq; false (not kept) when that pair is tracked already or
-  // max_pending maps are held.
+  // Whether a map of the pair with this stamp would be kept: not when that pair is tracked already or max_pending
+  // maps are held (asked before a map is copied out of its message).
+  bool acceptsMap(int64_t utime) const;
+  // Keeps E3D's map of the pair with this stamp and seq; false (not kept) where acceptsMap is false.
   bool addMap(int64_t utime, int64_t seq, DisparityGuide guide);
   // Whether the oldest pair goes on now, given whether its prior is ready: when nothing more is awaited, or when
   // too many pairs are held behind it (one at most, unless it waits for a map).
