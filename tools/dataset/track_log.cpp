@@ -19,6 +19,7 @@
 #include "ips/eval/e3d_guide.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/tracker/delta_chain.hpp"
@@ -72,10 +73,8 @@ int main(int argc, char** argv) {
         ips::ground_truth_t g{};
         if (g.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) continue;
         Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
-        T_w_b.linear() = Eigen::Quaterniond(g.orientation[0], g.orientation[1], g.orientation[2], g.orientation[3])
-                             .normalized()
-                             .toRotationMatrix();
-        T_w_b.translation() = Eigen::Vector3d(g.position[0], g.position[1], g.position[2]);
+        T_w_b.linear() = ips::fw::quaternionFromArray(g.orientation).normalized().toRotationMatrix();
+        T_w_b.translation() = ips::fw::vectorFromArray(g.position);
         writeTumLine(gt_out, g.utime, T_w_b * calib.T_imu_cam0);
       } else if (event.channel == "STEREO") {
         ips::stereo_pair_t m;

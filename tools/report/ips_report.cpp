@@ -31,6 +31,7 @@
 #include "ips/eval/trajectory.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/mapper/voxel_map.hpp"
@@ -595,9 +596,8 @@ int main(int argc, char** argv) {
         if (delta_msgs.front().valid)
           chain.add(delta_msgs.front().utime_prev, 0, false, Eigen::Quaterniond::Identity(), Eigen::Vector3d::Zero());
         for (const auto& d : delta_msgs)
-          chain.add(d.utime, d.utime_prev, d.valid,
-                    Eigen::Quaterniond(d.rotation[0], d.rotation[1], d.rotation[2], d.rotation[3]),
-                    Eigen::Vector3d(d.translation[0], d.translation[1], d.translation[2]));
+          chain.add(d.utime, d.utime_prev, d.valid, ips::fw::quaternionFromArray(d.rotation),
+                    ips::fw::vectorFromArray(d.translation));
         Estimate t{"tracker", {}, {}, chain.invalid()};
         for (const auto& p : chain.poses()) {
           TrajPoint q;

@@ -6,6 +6,7 @@
 
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
+#include "ips/framework/message_arrays.hpp"
 #include "ips/framework/message_poses.hpp"
 #include "ips/log.hpp"
 
@@ -132,7 +133,7 @@ void E3dProcess::onIntegrity(const integrity_t& m) {
   const fw::Verdict v = fw::validate(m);
   if (!v.ok()) return node_.health().bad(v.reason, "integrity: " + v.detail);
   RightCameraCorrection c;
-  c.rotation = Eigen::Vector3d(m.applied[0], m.applied[1], m.applied[2]);
+  c.rotation = fw::vectorFromArray(m.applied);
   c.focal_scale = m.applied[3];
   {
     std::lock_guard<std::mutex> lock(mutex_);

@@ -56,7 +56,7 @@ ips::filter::TrackerDelta toDelta(const ips::tracker_delta_t& m) {
   d.far_valid = m.far_valid;
   d.far_rotation = ips::fw::quaternionFromArray(m.far_rotation).normalized();
   d.far_covariance = ips::fw::matrixFromArray<3>(m.far_rotation_covariance);
-  d.translation = Eigen::Vector3d(m.translation[0], m.translation[1], m.translation[2]);
+  d.translation = ips::fw::vectorFromArray(m.translation);
   d.rotation = ips::fw::quaternionFromArray(m.rotation).normalized();
   d.covariance = ips::fw::matrixFromArray<6>(m.covariance);
   return d;
@@ -104,8 +104,8 @@ void FilterProcess::onImu(const ips::imu_sample_t& m) {
   if (!check(m, imu_order_, "imu")) return;
   ips::filter::ImuSample s;
   s.utime = m.utime;
-  s.angular_rate = Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2]);
-  s.specific_force = Eigen::Vector3d(m.specific_force[0], m.specific_force[1], m.specific_force[2]);
+  s.angular_rate = ips::fw::vectorFromArray(m.angular_rate);
+  s.specific_force = ips::fw::vectorFromArray(m.specific_force);
   est_.addImu(s);
   publishOutputs();
 }

@@ -87,10 +87,8 @@ void MapperProcess::subscribePoses(PoseSource source, const std::string& channel
           const ips::fw::Verdict v = ips::fw::validate(d);
           if (!v.ok()) return node_.health().bad(v.reason, v.detail);
           bool motion_unknown = false;
-          onPose(tracker_poses_->add(d.utime, d.utime_prev, d.valid,
-                                     Eigen::Quaterniond(d.rotation[0], d.rotation[1], d.rotation[2], d.rotation[3]),
-                                     Eigen::Vector3d(d.translation[0], d.translation[1], d.translation[2]),
-                                     &motion_unknown));
+          onPose(tracker_poses_->add(d.utime, d.utime_prev, d.valid, ips::fw::quaternionFromArray(d.rotation),
+                                     ips::fw::vectorFromArray(d.translation), &motion_unknown));
           if (motion_unknown) node_.health().count("tracker_motion_unknown");
         });
   } else {

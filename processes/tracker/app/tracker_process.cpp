@@ -26,7 +26,7 @@ tracker::FilterPriorState fromMessage(const filter_state_t& s) {
       p.velocity_cov(r, c) = s.covariance[layout::kVelocity + r][layout::kVelocity + c];
       p.angular_rate_cov(r, c) = s.covariance[layout::kAngularRate + r][layout::kAngularRate + c];
     }
-  p.gyro_bias = Eigen::Vector3d(s.gyro_bias[0], s.gyro_bias[1], s.gyro_bias[2]);
+  p.gyro_bias = fw::vectorFromArray(s.gyro_bias);
   return p;
 }
 
@@ -152,7 +152,7 @@ void TrackerProcess::onDisparity(const disparity_map_t& m) {
 
 void TrackerProcess::onImu(const imu_sample_t& m) {
   if (!fw::validate(m).ok()) return;  // the filter counts bad IMU input; here it only places windows
-  priors_.addGyro(m.utime, Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2]));
+  priors_.addGyro(m.utime, fw::vectorFromArray(m.angular_rate));
   if (!pairs_.empty()) drain();
 }
 

@@ -17,6 +17,8 @@ inline void quaternionToArray(const Eigen::Quaterniond& q, double* wxyz) {
   wxyz[3] = q.z();
 }
 
+inline Eigen::Vector3d vectorFromArray(const double* xyz) { return Eigen::Vector3d(xyz[0], xyz[1], xyz[2]); }
+
 inline void vectorToArray(const Eigen::Vector3d& v, double* xyz) {
   for (int i = 0; i < 3; ++i) xyz[i] = v[i];
 }

@@ -28,10 +28,8 @@ struct BodyPose {
 inline BodyPose bodyPose(const ips::filter_state_t& s) {
   namespace layout = filter_state_layout;
   BodyPose p;
-  p.T_world_body.linear() = Eigen::Quaterniond(s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3])
-                                .normalized()
-                                .toRotationMatrix();
-  p.T_world_body.translation() = Eigen::Vector3d(s.position[0], s.position[1], s.position[2]);
+  p.T_world_body.linear() = quaternionFromArray(s.orientation).normalized().toRotationMatrix();
+  p.T_world_body.translation() = vectorFromArray(s.position);
   const int index[6] = {layout::kPosition, layout::kPosition + 1, layout::kPosition + 2,
                         layout::kAttitude, layout::kAttitude + 1, layout::kAttitude + 2};
   if (s.cov_dim >= layout::kDim)
