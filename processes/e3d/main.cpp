@@ -50,8 +50,7 @@ int main(int argc, char** argv) {
                                                << ips::channels::kMonoPoints);
     }
     ips::fw::Node node("e3d", args.get("--lcm-url"));
-    ips::e3d_app::E3dProcess process(node, calib, matcher, rect, process_params,
-                                     cfg.getBool("process/apply_integrity", true), mono.get());
+    ips::e3d_app::E3dProcess process(node, calib, matcher, rect, process_params, mono.get());
     IPS_INFO("matching " << rect.size.width << "x" << rect.size.height << " on " << ctx.info().name << ", "
                          << params.describe());
     const int rc = node.run();

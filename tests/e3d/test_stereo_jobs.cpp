@@ -76,6 +76,11 @@ TEST(E3dProcessParams, ConfigKeysWithTheCommandLineOverAndRangesChecked) {
   EXPECT_EQ(p.every_nth, 3);
   EXPECT_FALSE(p.queue_all);
   EXPECT_EQ(p.max_queue, 4u);
+  EXPECT_TRUE(p.apply_integrity);  // the default
+  EXPECT_FALSE(
+      ips::e3d::loadProcessParams(ips::Config(writeTemp("e3d_no_integrity.yaml", "process:\n  apply_integrity: 0\n")),
+                                  std::nullopt, false)
+          .apply_integrity);
   p = ips::e3d::loadProcessParams(cfg, 8, true);
   EXPECT_EQ(p.every_nth, 8);
   EXPECT_TRUE(p.queue_all);

@@ -45,8 +45,7 @@ disparity_map_t toMessage(const e3d::StereoJob& job, const cv::Mat& disparity, c
 }  // namespace
 
 E3dProcess::E3dProcess(fw::Node& node, const StereoCalibration& calib, e3d::StereoMatcher& matcher,
-                       const StereoRectification& rect, const e3d::ProcessParams& params, bool apply_integrity,
-                       e3d::MonoDepth* mono)
+                       const StereoRectification& rect, const e3d::ProcessParams& params, e3d::MonoDepth* mono)
     : node_(node),
       matcher_(matcher),
       calib_(calib),
@@ -57,7 +56,7 @@ E3dProcess::E3dProcess(fw::Node& node, const StereoCalibration& calib, e3d::Ster
       jobs_(params.every_nth, params.queue_all, params.max_queue) {
   if (mono_) pairing_.emplace(mono_->params().gap_pairs, mono_->params().every_nth);
   node_.subscribe<stereo_pair_t>(channels::kStereo, [this](const stereo_pair_t& m) { onStereo(m); });
-  if (apply_integrity)
+  if (params.apply_integrity)
     node_.subscribe<integrity_t>(channels::kIntegrity, [this](const integrity_t& m) { onIntegrity(m); });
   if (mono_)
     node_.subscribe<filter_state_t>(channels::kFilterState, [this](const filter_state_t& m) { onFilterState(m); });

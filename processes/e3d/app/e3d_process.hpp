@@ -24,8 +24,7 @@ namespace ips::e3d_app {
 class E3dProcess {
  public:
   E3dProcess(fw::Node& node, const StereoCalibration& calib, e3d::StereoMatcher& matcher,
-             const StereoRectification& rect, const e3d::ProcessParams& params, bool apply_integrity,
-             e3d::MonoDepth* mono);
+             const StereoRectification& rect, const e3d::ProcessParams& params, e3d::MonoDepth* mono);
   ~E3dProcess() { stop(true); }
 
   // Stops the worker; with drain, the queued pairs are matched first. Call after the node's loop has returned: maps

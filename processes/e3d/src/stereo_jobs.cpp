@@ -23,6 +23,7 @@ ProcessParams loadProcessParams(const Config& cfg, std::optional<long long> ever
     throw ConfigError(cfg.path() + ": key 'process/max_queue' must be in [1, " + std::to_string(kMaxQueueLimit) +
                       "], got " + std::to_string(max_queue_value));
   p.max_queue = static_cast<size_t>(max_queue_value);
+  p.apply_integrity = cfg.getBool("process/apply_integrity", p.apply_integrity);
   return p;
 }
 

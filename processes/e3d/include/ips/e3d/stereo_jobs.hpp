@@ -19,10 +19,11 @@ namespace ips::e3d {
 constexpr long long kMaxQueueLimit = 256;
 
 struct ProcessParams {
-  double output_scale = 1.0;  // process/output_scale, in (0, 1]: the maps' size over the calibration's
-  int every_nth = 1;          // process/every_nth (or --every-nth), at least 1
-  bool queue_all = false;     // process/queue_all (or --queue)
-  size_t max_queue = 16;      // process/max_queue, in [1, kMaxQueueLimit]
+  double output_scale = 1.0;    // process/output_scale, in (0, 1]: the maps' size over the calibration's
+  int every_nth = 1;            // process/every_nth (or --every-nth), at least 1
+  bool queue_all = false;       // process/queue_all (or --queue)
+  size_t max_queue = 16;        // process/max_queue, in [1, kMaxQueueLimit]
+  bool apply_integrity = true;  // process/apply_integrity: rectify with the tracker's correction (INTEGRITY)
 };
 
 // The process/ keys, every_nth and queue_all overridden by the command line where given. Throws ConfigError on a
