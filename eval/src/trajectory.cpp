@@ -90,6 +90,13 @@ Eigen::Isometry3d alignSE3(const Trajectory& est, const Trajectory& ref) {
   return T;
 }
 
+double ateRmse(const Trajectory& est, const Trajectory& ref) {
+  const Eigen::Isometry3d T = alignSE3(est, ref);
+  double se = 0;
+  for (size_t i = 0; i < est.size(); ++i) se += (T * est[i].p - ref[i].p).squaredNorm();
+  return std::sqrt(se / static_cast<double>(est.size()));
+}
+
 TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double segment_m) {
   if (est.size() != ref.size() || est.size() < 3) throw std::invalid_argument("evaluate: need >= 3 matched points");
   TrajectoryErrors e;
@@ -97,10 +104,7 @@ TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double s
   std::vector<double> dist(ref.size(), 0.0);
   for (size_t i = 1; i < ref.size(); ++i) dist[i] = dist[i - 1] + (ref[i].p - ref[i - 1].p).norm();
   e.distance_m = dist.back();
-  const Eigen::Isometry3d T = alignSE3(est, ref);
-  double se = 0;
-  for (size_t i = 0; i < est.size(); ++i) se += (T * est[i].p - ref[i].p).squaredNorm();
-  e.ate_rmse_m = std::sqrt(se / static_cast<double>(est.size()));
+  e.ate_rmse_m = ateRmse(est, ref);
   e.endpoint_error_m = (est.back().p - ref.back().p).norm();
   e.endpoint_percent = e.distance_m > 0 ? 100.0 * e.endpoint_error_m / e.distance_m : 0.0;
   // Relative error: for each start, the first sample at least segment_m further along the reference.

@@ -253,18 +253,11 @@ ErrorSeries errorSeries(const FilterRun& run, const Trajectory& est, const Traje
   return out;
 }
 
-// A DISPARITY message's map in pixels, NaN where it has none.
-cv::Mat disparityPixels(const ips::disparity_map_t& m) {
-  cv::Mat fixed(m.height, m.width, CV_16SC1);
-  for (int r = 0; r < m.height; ++r) std::copy(m.data[r].begin(), m.data[r].end(), fixed.ptr<int16_t>(r));
-  return ips::eval::disparityPixels(fixed, m.invalid_value, m.subpixel_scale);
-}
-
 // E3D's map against the true one, at E3D's scale (output_scale) and in its pixels, as stereo benchmarks at a
 // reduced resolution count.
 DisparityScore score(const ips::disparity_map_t& est, const ips::disparity_map_t& gt_msg) {
-  const cv::Mat e = disparityPixels(est);
-  const cv::Mat g = ips::eval::truthAtSize(disparityPixels(gt_msg), e.size());
+  const cv::Mat e = ips::fw::disparityImage(est);
+  const cv::Mat g = ips::eval::truthAtSize(ips::fw::disparityImage(gt_msg), e.size());
   const ips::eval::DisparityErrors err = ips::eval::disparityErrors(e, g, {kBadDisparityPx});
   DisparityScore sc;
   sc.seq = est.seq;
@@ -527,11 +520,7 @@ int main(int argc, char** argv) {
         Trajectory ea, ra;
         ips::eval::associate(aligned, gt, 0.05, &ea, &ra);
         if (ea.size() >= 3) {
-          ips::eval::Trajectory ealigned = ea;
-          const Eigen::Isometry3d T = ips::eval::alignSE3(ea, ra);
-          double se = 0;
-          for (size_t i = 0; i < ea.size(); ++i) se += (T * ea[i].p - ra[i].p).squaredNorm();
-          ate = std::sqrt(se / ea.size());
+          ate = ips::eval::ateRmse(ea, ra);
           end_err = (ea.back().p - ra.back().p).norm();
           end_pct = distance > 0 ? 100.0 * end_err / distance : NAN;
         }
@@ -801,12 +790,12 @@ int main(int argc, char** argv) {
         ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
         const ips::disparity_map_t& dm = est_disp[p.utime];
         // The page draws values below zero as "none".
-        cv::Mat d = disparityPixels(dm);
+        cv::Mat d = ips::fw::disparityImage(dm);
         cv::patchNaNs(d, -1.0);
         cv::resize(r0, r0, d.size(), 0, 0, cv::INTER_AREA);
         cv::Mat truth;
         if (gt_disp.count(p.utime)) {  // at the map's scale, as scored
-          truth = ips::eval::truthAtSize(disparityPixels(gt_disp[p.utime]), d.size());
+          truth = ips::eval::truthAtSize(ips::fw::disparityImage(gt_disp[p.utime]), d.size());
           cv::patchNaNs(truth, -1.0);
         }
         std::ostringstream fields;

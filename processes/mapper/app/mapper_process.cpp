@@ -142,7 +142,7 @@ void MapperProcess::align(const ips::mapper::MappedFrame& f) {
   m.utime_prev = d.utime_prev;
   m.seq = ++cloud_seq_;
   m.valid = d.valid;
-  for (int i = 0; i < 3; ++i) m.translation[i] = d.T_prev_now.translation()[i];
+  ips::fw::vectorToArray(d.T_prev_now.translation(), m.translation);
   ips::fw::quaternionToArray(Eigen::Quaterniond(d.T_prev_now.linear()), m.rotation);
   if (d.valid) ips::fw::matrixToArray<6>(d.covariance, m.covariance);
   m.num_features = d.points;

@@ -76,7 +76,7 @@ tracker_delta_t toMessage(const tracker::TrackResult& r, int64_t seq) {
   d.utime_prev = r.utime_prev;
   d.seq = seq;
   d.valid = r.valid;
-  for (int i = 0; i < 3; ++i) d.translation[i] = r.translation[i];
+  fw::vectorToArray(r.translation, d.translation);
   fw::quaternionToArray(r.rotation, d.rotation);
   fw::matrixToArray<6>(r.covariance, d.covariance);
   d.num_features = r.num_features;

@@ -38,6 +38,9 @@ struct TrajectoryErrors {
   double endpoint_error_m = 0;  // no alignment (both start in the same frame)
   double endpoint_percent = 0;  // endpoint_error_m / distance_m * 100
 };
+// RMSE of the positions after alignSE3 (absolute trajectory error); both associated, >= 3 points.
+double ateRmse(const Trajectory& est, const Trajectory& ref);
+
 // Both trajectories must already be associated (same length, same times).
 TrajectoryErrors evaluate(const Trajectory& est, const Trajectory& ref, double segment_m);
 
