@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <set>
 
@@ -170,8 +171,13 @@ SheriffCliParse parseSheriffCli(int argc, char** argv) {
         if (!number("--timeout", optarg, cli.timeout_s)) return error;
         break;
       case kWait:
-        cli.wait_mode = optarg;
-        if (cli.wait_mode != "started" && cli.wait_mode != "running" && cli.wait_mode != "none") {
+        if (std::strcmp(optarg, "started") == 0) {
+          cli.wait_mode = SheriffCli::Wait::kStarted;
+        } else if (std::strcmp(optarg, "running") == 0) {
+          cli.wait_mode = SheriffCli::Wait::kRunning;
+        } else if (std::strcmp(optarg, "none") == 0) {
+          cli.wait_mode = SheriffCli::Wait::kNone;
+        } else {
           std::fprintf(stderr, "procman-sheriff: --wait must be started, running or none\n");
           return error;
         }
@@ -290,7 +296,8 @@ bool runOrders(const SheriffCli& cli, Sheriff& sheriff) {
   for (const auto& n : cli.restarts) add(to_restart, sheriff.select("", n));
   if (!to_stop.empty()) {
     sheriff.stop(to_stop);
-    if (cli.wait_mode != "none") ok = waitAll(cli, sheriff, to_stop, &Sheriff::isStopped, "stopped") && ok;
+    if (cli.wait_mode != SheriffCli::Wait::kNone)
+      ok = waitAll(cli, sheriff, to_stop, &Sheriff::isStopped, "stopped") && ok;
   }
   for (auto* list : {&to_start, &to_restart}) {
     if (list->empty()) continue;
@@ -298,8 +305,10 @@ bool runOrders(const SheriffCli& cli, Sheriff& sheriff) {
       sheriff.start(*list);
     else
       sheriff.restart(*list);
-    if (cli.wait_mode == "started") ok = waitAll(cli, sheriff, *list, &Sheriff::hasStarted, "started") && ok;
-    if (cli.wait_mode == "running") ok = waitAll(cli, sheriff, *list, &Sheriff::isRunning, "running") && ok;
+    if (cli.wait_mode == SheriffCli::Wait::kStarted)
+      ok = waitAll(cli, sheriff, *list, &Sheriff::hasStarted, "started") && ok;
+    if (cli.wait_mode == SheriffCli::Wait::kRunning)
+      ok = waitAll(cli, sheriff, *list, &Sheriff::isRunning, "running") && ok;
   }
   if (!cli.script.empty()) {
     try {
@@ -365,9 +374,6 @@ int runSheriffCli(const SheriffCli& cli, std::atomic<bool>& stop,
     }
     if (!cli.follows.empty() || cli.keep) ok = stay(cli, sheriff, stop) && ok;
     return ok ? kSheriffExitOk : kSheriffExitTimeout;
-  } catch (const ConfigError& e) {
-    std::fprintf(stderr, "procman-sheriff: %s\n", e.what());
-    return kSheriffExitError;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "procman-sheriff: %s\n", e.what());
     return kSheriffExitError;

@@ -43,7 +43,7 @@ TEST(SheriffCli, ActionsAndOptionsFromTheCommandLine) {
   EXPECT_EQ(c.stops, std::vector<std::string>{"x"});
   EXPECT_EQ(c.starts, (std::vector<std::string>{"g/sub", "y"}));
   EXPECT_TRUE(c.restarts.empty());
-  EXPECT_EQ(c.wait_mode, "running");
+  EXPECT_EQ(c.wait_mode, ips::procman::SheriffCli::Wait::kRunning);
   EXPECT_EQ(c.timeout_s, 2.5);
   EXPECT_EQ(c.duration_s, 4.0);
   EXPECT_EQ(c.status_period_s, 0.0);

@@ -20,7 +20,8 @@ constexpr int kSheriffExitTimeout = 3;  // a deputy did not report or a command 
 
 struct SheriffCli {
   std::string config_path;
-  std::string wait_mode = "started";  // started, running or none
+  enum class Wait { kStarted, kRunning, kNone };
+  Wait wait_mode = Wait::kStarted;  // --wait started|running|none
   std::string script;
   SheriffOptions options;
   bool start_all = false, stop_all = false, restart_all = false, status = false, keep = false, check = false;
