@@ -1,13 +1,13 @@
 #include "procman/sheriff_cli.hpp"
 
-#include <getopt.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <iostream>
 #include <set>
+
+#include "ips/args.hpp"
 
 namespace ips::procman {
 
@@ -16,188 +16,109 @@ bool SheriffCli::ordersNeeded() const {
          !script.empty() || keep;
 }
 
-void printSheriffUsage(FILE* out) {
-  std::fprintf(
-      out,
-      "usage: procman-sheriff [--config FILE] [options] ACTION...\n"
-      "\n"
-      "Headless procman sheriff: sends orders to procman deputies over LCM and reports their state.\n"
-      "Actions run in this order: --stop*, --start*, --restart*, --script, then --status, --follow, --keep-running.\n"
-      "\n"
-      "Actions:\n"
-      "  --start-all, --stop-all, --restart-all   every command in the configuration\n"
-      "  --start NAME, --stop NAME, --restart NAME  a command id or a group path (\"a/b\" includes its\n"
-      "                       subgroups); repeatable\n"
-      "  --script NAME        run a script of the configuration\n"
-      "  --status             print the deputies and the status table (works without --config: then\n"
-      "                       it only observes and shows what the deputies report)\n"
-      "  --follow CMD         print the output of command CMD (repeatable; with several, lines are\n"
-      "                       prefixed [CMD]) until SIGINT/SIGTERM or --duration\n"
-      "  --keep-running       stay: resend orders every second (and print the table every\n"
-      "                       --status-period s) until SIGINT/SIGTERM or --duration\n"
-      "  --check              parse the configuration, print it, and exit (no LCM)\n"
-      "\n"
-      "Options:\n"
-      "  --config FILE        procman configuration (groups, cmd, script); required for all but\n"
-      "                       --status/--follow\n"
-      "  -u, --lcm-url URL    LCM URL (default: $LCM_DEFAULT_URL or LCM's default)\n"
-      "  --id NAME            sheriff id (default procman-sheriff@HOST; must not be a deputy id)\n"
-      "  --default-deputy ID  deputy of commands that name none (default: this host's name)\n"
-      "  --timeout S          wait this long for deputies to report and for commands to reach their\n"
-      "                       state (default 15)\n"
-      "  --wait STATE         what --start/--restart wait for: started (default: the deputy started the\n"
-      "                       command), running, none; --stop always waits until stopped unless none\n"
-      "  --duration S         end --follow/--keep-running after S seconds\n"
-      "  --status-period S    with --keep-running: print the table every S seconds (default 0: never)\n"
-      "  --stop-on-exit       with --follow/--keep-running: stop everything before exiting\n"
-      "\n"
+namespace {
+
+// The sheriff's options, declared once for parsing and for the usage text.
+ips::Args sheriffArgs(int argc, char** argv) {
+  ips::Args args(argc, argv,
+                 "headless procman sheriff: sends orders to procman deputies over LCM and reports their state");
+  args.usage(
+      "procman-sheriff [--config FILE] [options] ACTION...\n\n"
+      "Actions run in this order: --stop*, --start*, --restart*, --script, then --status, --follow, --keep-running.");
+  args.section("Actions");
+  args.flag("--start-all", "start every command in the configuration");
+  args.flag("--stop-all", "stop every command in the configuration");
+  args.flag("--restart-all", "restart every command in the configuration");
+  args.repeated("--start", "NAME", "a command id or a group path (\"a/b\" includes its subgroups)");
+  args.repeated("--stop", "NAME", "as --start");
+  args.repeated("--restart", "NAME", "as --start");
+  args.option("--script", "NAME", "run a script of the configuration");
+  args.flag("--status",
+            "print the deputies and the status table (works without --config: then\n"
+            "it only observes and shows what the deputies report)");
+  args.repeated("--follow", "CMD",
+                "print the output of command CMD (with several, lines are prefixed\n"
+                "[CMD]) until SIGINT/SIGTERM or --duration");
+  args.flag("--keep-running",
+            "stay: resend orders every second (and print the table every\n"
+            "--status-period s) until SIGINT/SIGTERM or --duration");
+  args.flag("--check", "parse the configuration, print it, and exit (no LCM)");
+  args.section("Options");
+  args.option("--config", "FILE",
+              "procman configuration (groups, cmd, script); required for all but\n--status/--follow");
+  args.option("--lcm-url", "URL", "LCM URL [default: $LCM_DEFAULT_URL or LCM's default]").alias("-u", "--lcm-url");
+  args.alias("--lcmurl", "--lcm-url");
+  args.option("--id", "NAME", "sheriff id [default: procman-sheriff@HOST; must not be a deputy id]");
+  args.option("--default-deputy", "ID", "deputy of commands that name none [default: this host's name]");
+  args.option("--timeout", "S", "wait this long for deputies to report and for commands to reach\ntheir state", "15");
+  args.option("--wait", "STATE",
+              "what --start/--restart wait for: started (the deputy started the\n"
+              "command), running, none; --stop always waits until stopped unless none",
+              "started");
+  args.option("--duration", "S", "end --follow/--keep-running after S seconds");
+  args.option("--status-period", "S", "with --keep-running: print the table every S seconds (0: never)", "0");
+  args.flag("--stop-on-exit", "with --follow/--keep-running: stop everything before exiting");
+  args.epilog(
       "Exit status: 0 done; 1 error (usage, configuration, LCM); 3 timed out (a deputy did not report or a\n"
-      "command did not reach its state).\n");
+      "command did not reach its state).");
+  return args;
+}
+
+// A non-negative number of seconds; throws ArgError naming the option.
+double seconds(const ips::Args& args, const std::string& name) {
+  const std::string text = args.get(name);
+  char* end = nullptr;
+  const double value = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || value < 0)
+    throw ips::ArgError("procman-sheriff: " + name + " needs a non-negative number, got '" + text + "'");
+  return value;
+}
+
+}  // namespace
+
+void printSheriffUsage(FILE* out) {
+  char program[] = "procman-sheriff";
+  char* argv[] = {program, nullptr};
+  std::fputs(sheriffArgs(1, argv).help().c_str(), out);
 }
 
 SheriffCliParse parseSheriffCli(int argc, char** argv) {
-  enum Opt {
-    kStartAll = 1000,
-    kStopAll,
-    kRestartAll,
-    kStart,
-    kStop,
-    kRestart,
-    kScript,
-    kStatus,
-    kFollow,
-    kKeep,
-    kCheck,
-    kConfig,
-    kId,
-    kDefaultDeputy,
-    kTimeout,
-    kWait,
-    kDuration,
-    kStatusPeriod,
-    kStopOnExit
-  };
-  const option long_opts[] = {{"help", no_argument, nullptr, 'h'},
-                              {"start-all", no_argument, nullptr, kStartAll},
-                              {"stop-all", no_argument, nullptr, kStopAll},
-                              {"restart-all", no_argument, nullptr, kRestartAll},
-                              {"start", required_argument, nullptr, kStart},
-                              {"stop", required_argument, nullptr, kStop},
-                              {"restart", required_argument, nullptr, kRestart},
-                              {"script", required_argument, nullptr, kScript},
-                              {"status", no_argument, nullptr, kStatus},
-                              {"follow", required_argument, nullptr, kFollow},
-                              {"keep-running", no_argument, nullptr, kKeep},
-                              {"check", no_argument, nullptr, kCheck},
-                              {"config", required_argument, nullptr, kConfig},
-                              {"lcm-url", required_argument, nullptr, 'u'},
-                              {"lcmurl", required_argument, nullptr, 'u'},
-                              {"id", required_argument, nullptr, kId},
-                              {"default-deputy", required_argument, nullptr, kDefaultDeputy},
-                              {"timeout", required_argument, nullptr, kTimeout},
-                              {"wait", required_argument, nullptr, kWait},
-                              {"duration", required_argument, nullptr, kDuration},
-                              {"status-period", required_argument, nullptr, kStatusPeriod},
-                              {"stop-on-exit", no_argument, nullptr, kStopOnExit},
-                              {nullptr, 0, nullptr, 0}};
   const SheriffCliParse error{std::nullopt, kSheriffExitError};
   SheriffCli cli;
-  auto number = [](const char* opt, const char* text, double& value) {
-    char* end = nullptr;
-    value = std::strtod(text, &end);
-    if (!end || *end != '\0' || value < 0) {
-      std::fprintf(stderr, "procman-sheriff: %s needs a non-negative number, got '%s'\n", opt, text);
-      return false;
+  try {
+    ips::Args args = sheriffArgs(argc, argv);
+    if (!args.parse()) return {std::nullopt, kSheriffExitOk};
+    cli.start_all = args.getFlag("--start-all");
+    cli.stop_all = args.getFlag("--stop-all");
+    cli.restart_all = args.getFlag("--restart-all");
+    cli.starts = args.getAll("--start");
+    cli.stops = args.getAll("--stop");
+    cli.restarts = args.getAll("--restart");
+    cli.script = args.get("--script");
+    cli.status = args.getFlag("--status");
+    cli.follows = args.getAll("--follow");
+    cli.keep = args.getFlag("--keep-running");
+    cli.check = args.getFlag("--check");
+    cli.config_path = args.get("--config");
+    cli.options.lcm_url = args.get("--lcm-url");
+    if (args.has("--id")) cli.options.sheriff_id = args.get("--id");
+    if (args.has("--default-deputy")) cli.options.default_deputy = args.get("--default-deputy");
+    cli.timeout_s = seconds(args, "--timeout");
+    if (args.has("--duration")) cli.duration_s = seconds(args, "--duration");
+    cli.status_period_s = seconds(args, "--status-period");
+    cli.stop_on_exit = args.getFlag("--stop-on-exit");
+    const std::string wait = args.get("--wait");
+    if (wait == "started") {
+      cli.wait_mode = SheriffCli::Wait::kStarted;
+    } else if (wait == "running") {
+      cli.wait_mode = SheriffCli::Wait::kRunning;
+    } else if (wait == "none") {
+      cli.wait_mode = SheriffCli::Wait::kNone;
+    } else {
+      throw ips::ArgError("procman-sheriff: --wait must be started, running or none");
     }
-    return true;
-  };
-  optind = 0;  // getopt's state is global: start afresh on every command line
-  int c;
-  while ((c = getopt_long(argc, argv, "hu:", long_opts, nullptr)) >= 0) {
-    switch (c) {
-      case 'h':
-        printSheriffUsage(stdout);
-        return {std::nullopt, kSheriffExitOk};
-      case 'u':
-        cli.options.lcm_url = optarg;
-        break;
-      case kStartAll:
-        cli.start_all = true;
-        break;
-      case kStopAll:
-        cli.stop_all = true;
-        break;
-      case kRestartAll:
-        cli.restart_all = true;
-        break;
-      case kStart:
-        cli.starts.push_back(optarg);
-        break;
-      case kStop:
-        cli.stops.push_back(optarg);
-        break;
-      case kRestart:
-        cli.restarts.push_back(optarg);
-        break;
-      case kScript:
-        if (!cli.script.empty()) {
-          std::fprintf(stderr, "procman-sheriff: only one --script\n");
-          return error;
-        }
-        cli.script = optarg;
-        break;
-      case kStatus:
-        cli.status = true;
-        break;
-      case kFollow:
-        cli.follows.push_back(optarg);
-        break;
-      case kKeep:
-        cli.keep = true;
-        break;
-      case kCheck:
-        cli.check = true;
-        break;
-      case kConfig:
-        cli.config_path = optarg;
-        break;
-      case kId:
-        cli.options.sheriff_id = optarg;
-        break;
-      case kDefaultDeputy:
-        cli.options.default_deputy = optarg;
-        break;
-      case kTimeout:
-        if (!number("--timeout", optarg, cli.timeout_s)) return error;
-        break;
-      case kWait:
-        if (std::strcmp(optarg, "started") == 0) {
-          cli.wait_mode = SheriffCli::Wait::kStarted;
-        } else if (std::strcmp(optarg, "running") == 0) {
-          cli.wait_mode = SheriffCli::Wait::kRunning;
-        } else if (std::strcmp(optarg, "none") == 0) {
-          cli.wait_mode = SheriffCli::Wait::kNone;
-        } else {
-          std::fprintf(stderr, "procman-sheriff: --wait must be started, running or none\n");
-          return error;
-        }
-        break;
-      case kDuration:
-        if (!number("--duration", optarg, cli.duration_s)) return error;
-        break;
-      case kStatusPeriod:
-        if (!number("--status-period", optarg, cli.status_period_s)) return error;
-        break;
-      case kStopOnExit:
-        cli.stop_on_exit = true;
-        break;
-      default:
-        printSheriffUsage(stderr);
-        return error;
-    }
-  }
-  if (optind < argc) {
-    std::fprintf(stderr, "procman-sheriff: unexpected argument '%s'\n", argv[optind]);
+  } catch (const ips::ArgError& e) {
+    std::fprintf(stderr, "%s\n", e.what());
     return error;
   }
   if (!cli.ordersNeeded() && !cli.status && cli.follows.empty() && !cli.check) {

@@ -209,6 +209,42 @@ TEST(Args, HelpOfSeveralLinesIsIndented) {
       << help;
 }
 
+// The spellings the upstream procman tools accept: short forms, old long names, options given several times.
+TEST(Args, AliasesAndRepeatedOptions) {
+  const char* argv[] = {"prog", "-u", "udpm://a", "--start", "x", "--lcmurl=udpm://b", "--start", "y", "-v", "-"};
+  ips::Args a(10, const_cast<char**>(argv), "test");
+  a.section("Actions").repeated("--start", "NAME", "start NAME");
+  a.section("Options").option("--lcm-url", "URL", "LCM URL").alias("-u", "--lcm-url").alias("--lcmurl", "--lcm-url");
+  a.flag("--verbose", "talk").alias("-v", "--verbose").positionals("FILE", "input", 0, 1);
+  a.usage("prog [options] ACTION...").epilog("Exit status: 0 done.");
+  ASSERT_TRUE(a.parse());
+  EXPECT_EQ(a.get("--lcm-url"), "udpm://b");  // given twice, the last holds
+  EXPECT_EQ(a.getAll("--start"), (std::vector<std::string>{"x", "y"}));
+  EXPECT_TRUE(a.getFlag("--verbose"));
+  EXPECT_EQ(a.positional(), std::vector<std::string>{"-"});
+  const std::string help = a.help();
+  EXPECT_NE(help.find("Usage: prog [options] ACTION...\n\nActions:\n  --start NAME"), std::string::npos) << help;
+  EXPECT_NE(help.find("\nOptions:\n  -u, --lcm-url URL           LCM URL (also --lcmurl)\n"), std::string::npos)
+      << help;
+  EXPECT_NE(help.find("start NAME (repeatable)"), std::string::npos) << help;
+  EXPECT_EQ(help.substr(help.size() - 21), "Exit status: 0 done.\n");
+
+  const char* unknown_short[] = {"prog", "-x"};
+  ips::Args b(2, const_cast<char**>(unknown_short), "test");
+  b.flag("--verbose", "talk").alias("-v", "--verbose");
+  try {
+    b.parse();
+    FAIL() << "-x accepted";
+  } catch (const ips::ArgError& e) {
+    EXPECT_STREQ(e.what(), "prog: unknown option '-x' (see --help)");
+  }
+  const char* negative[] = {"prog", "-3"};
+  ips::Args c(2, const_cast<char**>(negative), "test");
+  c.positionals("N", "a number", 1, 1);
+  ASSERT_TRUE(c.parse());
+  EXPECT_EQ(c.positional().front(), "-3");
+}
+
 TEST(Args, IntegerListsAndTheirErrors) {
   EXPECT_EQ(ips::parseIntList("1,2,4,8", "--gaps", 1), (std::vector<int>{1, 2, 4, 8}));
   EXPECT_EQ(ips::parseIntList("-3", "--offsets", -5), (std::vector<int>{-3}));

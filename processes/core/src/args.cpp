@@ -1,5 +1,6 @@
 #include "ips/args.hpp"
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -32,6 +33,42 @@ Args& Args::flag(const std::string& name, const std::string& help) {
   return *this;
 }
 
+Args& Args::repeated(const std::string& name, const std::string& value_name, const std::string& help) {
+  specs_[name] = Spec{value_name, help, "", false, false, true};
+  order_.push_back(name);
+  return *this;
+}
+
+Args& Args::alias(const std::string& spelling, const std::string& name) {
+  auto it = specs_.find(name);
+  if (it == specs_.end())
+    throw ArgError(program_ + ": internal: alias '" + spelling + "' of undeclared '" + name + "'");
+  it->second.aliases.push_back(spelling);
+  aliases_[spelling] = name;
+  return *this;
+}
+
+Args& Args::section(const std::string& title) {
+  order_.push_back("\n" + title);
+  return *this;
+}
+
+Args& Args::usage(const std::string& text) {
+  usage_ = text;
+  return *this;
+}
+
+Args& Args::epilog(const std::string& text) {
+  epilog_ = text;
+  return *this;
+}
+
+std::string Args::canonical(const std::string& spelling) const {
+  if (specs_.count(spelling)) return spelling;
+  auto a = aliases_.find(spelling);
+  return a == aliases_.end() ? "" : a->second;
+}
+
 Args& Args::positionals(const std::string& name, const std::string& help, size_t min_count, size_t max_count) {
   positional_name_ = name;
   positional_help_ = help;
@@ -47,31 +84,39 @@ bool Args::parse() {
       std::fputs(help().c_str(), stdout);
       return false;
     }
-    if (a.rfind("--", 0) == 0) {
-      std::string value;
-      bool inline_value = false;
-      auto eq = a.find('=');
-      if (eq != std::string::npos) {
-        value = a.substr(eq + 1);
-        a = a.substr(0, eq);
-        inline_value = true;
-      }
-      auto it = specs_.find(a);
-      if (it == specs_.end()) throw ArgError(program_ + ": unknown option '" + a + "' (see --help)");
-      if (it->second.is_flag) {
-        if (inline_value) throw ArgError(program_ + ": option '" + a + "' takes no value");
-        values_[a] = "1";
-      } else {
-        if (!inline_value) {
-          if (i + 1 >= argv_.size())
-            throw ArgError(program_ + ": option '" + a + "' needs a value (" + it->second.value_name + ")");
-          value = argv_[++i];
-        }
-        values_[a] = value;
-      }
-    } else {
+    // "--name", "--name=value", or a declared short spelling ("-u"); "-" alone and negative numbers are positional.
+    const bool long_option = a.rfind("--", 0) == 0;
+    const bool short_option =
+        !long_option && a.size() > 1 && a[0] == '-' && std::isalpha(static_cast<unsigned char>(a[1]));
+    if (!long_option && !short_option) {
       positional_.push_back(a);
+      continue;
     }
+    std::string value;
+    bool inline_value = false;
+    const auto eq = long_option ? a.find('=') : std::string::npos;
+    if (eq != std::string::npos) {
+      value = a.substr(eq + 1);
+      a = a.substr(0, eq);
+      inline_value = true;
+    }
+    const std::string name = canonical(a);
+    if (name.empty()) throw ArgError(program_ + ": unknown option '" + a + "' (see --help)");
+    const Spec& spec = specs_.at(name);
+    if (spec.is_flag) {
+      if (inline_value) throw ArgError(program_ + ": option '" + a + "' takes no value");
+      values_[name] = {"1"};
+      continue;
+    }
+    if (!inline_value) {
+      if (i + 1 >= argv_.size())
+        throw ArgError(program_ + ": option '" + a + "' needs a value (" + spec.value_name + ")");
+      value = argv_[++i];
+    }
+    if (spec.is_repeated)
+      values_[name].push_back(value);
+    else
+      values_[name] = {value};  // given twice, the last one holds
   }
   if (positional_.size() < positional_min_ || positional_.size() > positional_max_) {
     if (positional_max_ == 0 && !positional_.empty())
@@ -81,7 +126,8 @@ bool Args::parse() {
                    positional_name_ + " argument(s), got " + std::to_string(positional_.size()));
   }
   for (const auto& name : order_) {
-    if (specs_[name].is_required && !values_.count(name))
+    auto s = specs_.find(name);
+    if (s != specs_.end() && s->second.is_required && !values_.count(name))
       throw ArgError(program_ + ": option '" + name + "' is required (see --help)");
   }
   return true;
@@ -89,7 +135,7 @@ bool Args::parse() {
 
 std::string Args::get(const std::string& name) const {
   auto v = values_.find(name);
-  if (v != values_.end()) return v->second;
+  if (v != values_.end()) return v->second.back();
   auto s = specs_.find(name);
   if (s == specs_.end()) throw ArgError(program_ + ": internal: option '" + name + "' was not declared");
   return s->second.default_value;
@@ -115,30 +161,59 @@ long long Args::getInt(const std::string& name) const {
 
 bool Args::getFlag(const std::string& name) const { return values_.count(name) > 0; }
 
+std::vector<std::string> Args::getAll(const std::string& name) const {
+  if (!specs_.count(name)) throw ArgError(program_ + ": internal: option '" + name + "' was not declared");
+  auto v = values_.find(name);
+  return v == values_.end() ? std::vector<std::string>{} : v->second;
+}
+
 std::string Args::help() const {
+  constexpr size_t kHelpColumn = 30;
   std::ostringstream os;
-  os << program_ << ": " << summary_ << "\n\nUsage: " << program_ << " [options]";
-  if (positional_max_ > 0) os << " " << positional_name_ << (positional_max_ > 1 ? "..." : "");
-  os << "\n\nOptions:\n";
+  os << program_ << ": " << summary_ << "\n\nUsage: ";
+  if (!usage_.empty()) {
+    os << usage_;
+  } else {
+    os << program_ << " [options]";
+    if (positional_max_ > 0) os << " " << positional_name_ << (positional_max_ > 1 ? "..." : "");
+  }
+  os << "\n";
+  if (order_.empty() || order_.front()[0] != '\n') os << "\nOptions:\n";
   for (const auto& name : order_) {
+    if (name[0] == '\n') {
+      os << "\n" << name.substr(1) << ":\n";
+      continue;
+    }
     const Spec& s = specs_.at(name);
-    std::string left = "  " + name + (s.is_flag ? "" : " " + s.value_name);
+    // Short spellings before the name ("-u, --lcm-url URL"), old long ones after the help.
+    std::string left = "  ";
+    std::string others;
+    for (const auto& a : s.aliases) {
+      if (a.rfind("--", 0) == 0)
+        others += (others.empty() ? "" : ", ") + a;
+      else
+        left += a + ", ";
+    }
+    left += name + (s.is_flag ? "" : " " + s.value_name);
     os << left;
-    if (left.size() < 30)
-      os << std::string(30 - left.size(), ' ');
+    if (left.size() < kHelpColumn)
+      os << std::string(kHelpColumn - left.size(), ' ');
     else
-      os << "\n" << std::string(30, ' ');
+      os << "\n" << std::string(kHelpColumn, ' ');
     // A help text of several lines continues under its first line.
     for (char c : s.help) {
       os << c;
-      if (c == '\n') os << std::string(30, ' ');
+      if (c == '\n') os << std::string(kHelpColumn, ' ');
     }
+    if (s.is_repeated) os << " (repeatable)";
     if (s.is_required) os << " (required)";
     if (!s.default_value.empty()) os << " [default: " << s.default_value << "]";
+    if (!others.empty()) os << " (also " << others << ")";
     os << "\n";
   }
   if (positional_max_ > 0) os << "  " << positional_name_ << "  " << positional_help_ << "\n";
-  os << "  --help                      this text\n";
+  os << "  -h, --help                  this text\n";
+  if (!epilog_.empty()) os << "\n" << epilog_ << (epilog_.back() == '\n' ? "" : "\n");
   return os.str();
 }
 
