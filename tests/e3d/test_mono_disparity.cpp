@@ -14,11 +14,7 @@
 #include "ips/eval/disparity.hpp"
 #include "ips/polar_rectification.hpp"
 #include "ips/sim/mono_truth.hpp"
-#include "ips/sim/renderer.hpp"
-#include "ips/sim/scenario.hpp"
-#include "ips/sim/sensors.hpp"
-#include "ips/sim/trajectory.hpp"
-#include "ips/sim/world.hpp"
+#include "ips/sim/rig.hpp"
 
 namespace ips {
 namespace {
@@ -37,16 +33,12 @@ Figures score(const PolarRectification& P, const cv::Mat& disparity, const cv::M
 }
 
 // The simulated walk and the deployed E3D configuration.
-struct Walk {
-  sim::Scenario sc = sim::Scenario::defaults();
-  sim::World world = sim::World::build(sc.world, sc.seed);
-  sim::SensorHead head = sim::SensorHead::make(sc);
-  sim::Trajectory traj{sc.trajectory, sc.gravity};
-  sim::StereoRenderer renderer{sc, world, head, traj};
-  sim::SceneRenderer scene{world, sc.camera.near_m};
+struct Walk : sim::Rig {
+  Walk() : Rig(sim::Scenario::defaults()) {}
+  sim::SceneRenderer scene{world, scenario.camera.near_m};
   Config cfg{std::string(IPS_SOURCE_DIR) + "/config/e3d_sim.yaml"};
   Eigen::Isometry3d pose(const sim::StereoFrame& f) const {
-    return head.cam0InWorld(traj.pose((f.utime_true - sc.start_utime) * 1e-6));
+    return head.cam0InWorld(trajectory.pose((f.utime_true - scenario.start_utime) * 1e-6));
   }
 };
 

@@ -13,32 +13,14 @@
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/mapper/voxel_map.hpp"
-#include "ips/sim/renderer.hpp"
-#include "ips/sim/scenario.hpp"
-#include "ips/sim/sensors.hpp"
-#include "ips/sim/trajectory.hpp"
-#include "ips/sim/world.hpp"
+#include "ips/sim/rig.hpp"
 
 using namespace ips::mapper;
 
 namespace {
 
-struct SimHead {
-  ips::sim::Scenario sc = ips::sim::Scenario::defaults();
-  ips::sim::World world;
-  ips::sim::SensorHead head;
-  ips::sim::Trajectory traj;
-  std::unique_ptr<ips::sim::StereoRenderer> renderer;
-  SimHead()
-      : world(ips::sim::World::build(sc.world, sc.seed)),
-        head(ips::sim::SensorHead::make(sc)),
-        traj(sc.trajectory, sc.gravity) {
-    renderer = std::make_unique<ips::sim::StereoRenderer>(sc, world, head, traj);
-  }
-};
-
-SimHead& simHead() {
-  static SimHead h;
+const ips::sim::Rig& simHead() {
+  static const ips::sim::Rig h(ips::sim::Scenario::defaults());
   return h;
 }
 
@@ -46,15 +28,15 @@ SimHead& simHead() {
 DisparityImage trueDisparity(double t) {
   const auto& h = simHead();
   DisparityImage img;
-  img.disparity = h.renderer->disparityFromDepth(h.renderer->rectifiedDepth(t, 0));
-  const auto& rect = h.renderer->rectification();
+  img.disparity = h.renderer.disparityFromDepth(h.renderer.rectifiedDepth(t, 0));
+  const auto& rect = h.renderer.rectification();
   img.focal_px = rect.f, img.cx = rect.cx, img.cy = rect.cy, img.baseline_m = rect.baseline;
   return img;
 }
 
 HeadGeometry trueGeometry() {
   HeadGeometry g;
-  g.R_rect0_cam0 = simHead().renderer->rectification().R_rect0_cam0;
+  g.R_rect0_cam0 = simHead().renderer.rectification().R_rect0_cam0;
   g.T_body_cam0 = simHead().head.calibration.T_imu_cam0;
   return g;
 }
@@ -65,7 +47,7 @@ TEST(MapperGeometry, TrueDisparityWithTheTruePoseLiesOnTheWorldsSurfaces) {
   MapperParams params;
   params.pixel_step = 4;
   for (double t : {10.0, 45.0, 80.0}) {
-    const Eigen::Isometry3d T_world_body = simHead().traj.pose(t);
+    const Eigen::Isometry3d T_world_body = simHead().trajectory.pose(t);
     const PointSet set = triangulate(trueDisparity(t), trueGeometry(), T_world_body, params);
     ASSERT_GT(set.points.size(), 1000u) << "t = " << t;
     const ips::eval::SurfaceErrors e = ips::eval::surfaceErrors(set.points, simHead().world);
@@ -168,7 +150,7 @@ namespace {
 
 Eigen::Isometry3d trueCamera(double t) {
   const auto& h = simHead();
-  return h.head.cam0InWorld(h.traj.pose(t));
+  return h.head.cam0InWorld(h.trajectory.pose(t));
 }
 
 Eigen::Matrix3d rotationVector(const Eigen::Vector3d& w) {
@@ -194,7 +176,7 @@ TEST(CloudOdometry, AlignsTwoMapsThreeSecondsApartBackToTheTruth) {
   const PointSet map1 = triangulate(trueDisparity(t1), g, placed1 * T_cam_body, mp);
 
   CloudOdometry odometry{CloudOdometryParams{}};
-  const auto& rect = simHead().renderer->rectification();
+  const auto& rect = simHead().renderer.rectification();
   const double k = mp.disparity_sigma_px / (rect.f * rect.baseline);
   const CloudDelta first = odometry.add(6'000'000, map0.points, cam0, k);
   EXPECT_FALSE(first.valid);

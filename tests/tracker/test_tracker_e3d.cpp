@@ -8,11 +8,7 @@
 #include <cstdio>
 
 #include "ips/eval/e3d_guide.hpp"
-#include "ips/sim/renderer.hpp"
-#include "ips/sim/scenario.hpp"
-#include "ips/sim/sensors.hpp"
-#include "ips/sim/trajectory.hpp"
-#include "ips/sim/world.hpp"
+#include "ips/sim/rig.hpp"
 #include "ips/tracker/params.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
@@ -20,12 +16,9 @@ using namespace ips::tracker;
 
 namespace {
 
-struct Walk {
-  ips::sim::Scenario sc = ips::sim::Scenario::defaults();
-  ips::sim::World world = ips::sim::World::build(sc.world, sc.seed);
-  ips::sim::SensorHead head = ips::sim::SensorHead::make(sc);
-  ips::sim::Trajectory traj{sc.trajectory, sc.gravity};
-  ips::sim::StereoRenderer renderer{sc, world, head, traj};
+// The default simulated walk.
+struct Walk : ips::sim::Rig {
+  Walk() : Rig(ips::sim::Scenario::defaults()) {}
 };
 
 const TrackerParams& deployedParams() {

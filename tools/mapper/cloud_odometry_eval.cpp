@@ -26,11 +26,7 @@
 #include "ips/mapper/cloud_odometry.hpp"
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/stereo_points.hpp"
-#include "ips/sim/renderer.hpp"
-#include "ips/sim/scenario.hpp"
-#include "ips/sim/sensors.hpp"
-#include "ips/sim/trajectory.hpp"
-#include "ips/sim/world.hpp"
+#include "ips/sim/rig.hpp"
 
 using namespace ips;
 
@@ -81,11 +77,8 @@ int main(int argc, char** argv) {
         .option("--csv", "FILE", "one line per map pair");
     if (!args.parse()) return 0;
     const sim::Scenario sc = sim::Scenario::load(args.get("--scenario"));
-    const sim::World world = sim::World::build(sc.world, sc.seed);
-    const sim::SensorHead head = sim::SensorHead::make(sc);
-    const sim::Trajectory traj(sc.trajectory, sc.gravity);
-    const sim::StereoRenderer renderer(sc, world, head, traj);
-    const double duration = args.has("--duration") ? args.getDouble("--duration") : traj.duration();
+    const sim::Rig rig(sc);
+    const double duration = args.has("--duration") ? args.getDouble("--duration") : rig.trajectory.duration();
     const int every_nth = static_cast<int>(args.getInt("--every-nth"));
     if (every_nth < 1) throw ArgError("--every-nth must be at least 1");
     const bool truth_disparity = args.getFlag("--truth-disparity");
@@ -95,7 +88,7 @@ int main(int argc, char** argv) {
     const Config mapper_cfg(args.get("--mapper-config"));
     const mapper::MapperParams mp = mapper::loadMapperParams(mapper_cfg);
     mapper::CloudOdometry odometry(mapper::CloudOdometryParams::fromConfig(mapper_cfg));
-    const StereoCalibration& calib = head.calibration;
+    const StereoCalibration& calib = rig.head.calibration;
     mapper::HeadGeometry geometry;
     geometry.R_rect0_cam0 = computeRectification(calib).R_rect0_cam0;
     geometry.T_body_cam0 = calib.T_imu_cam0;
@@ -128,9 +121,9 @@ int main(int argc, char** argv) {
     std::vector<double> errs_t, errs_r;
     double sum_t2 = 0, sum_r2 = 0, sum_prior_t2 = 0, sum_prior_r2 = 0, sum_nees = 0;
     for (int64_t k = 0; k <= last; k += every_nth) {
-      const sim::StereoFrame f = renderer.render(k, truth_disparity);
-      const Eigen::Isometry3d T_world_body = traj.pose((f.utime_true - sc.start_utime) * 1e-6);
-      const Eigen::Isometry3d cam_true = head.cam0InWorld(T_world_body);
+      const sim::StereoFrame f = rig.renderer.render(k, truth_disparity);
+      const Eigen::Isometry3d T_world_body = rig.trajectory.pose((f.utime_true - sc.start_utime) * 1e-6);
+      const Eigen::Isometry3d cam_true = rig.head.cam0InWorld(T_world_body);
       mapper::DisparityImage image;
       image.disparity = truth_disparity ? f.gt_disparity : toPixels(matcher->matchRaw(f.left, f.right).disparity);
       image.focal_px = rect.f, image.cx = rect.cx, image.cy = rect.cy, image.baseline_m = rect.baseline;

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "ips/args.hpp"
-#include "ips/sim/renderer.hpp"
+#include "ips/sim/rig.hpp"
 
 int main(int argc, char** argv) {
   using Clock = std::chrono::steady_clock;
@@ -24,21 +24,19 @@ int main(int argc, char** argv) {
     const auto t0 = Clock::now();
     const ips::sim::Scenario sc =
         scenario_path.empty() ? ips::sim::Scenario::defaults() : ips::sim::Scenario::load(scenario_path);
-    const ips::sim::World world = ips::sim::World::build(sc.world, sc.seed);
-    const ips::sim::SensorHead head = ips::sim::SensorHead::make(sc);
-    const ips::sim::Trajectory traj(sc.trajectory, sc.gravity);
-    const ips::sim::StereoRenderer renderer(sc, world, head, traj);
+    const ips::sim::Rig rig(sc);
+    const ips::sim::Trajectory& traj = rig.trajectory;
     const auto t1 = Clock::now();
     if (duration < 0) duration = traj.duration();
     const int64_t frames = static_cast<int64_t>(std::floor(duration * sc.camera.rate_hz)) + 1;
     ips::sim::ImuSimulator imu(sc.imu, traj, sc.start_utime, sc.seed);
-    ips::sim::TiltSimulator tilt(sc.tilt, traj, head.R_tilt_imu, sc.start_utime, sc.gravity, sc.seed);
+    ips::sim::TiltSimulator tilt(sc.tilt, traj, rig.head.R_tilt_imu, sc.start_utime, sc.gravity, sc.seed);
     double render_s = 0, worst = 0, sensors_s = 0;
     uint64_t checksum = 0;
     const int64_t end_utime = sc.start_utime + static_cast<int64_t>(duration * 1e6);
     for (int64_t k = 0; k < frames; ++k) {
       const auto a = Clock::now();
-      const ips::sim::StereoFrame f = renderer.render(k);
+      const ips::sim::StereoFrame f = rig.renderer.render(k);
       const auto b = Clock::now();
       render_s += seconds(a, b);
       worst = std::max(worst, seconds(a, b));
@@ -57,7 +55,7 @@ int main(int argc, char** argv) {
     const double total = seconds(t0, Clock::now());
     std::cout << "scenario '" << sc.name << "': " << duration << " s simulated, " << frames << " stereo pairs "
               << sc.camera.width << "x" << sc.camera.height << " at " << sc.camera.rate_hz << " Hz, " << imu_n
-              << " IMU, " << tilt_n << " tilt samples, " << world.quads.size() << " quads\n";
+              << " IMU, " << tilt_n << " tilt samples, " << rig.world.quads.size() << " quads\n";
     std::cout << "setup (world, textures, lens maps, rectification): " << seconds(t0, t1) << " s\n";
     std::cout << "rendering: " << render_s << " s = " << 1000 * render_s / frames << " ms per pair (worst "
               << 1000 * worst << " ms; real time at " << sc.camera.rate_hz << " Hz allows " << 1000 / sc.camera.rate_hz

@@ -8,7 +8,7 @@
 #include <string>
 
 #include "ips/args.hpp"
-#include "ips/sim/renderer.hpp"
+#include "ips/sim/rig.hpp"
 
 int main(int argc, char** argv) {
   try {
@@ -26,14 +26,11 @@ int main(int argc, char** argv) {
     ips::sim::Scenario sc =
         scenario_path.empty() ? ips::sim::Scenario::defaults() : ips::sim::Scenario::load(scenario_path);
     if (seed >= 0) sc.seed = static_cast<uint64_t>(seed);
-    const ips::sim::World world = ips::sim::World::build(sc.world, sc.seed);
-    const ips::sim::SensorHead head = ips::sim::SensorHead::make(sc);
-    const ips::sim::Trajectory traj(sc.trajectory, sc.gravity);
-    const ips::sim::StereoRenderer renderer(sc, world, head, traj);
+    const ips::sim::Rig rig(sc);
     const int64_t k = std::llround(time_s * sc.camera.rate_hz);
-    const ips::sim::StereoFrame f = renderer.render(k, true);
+    const ips::sim::StereoFrame f = rig.renderer.render(k, true);
     cv::Mat r0, r1, disp8;
-    ips::rectifyPair(renderer.rectification(), f.left, f.right, r0, r1);
+    ips::rectifyPair(rig.renderer.rectification(), f.left, f.right, r0, r1);
     f.gt_disparity.convertTo(disp8, CV_8U, 1.0);
     cv::imwrite(prefix + "_left.png", f.left);
     cv::imwrite(prefix + "_right.png", f.right);
@@ -42,8 +39,9 @@ int main(int argc, char** argv) {
     cv::imwrite(prefix + "_gt_disparity.png", disp8);
     double mn, mx;
     cv::minMaxLoc(f.gt_disparity, &mn, &mx);
-    std::cout << "frame " << k << " t=" << time_s << " s, " << world.quads.size() << " quads, " << world.photo_count
-              << " photographs, disparity " << mn << ".." << mx << " px; wrote " << prefix << "_*.png\n";
+    std::cout << "frame " << k << " t=" << time_s << " s, " << rig.world.quads.size() << " quads, "
+              << rig.world.photo_count << " photographs, disparity " << mn << ".." << mx << " px; wrote " << prefix
+              << "_*.png\n";
   } catch (const ips::ArgError& e) {
     std::cerr << e.what() << "\n";  // names the program and the option
     return 2;

@@ -24,6 +24,7 @@
 #include "ips/eval/tracker_on_sim.hpp"
 #include "ips/polar_rectification.hpp"
 #include "ips/sim/mono_truth.hpp"
+#include "ips/sim/rig.hpp"
 
 using namespace ips;
 using namespace ips::tracker;
@@ -107,12 +108,10 @@ int main(int argc, char** argv) {
     const std::vector<int> gaps = parseIntList(args.get("--gaps"), "--gaps", 1);
     const int every = static_cast<int>(args.getInt("--every"));
     const bool quiet = args.get("--quiet") != "0";
-    const sim::World world = sim::World::build(sc.world, sc.seed);
-    const sim::SensorHead head = sim::SensorHead::make(sc);
-    const sim::Trajectory traj(sc.trajectory, sc.gravity);
-    const double duration = args.has("--duration") ? args.getDouble("--duration") : traj.duration();
-    const sim::StereoRenderer renderer(sc, world, head, traj);
-    const sim::SceneRenderer scene(world, sc.camera.near_m);
+    const sim::Rig rig(sc);
+    const sim::SensorHead& head = rig.head;
+    const double duration = args.has("--duration") ? args.getDouble("--duration") : rig.trajectory.duration();
+    const sim::SceneRenderer scene(rig.world, sc.camera.near_m);
     const int64_t last_frame = static_cast<int64_t>(std::floor(duration * sc.camera.rate_hz));
     const int max_gap = *std::max_element(gaps.begin(), gaps.end());
 
@@ -140,7 +139,7 @@ int main(int argc, char** argv) {
     const cv::Size raw_size(head.calibration.cam0.width, head.calibration.cam0.height);
 
     const auto cam_pose = [&](const sim::StereoFrame& f) {
-      return head.cam0InWorld(traj.pose((f.utime_true - sc.start_utime) * 1e-6));
+      return head.cam0InWorld(rig.trajectory.pose((f.utime_true - sc.start_utime) * 1e-6));
     };
     double stereo_bad2 = 0, stereo_density = 0, stereo_depth_err = 0;
     int stereo_maps = 0;
@@ -148,7 +147,7 @@ int main(int argc, char** argv) {
     std::map<int, MonoScore> by_gap_truth, by_gap_tracker;
     std::map<int, int> skipped;  // pose from the tracker missing over the gap
     for (int64_t k0 = every; k0 + max_gap <= last_frame; k0 += every) {
-      const sim::StereoFrame fa = renderer.render(k0, true);
+      const sim::StereoFrame fa = rig.renderer.render(k0, true);
       double depth_err = 0;
       const auto [bad2, density] = stereo.score(fa.left, fa.right, fa.gt_disparity, &depth_err);
       stereo_depth_err += depth_err;
@@ -158,7 +157,7 @@ int main(int argc, char** argv) {
       ++stereo_maps;
       const Eigen::Isometry3d W_a = cam_pose(fa);
       for (int g : gaps) {
-        const sim::StereoFrame fb = renderer.render(k0 + g);
+        const sim::StereoFrame fb = rig.renderer.render(k0 + g);
         const Eigen::Isometry3d W_b = cam_pose(fb);
         std::vector<std::pair<std::string, Eigen::Isometry3d>> poses = {{"true", W_a.inverse() * W_b}};
         if (args.has("--params")) {

@@ -153,18 +153,15 @@ int main(int argc, char** argv) {
       const int sim_frames = static_cast<int>(args.getInt("--sim_frames"));
       const ips::sim::Scenario sc =
           args.has("--scenario") ? ips::sim::Scenario::load(args.get("--scenario")) : ips::sim::Scenario::defaults();
-      const ips::sim::World world = ips::sim::World::build(sc.world, sc.seed);
-      const ips::sim::SensorHead head = ips::sim::SensorHead::make(sc);
-      const ips::sim::Trajectory traj(sc.trajectory, sc.gravity);
-      const ips::sim::StereoRenderer renderer(sc, world, head, traj);
+      const ips::sim::Rig rig(sc);
       std::vector<ips::sim::StereoFrame> frames;
-      for (int k = 0; k < sim_frames; ++k) frames.push_back(renderer.render(k));
+      for (int k = 0; k < sim_frames; ++k) frames.push_back(rig.renderer.render(k));
       cv::setNumThreads(1);  // the renderer may have changed it
       Stats sim;
       int sim_valid = 0;
       double sim_features = 0, sim_inliers = 0;
       for (int r = 0; r < repeat; ++r) {
-        StereoTracker tracker(head.calibration, params);
+        StereoTracker tracker(rig.head.calibration, params);
         for (size_t i = 0; i < frames.size(); ++i) {
           const TrackResult res = tracker.process(frames[i].utime_stamp, frames[i].left, frames[i].right);
           if (i == 0) continue;

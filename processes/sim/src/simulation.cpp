@@ -7,26 +7,22 @@
 namespace ips::sim {
 
 Simulation::Simulation(const Scenario& scenario, const SimulationOptions& options)
-    : scenario_(scenario),
+    : rig_(scenario),
       options_(options),
-      head_(SensorHead::make(scenario_)),
-      trajectory_(scenario_.trajectory, scenario_.gravity),
-      world_(World::build(scenario_.world, scenario_.seed)),
-      imu_(scenario_.imu, trajectory_, scenario_.start_utime, scenario_.seed),
-      tilt_(scenario_.tilt, trajectory_, head_.R_tilt_imu, scenario_.start_utime, scenario_.gravity, scenario_.seed) {
-  scenario_.validate();
+      imu_(rig_.scenario.imu, rig_.trajectory, rig_.scenario.start_utime, rig_.scenario.seed),
+      tilt_(rig_.scenario.tilt, rig_.trajectory, rig_.head.R_tilt_imu, rig_.scenario.start_utime, rig_.scenario.gravity,
+            rig_.scenario.seed) {
   if (!(options.duration_s >= 0) || options.duration_s > 1e6)
     throw std::invalid_argument("Simulation: duration must be in [0, 1e6] s");
   if (options.gt_disparity_every < 0) throw std::invalid_argument("Simulation: gt_disparity_every must be >= 0");
-  renderer_ = std::make_unique<StereoRenderer>(scenario_, world_, head_, trajectory_);
-  end_utime_ = scenario_.start_utime + std::llround(options.duration_s * 1e6);
-  frame_count_ = static_cast<int64_t>(std::floor(options.duration_s * scenario_.camera.rate_hz + 1e-9)) + 1;
+  end_utime_ = rig_.scenario.start_utime + std::llround(options.duration_s * 1e6);
+  frame_count_ = static_cast<int64_t>(std::floor(options.duration_s * rig_.scenario.camera.rate_hz + 1e-9)) + 1;
   next_imu_ = imu_.next();
   next_tilt_ = tilt_.next();
 }
 
 GroundTruth Simulation::truthAt(int64_t utime, const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) const {
-  const TrajectoryState s = trajectory_.state((utime - scenario_.start_utime) * 1e-6);
+  const TrajectoryState s = rig_.trajectory.state((utime - rig_.scenario.start_utime) * 1e-6);
   GroundTruth g;
   g.utime = utime;
   g.position = s.position;
@@ -47,7 +43,7 @@ bool Simulation::next(std::vector<SimEvent>& out) {
   // Everything sampled up to the next frame time (or the end).
   const int64_t horizon =
       last ? end_utime_
-           : std::min(end_utime_, sampleUtime(scenario_.start_utime, next_frame_, scenario_.camera.rate_hz));
+           : std::min(end_utime_, sampleUtime(rig_.scenario.start_utime, next_frame_, rig_.scenario.camera.rate_hz));
   auto addTruth = [&](int64_t utime) {
     if (!truth_times_.insert(utime).second) return;
     SimEvent e;
@@ -81,7 +77,7 @@ bool Simulation::next(std::vector<SimEvent>& out) {
   }
   if (!last) {
     const bool gt = options_.gt_disparity_every > 0 && next_frame_ % options_.gt_disparity_every == 0;
-    auto frame = std::make_shared<const StereoFrame>(renderer_->render(next_frame_, gt));
+    auto frame = std::make_shared<const StereoFrame>(rig_.renderer.render(next_frame_, gt));
     SimEvent e;
     e.kind = SimEvent::kStereo;
     e.log_utime = frame->utime_arrival;

@@ -10,11 +10,10 @@
 #include <string>
 #include <vector>
 
-#include "ips/sim/renderer.hpp"
+#include "ips/sim/rig.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/trajectory.hpp"
-#include "ips/sim/world.hpp"
 #include "ips/tracker/epipolar_integrity.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
@@ -39,20 +38,17 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
                                                          const std::function<void(const SimFrameError&)>& each = {},
                                                          const SimGuide& guide = {}) {
   const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
-  const sim::World world = sim::World::build(sc.world, sc.seed);
-  const sim::SensorHead head = sim::SensorHead::make(sc);
-  const sim::Trajectory traj(sc.trajectory, sc.gravity);
-  const sim::StereoRenderer renderer(sc, world, head, traj);
-  sim::ImuSimulator imu(sc.imu, traj, sc.start_utime, sc.seed);
+  const sim::Rig rig(sc);
+  sim::ImuSimulator imu(sc.imu, rig.trajectory, sc.start_utime, sc.seed);
   sim::ImuMeasurement next_imu = imu.next();
 
-  tracker::StereoTracker tracker(head.calibration, params);
+  tracker::StereoTracker tracker(rig.head.calibration, params);
   const int64_t frames = int64_t(std::floor(duration_s * sc.camera.rate_hz)) + 1;
   std::vector<SimFrameError> out;
   Eigen::Isometry3d prev_cam = Eigen::Isometry3d::Identity();
   int64_t prev_utime = 0;
   for (int64_t k = 0; k < frames; ++k) {
-    const sim::StereoFrame f = renderer.render(k);
+    const sim::StereoFrame f = rig.renderer.render(k);
     // Gyro rates between the two pairs (bias-free as a calibrated filter would give them).
     Eigen::Vector3d omega_sum = Eigen::Vector3d::Zero();
     int n_imu = 0;
@@ -63,12 +59,13 @@ inline std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scen
       }
       next_imu = imu.next();
     }
-    const Eigen::Isometry3d cam = head.cam0InWorld(traj.pose((f.utime_true - sc.start_utime) * 1e-6));
+    const Eigen::Isometry3d cam = rig.head.cam0InWorld(rig.trajectory.pose((f.utime_true - sc.start_utime) * 1e-6));
     tracker::MotionPrior prior;
     const tracker::MotionPrior* prior_ptr = nullptr;
     if (k > 0 && prior_mode == SimPrior::Imu && n_imu > 0) {
       const double dt = (f.utime_stamp - prev_utime) * 1e-6;
-      prior = tracker::MotionPrior::fromImuRates(omega_sum / n_imu, head.T_imu_cam0.linear(), dt, 0.01, params.prior);
+      prior =
+          tracker::MotionPrior::fromImuRates(omega_sum / n_imu, rig.head.T_imu_cam0.linear(), dt, 0.01, params.prior);
       prior_ptr = &prior;
     } else if (prior_mode == SimPrior::None) {
       prior_ptr = &prior;  // source None: widest windows every time
@@ -117,17 +114,14 @@ inline void runIntegrityOnSimulation(const sim::Scenario& sc, double duration_s,
                                      const tracker::IntegrityParams& integrity,
                                      const std::function<bool(int64_t)>& with_disparity,
                                      const std::function<void(const SimIntegrityFrame&)>& each) {
-  const sim::World world = sim::World::build(sc.world, sc.seed);
-  const sim::SensorHead head = sim::SensorHead::make(sc);
-  const sim::Trajectory traj(sc.trajectory, sc.gravity);
-  const sim::StereoRenderer renderer(sc, world, head, traj);
-  const StereoCalibration told = head.calibrationForProcesses(sc);
+  const sim::Rig rig(sc);
+  const StereoCalibration told = rig.head.calibrationForProcesses(sc);
   tracker::StereoTracker tracker(told, params);
   tracker::EpipolarMonitor monitor(tracker.rectification(), integrity);
   const Eigen::Matrix3d R_rect1_cam1 = tracker.rectification().R_rect1_cam1;
   const int64_t frames = int64_t(std::floor(duration_s * sc.camera.rate_hz)) + 1;
   for (int64_t k = 0; k < frames; ++k) {
-    const sim::StereoFrame f = renderer.render(k, with_disparity && with_disparity(k));
+    const sim::StereoFrame f = rig.renderer.render(k, with_disparity && with_disparity(k));
     SimIntegrityFrame out;
     out.frame = k;
     out.t = (f.utime_true - sc.start_utime) * 1e-6;
@@ -137,7 +131,7 @@ inline void runIntegrityOnSimulation(const sim::Scenario& sc, double duration_s,
     out.monitor_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     out.pair = &f;
     out.told = &told;
-    out.truth = R_rect1_cam1 * tracker::logSO3(head.cam1Turn(out.t));
+    out.truth = R_rect1_cam1 * tracker::logSO3(rig.head.cam1Turn(out.t));
     each(out);
   }
 }

@@ -11,11 +11,7 @@
 #include <set>
 #include <vector>
 
-#include "ips/sim/renderer.hpp"
-#include "ips/sim/scenario.hpp"
-#include "ips/sim/sensors.hpp"
-#include "ips/sim/trajectory.hpp"
-#include "ips/sim/world.hpp"
+#include "ips/sim/rig.hpp"
 
 namespace ips::sim {
 
@@ -48,11 +44,12 @@ class Simulation {
  public:
   Simulation(const Scenario& scenario, const SimulationOptions& options);
 
-  const Scenario& scenario() const { return scenario_; }
-  const SensorHead& head() const { return head_; }
-  const Trajectory& trajectory() const { return trajectory_; }
-  const World& world() const { return world_; }
-  const StereoRenderer& renderer() const { return *renderer_; }
+  const Rig& rig() const { return rig_; }
+  const Scenario& scenario() const { return rig_.scenario; }
+  const SensorHead& head() const { return rig_.head; }
+  const Trajectory& trajectory() const { return rig_.trajectory; }
+  const World& world() const { return rig_.world; }
+  const StereoRenderer& renderer() const { return rig_.renderer; }
   int64_t frameCount() const { return frame_count_; }
 
   // Appends the next events (those up to the next camera frame) in arrival order; false when all were given.
@@ -63,12 +60,8 @@ class Simulation {
  private:
   void push(SimEvent e);
 
-  Scenario scenario_;
+  Rig rig_;
   SimulationOptions options_;
-  SensorHead head_;
-  Trajectory trajectory_;
-  World world_;
-  std::unique_ptr<StereoRenderer> renderer_;
   ImuSimulator imu_;
   TiltSimulator tilt_;
   int64_t end_utime_;
