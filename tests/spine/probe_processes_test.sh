@@ -48,7 +48,10 @@ done
 kill -INT $monitor; wait $monitor || true
 kill -INT "${pids[@]}" 2>/dev/null || true
 for p in "${pids[@]}"; do wait "$p" || { echo "FAIL: a process exited with an error after SIGINT"; fail=1; }; done
-kill -INT $repeater $logger 2>/dev/null || true
+# The repeater has no SIGINT handler, and a script's background jobs ignore SIGINT: it would relay until its
+# --duration ran out. SIGTERM ends it.
+kill -TERM $repeater 2>/dev/null || true
+kill -INT $logger 2>/dev/null || true
 wait $repeater $logger 2>/dev/null || true
 cat "$W/monitor.txt"
 
