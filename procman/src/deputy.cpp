@@ -17,14 +17,10 @@
 #include <stdexcept>
 #include <vector>
 
+#include "procman/clock.hpp"
+
 namespace ips::procman {
 namespace {
-
-// The deputy compares order stamps with its clock, as the protocol requires, so it uses the wall clock.
-int64_t nowUs() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 std::string stamp() {
   char buf[64];

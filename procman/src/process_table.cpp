@@ -13,20 +13,10 @@
 #include <cstdio>
 #include <cstring>
 
+#include "procman/clock.hpp"
 #include "procman/exec_string.hpp"
 
 namespace ips::procman {
-namespace {
-
-// The same clock as the deputy's (the wall clock, which the protocol's order stamps use), so that the
-// deadlines it computes from nextDeadline() line up.
-int64_t nowUs() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
-}  // namespace
-
 struct ProcessTable::Command {
   CommandSpec spec;
   pid_t pid = 0;

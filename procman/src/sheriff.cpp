@@ -15,18 +15,13 @@
 #include <stdexcept>
 #include <thread>
 
+#include "procman/clock.hpp"
 #include "procman/deputy.hpp"
 #include "procman_lcm/discovery_t.hpp"
 #include "procman_lcm/orders_t.hpp"
 
 namespace ips::procman {
 namespace {
-
-// Orders carry the sender's clock (deputies check their age), so the sheriff uses the wall clock.
-int64_t nowUs() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 std::string hostName() {
   char host[256] = {0};
