@@ -520,16 +520,25 @@ void shiftedPair(uint64_t seed, int shift, cv::Mat& left, cv::Mat& right) {
 // ---- sgm_aggregate (lines) ----
 
 // Costs of the reference in the cost slice, the aggregation alone, its path slices summed on the host against
-// aggregateCosts.
-void expectLineAggregationEqualsReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params) {
+// aggregateCosts. `mirror`: the second match, right to left, whose image (the right one, read mirrored) sets the
+// adaptive P2; its reference is the mirrored pair.
+void expectLineAggregationEqualsReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params,
+                                          bool mirror = false) {
   const cv::Size size = left.size();
   const LinesPlan plan = linesPlan(size, params, 11);
   Volume volume((params.paths + 1) * size.height, plan.row_bytes, plan.rows_per_chunk);
-  const std::vector<uint8_t> costs = costVolume(left, right, params);
+  cv::Mat ref_left = left, ref_right = right;
+  if (mirror) {
+    ref_left = cv::Mat();
+    ref_right = cv::Mat();
+    cv::flip(right, ref_left, 1);
+    cv::flip(left, ref_right, 1);
+  }
+  const std::vector<uint8_t> costs = costVolume(ref_left, ref_right, params);
   writeSlice(volume, plan.cost_base_row, size, params.num_disparities, plan.lanes, costs);
-  vk::Buffer image = imageBuffer(left);
+  vk::Buffer image = imageBuffer(mirror ? right : left);
   vk::DescriptorPool pool = makePool();
-  LineAggregationStage stage(pool, specialisation(plan.lanes.lane_disps, params), size, params, image,
+  LineAggregationStage stage(pool, specialisation(plan.lanes.lane_disps, params, mirror), size, params, image,
                              volume.descriptors(), plan);
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
   std::vector<uint16_t> sums(costs.size(), 0);
@@ -537,10 +546,10 @@ void expectLineAggregationEqualsReference(const cv::Mat& left, const cv::Mat& ri
     const std::vector<uint8_t> slice = readSlice(volume, path * size.height, size, params.num_disparities, plan.lanes);
     for (size_t i = 0; i < sums.size(); ++i) sums[i] = static_cast<uint16_t>(sums[i] + slice[i]);
   }
-  const std::vector<uint16_t> expected = aggregateCosts(left, costs, params);
+  const std::vector<uint16_t> expected = aggregateCosts(ref_left, costs, params);
   size_t different = 0;
   for (size_t i = 0; i < sums.size(); ++i) different += sums[i] != expected[i];
-  EXPECT_EQ(different, 0u) << params.describe();
+  EXPECT_EQ(different, 0u) << params.describe() << (mirror ? " mirrored" : "");
 }
 
 TEST(LineAggregationStage, EqualsReference) {
@@ -561,10 +570,24 @@ TEST(LineAggregationStage, EqualsReference) {
   expectLineAggregationEqualsReference(flat, flat, p);
 }
 
+// The second match's aggregation: the adaptive P2 must follow the mirrored right image, not the left one.
+TEST(LineAggregationStage, SecondMatchEqualsReferenceOfTheMirroredPair) {
+  cv::Mat left, right;
+  shiftedPair(72, 4, left, right);
+  SgmParams p;
+  p.num_disparities = 21;
+  expectLineAggregationEqualsReference(left, right, p, true);
+  SgmParams ad = SgmParams::forCost(Cost::ad);
+  ad.num_disparities = 16;
+  expectLineAggregationEqualsReference(left, right, ad, true);
+}
+
 // ---- sgm_wta (lines) ----
 
-// Random path costs in the path slices, the winner-takes-all alone against winnerTakesAll of their sums.
-void expectWtaEqualsReference(cv::Size size, const SgmParams& params, uint64_t seed, int max_path_cost) {
+// Random path costs in the path slices, the winner-takes-all alone against winnerTakesAll of their sums. `mirror`:
+// the second match, whose map is stored mirrored back (its columns run right to left) and which writes no right map.
+void expectWtaEqualsReference(cv::Size size, const SgmParams& params, uint64_t seed, int max_path_cost,
+                              bool mirror = false) {
   const LinesPlan plan = linesPlan(size, params, 13);
   Volume volume((params.paths + 1) * size.height, plan.row_bytes, plan.rows_per_chunk);
   const size_t n = size.area() * static_cast<size_t>(params.num_disparities);
@@ -580,11 +603,19 @@ void expectWtaEqualsReference(cv::Size size, const SgmParams& params, uint64_t s
   }
   vk::Buffer disp[2] = {hostBuffer(size.area() * 4), hostBuffer(size.area() * 4)};
   vk::DescriptorPool pool = makePool();
-  WtaStage stage(pool, specialisation(plan.lanes.lane_disps, params), size, params, volume.descriptors(), disp[0],
-                 disp[1], plan);
+  WtaStage stage(pool, specialisation(plan.lanes.lane_disps, params, mirror), size, params, volume.descriptors(),
+                 disp[0], disp[1], plan);
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
   cv::Mat left16, right16;
   winnerTakesAll(sums, size, params, left16, right16);
+  if (mirror) {
+    cv::Mat stored;
+    cv::flip(left16, stored, 1);
+    EXPECT_EQ(differences(readMap(disp[0], size), stored), 0) << params.describe() << " mirrored";
+    const cv::Mat untouched = readMap(disp[1], size) != static_cast<int32_t>(0xCDCDCDCD);
+    EXPECT_EQ(cv::countNonZero(untouched), 0) << "the second match wrote a right map";
+    return;
+  }
   EXPECT_EQ(differences(readMap(disp[0], size), left16), 0) << params.describe();
   EXPECT_EQ(differences(readMap(disp[1], size), right16), 0) << params.describe();
 }
@@ -601,6 +632,13 @@ TEST(WtaStage, EqualsReferenceWithSubpixelAndUniqueness) {
   p.num_disparities = 64;
   p.min_disparity = 25;  // the diagonal search leaves the right row's end without a disparity
   expectWtaEqualsReference({37, 23}, p, 83, 255);
+}
+
+TEST(WtaStage, SecondMatchStoresItsMapMirroredBack) {
+  SgmParams p;
+  p.num_disparities = 21;
+  p.uniqueness = 5;
+  expectWtaEqualsReference({37, 23}, p, 85, 255, true);
 }
 
 TEST(WtaStage, TiesTakeTheSmallestDisparity) {
