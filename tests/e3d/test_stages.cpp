@@ -519,9 +519,9 @@ void shiftedPair(uint64_t seed, int shift, cv::Mat& left, cv::Mat& right) {
 
 // ---- sgm_aggregate (lines) ----
 
-// Costs of the reference in the cost slice, the aggregation alone, its path slices summed on the host against
-// aggregateCosts. `mirror`: the second match, right to left, whose image (the right one, read mirrored) sets the
-// adaptive P2; its reference is the mirrored pair.
+// Costs of the reference in the cost slice, the aggregation alone, each path slice against pathCosts of its direction
+// (aggregateCosts is their sum). `mirror`: the second match, right to left, whose image (the right one, read mirrored)
+// sets the adaptive P2; its reference is the mirrored pair.
 void expectLineAggregationEqualsReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params,
                                           bool mirror = false) {
   const cv::Size size = left.size();
@@ -541,15 +541,15 @@ void expectLineAggregationEqualsReference(const cv::Mat& left, const cv::Mat& ri
   LineAggregationStage stage(pool, specialisation(plan.lanes.lane_disps, params, mirror), size, params, image,
                              volume.descriptors(), plan);
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
-  std::vector<uint16_t> sums(costs.size(), 0);
+  // Each path's slice against that path alone, so that a wrong direction shows by name.
   for (int path = 0; path < params.paths; ++path) {
     const std::vector<uint8_t> slice = readSlice(volume, path * size.height, size, params.num_disparities, plan.lanes);
-    for (size_t i = 0; i < sums.size(); ++i) sums[i] = static_cast<uint16_t>(sums[i] + slice[i]);
+    const std::vector<uint16_t> expected = pathCosts(ref_left, costs, params, path);
+    size_t different = 0;
+    for (size_t i = 0; i < slice.size(); ++i) different += slice[i] != expected[i];
+    EXPECT_EQ(different, 0u) << params.describe() << (mirror ? " mirrored" : "") << ", path " << path << " ("
+                             << kPathDirections[path][0] << ", " << kPathDirections[path][1] << ")";
   }
-  const std::vector<uint16_t> expected = aggregateCosts(ref_left, costs, params);
-  size_t different = 0;
-  for (size_t i = 0; i < sums.size(); ++i) different += sums[i] != expected[i];
-  EXPECT_EQ(different, 0u) << params.describe() << (mirror ? " mirrored" : "");
 }
 
 TEST(LineAggregationStage, EqualsReference) {

@@ -43,42 +43,47 @@ cv::Mat median3x3(const cv::Mat& in) {
   return out;
 }
 
-// Step 3: the sums of the path costs [y][x][k].
-std::vector<uint16_t> aggregateCosts(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& p) {
+// Step 3, one path.
+std::vector<uint16_t> pathCosts(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& p, int r) {
   const int W = left.cols, H = left.rows, D = p.num_disparities;
-
-  std::vector<uint16_t> sum(cost.size(), 0);
+  if (r < 0 || r >= 8) throw std::invalid_argument("pathCosts: path must be 0..7");
   std::vector<int> path(cost.size());
-  const int dirs[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
-  for (int r = 0; r < p.paths; ++r) {
-    const int dx = dirs[r][0], dy = dirs[r][1];
-    // Visit pixels so that p - r always comes before p.
-    for (int yi = 0; yi < H; ++yi) {
-      const int y = dy >= 0 ? yi : H - 1 - yi;
-      for (int xi = 0; xi < W; ++xi) {
-        const int x = dx >= 0 ? xi : W - 1 - xi;
-        const size_t idx = (static_cast<size_t>(y) * W + x) * D;
-        const int px = x - dx, py = y - dy;
-        if (px < 0 || px >= W || py < 0 || py >= H) {
-          for (int k = 0; k < D; ++k) path[idx + k] = cost[idx + k];
-        } else {
-          const size_t pidx = (static_cast<size_t>(py) * W + px) * D;
-          int m = path[pidx];
-          for (int k = 1; k < D; ++k) m = std::min(m, path[pidx + k]);
-          int p2 = p.p2;
-          if (p.p2_slope > 0) {
-            const int grad = std::abs(int(left.at<uint8_t>(y, x)) - int(left.at<uint8_t>(py, px)));
-            p2 = std::max(p.p1, p.p2 - (p.p2_slope * grad) / 16);
-          }
-          for (int k = 0; k < D; ++k) {
-            int best = std::min(path[pidx + k], m + p2);
-            if (k > 0) best = std::min(best, path[pidx + k - 1] + p.p1);
-            if (k + 1 < D) best = std::min(best, path[pidx + k + 1] + p.p1);
-            path[idx + k] = cost[idx + k] + best - m;
-          }
+  const int dx = kPathDirections[r][0], dy = kPathDirections[r][1];
+  // Visit pixels so that p - r always comes before p.
+  for (int yi = 0; yi < H; ++yi) {
+    const int y = dy >= 0 ? yi : H - 1 - yi;
+    for (int xi = 0; xi < W; ++xi) {
+      const int x = dx >= 0 ? xi : W - 1 - xi;
+      const size_t idx = (static_cast<size_t>(y) * W + x) * D;
+      const int px = x - dx, py = y - dy;
+      if (px < 0 || px >= W || py < 0 || py >= H) {
+        for (int k = 0; k < D; ++k) path[idx + k] = cost[idx + k];
+      } else {
+        const size_t pidx = (static_cast<size_t>(py) * W + px) * D;
+        int m = path[pidx];
+        for (int k = 1; k < D; ++k) m = std::min(m, path[pidx + k]);
+        int p2 = p.p2;
+        if (p.p2_slope > 0) {
+          const int grad = std::abs(int(left.at<uint8_t>(y, x)) - int(left.at<uint8_t>(py, px)));
+          p2 = std::max(p.p1, p.p2 - (p.p2_slope * grad) / 16);
+        }
+        for (int k = 0; k < D; ++k) {
+          int best = std::min(path[pidx + k], m + p2);
+          if (k > 0) best = std::min(best, path[pidx + k - 1] + p.p1);
+          if (k + 1 < D) best = std::min(best, path[pidx + k + 1] + p.p1);
+          path[idx + k] = cost[idx + k] + best - m;
         }
       }
     }
+  }
+  return std::vector<uint16_t>(path.begin(), path.end());
+}
+
+// Step 3: the sums of the path costs [y][x][k].
+std::vector<uint16_t> aggregateCosts(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& p) {
+  std::vector<uint16_t> sum(cost.size(), 0);
+  for (int r = 0; r < p.paths; ++r) {
+    const std::vector<uint16_t> path = pathCosts(left, cost, p, r);
     for (size_t i = 0; i < sum.size(); ++i) sum[i] = static_cast<uint16_t>(sum[i] + path[i]);
   }
   return sum;

@@ -70,13 +70,12 @@ LineAggregationStage::LineAggregationStage(const vk::DescriptorPool& pool, const
       paths_(params.paths) {}
 
 void LineAggregationStage::record(VkCommandBuffer cmd) const {
-  static const int kDirections[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
   pipeline_.bind(cmd);
   for (int r = 0; r < paths_; ++r) {
     shader::AggregateParams pc = pc_;
     pc.path = r;
-    pc.dx = kDirections[r][0];
-    pc.dy = kDirections[r][1];
+    pc.dx = kPathDirections[r][0];
+    pc.dy = kPathDirections[r][1];
     pipeline_.push(cmd, pc);
     const int lines = pc.dy == 0 ? pc.height : (pc.dx == 0 ? pc.width : pc.width + pc.height - 1);
     vkCmdDispatch(cmd, static_cast<uint32_t>(lines), 1, 1);

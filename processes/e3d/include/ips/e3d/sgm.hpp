@@ -105,7 +105,15 @@ struct SgmResult {
 // left, right: CV_8UC1, same size. Throws std::invalid_argument on bad input.
 SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params);
 
+// The directions (dx, dy) of the SGM paths in the order they are taken: 4 paths are the first four (along the rows
+// and the columns), 8 all of them. Device and reference walk them in this order; the device keeps path r in slice r.
+inline constexpr int kPathDirections[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, -1}, {1, -1}, {-1, 1}};
+
 // The single steps of sgmReference, each the CPU reference of one device stage (its tests compare them alone).
+// Step 3 for one path: the path costs L_r [y][x][k] along kPathDirections[path] of the matching costs `cost`
+// ([y][x][k], as costVolume) of the image `left` (CV_8UC1, for the adaptive P2).
+std::vector<uint16_t> pathCosts(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& params,
+                                int path);
 // Step 3: the sums over the paths of the path costs [y][x][k] of the matching costs `cost` ([y][x][k], as
 // costVolume) of the image `left` (CV_8UC1, for the adaptive P2).
 std::vector<uint16_t> aggregateCosts(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmParams& params);
