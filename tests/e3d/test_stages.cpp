@@ -715,13 +715,12 @@ TEST(RowPassStage, EqualsReference) {
 
 // ---- mi_histogram, mi_table ----
 
-// The joint histogram of the pair at disparity 0 everywhere (every pixel matched in the same column), as the
-// histogram buffer holds it: 65536 bins [left grey][right grey] and the count.
-std::vector<uint32_t> jointHistogramAtZero(const cv::Mat& left, const cv::Mat& right) {
-  std::vector<uint32_t> histogram(65536 + 1, 0);
-  for (size_t i = 0; i < left.total(); ++i) ++histogram[left.data[i] * 256 + right.data[i]];
-  histogram[65536] = static_cast<uint32_t>(left.total());
-  return histogram;
+// The reference's joint histogram as the histogram buffer holds it: 65536 bins [left grey][right grey], then the count.
+std::vector<uint32_t> referenceHistogram(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16) {
+  const JointHistogram h = miJointHistogram(left, right, disparity16);
+  std::vector<uint32_t> out(h.bins.begin(), h.bins.end());
+  out.push_back(static_cast<uint32_t>(h.count));
+  return out;
 }
 
 // The table stage's buffers (the histogram host-visible).
@@ -744,12 +743,13 @@ TEST(MiTableStage, EqualsReferenceFromAHistogram) {
   cv::Mat left, right;
   miPair({37, 23}, 101, left, right);
   MiTableBuffers b;
-  const std::vector<uint32_t> histogram = jointHistogramAtZero(left, right);
+  const cv::Mat zero(left.size(), CV_16S, cv::Scalar(0));
+  const std::vector<uint32_t> histogram = referenceHistogram(left, right, zero);
   std::memcpy(b.histogram.mapped(), histogram.data(), histogram.size() * 4);
   vk::DescriptorPool pool = makePool();
   MiTableStage stage(pool, b.histogram, b.log2, b.work64, b.work32, b.table);
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
-  const cv::Mat expected = miTable(left, right, cv::Mat(left.size(), CV_16S, cv::Scalar(0)));
+  const cv::Mat expected = miTable(left, right, zero);
   EXPECT_EQ(differences(b.readTable(), expected), 0);
   double lo = 0, hi = 0;
   cv::minMaxLoc(expected, &lo, &hi);
@@ -766,8 +766,8 @@ TEST(MiTableStage, EmptyHistogramGivesTheUniformTable) {
   EXPECT_EQ(differences(b.readTable(), miTable(image, image, none)), 0);
 }
 
-// The histogram stage with a guide, read back directly, then the table stage on it against miTable with the
-// guide's disparities (the reference has no separate histogram step; the table shows a wrong histogram).
+// The histogram stage with a guide, read back and compared bin for bin with miJointHistogram of the guide's
+// disparities, then the table stage on it against miTable.
 struct MiHistogramRun {
   std::vector<uint32_t> histogram;
   cv::Mat table;
@@ -793,20 +793,19 @@ TEST(MiHistogramStage, OwnGuideCountsTheMatchedPairs) {
   cv::Mat left, right;
   miPair({37, 23}, 103, left, right);
   const SgmParams p = SgmParams::forCost(Cost::mi);
-  // Disparity 0: the joint histogram of the pixels in the same column, bin for bin.
+  // Disparity 0: every pixel counted, in its own column.
   const cv::Mat zero(left.size(), CV_16S, cv::Scalar(0));
   const MiHistogramRun at_zero = runMiHistogram(left, right, zero, MiHistogramStage::Guide::own, p);
-  EXPECT_EQ(at_zero.histogram, jointHistogramAtZero(left, right));
+  EXPECT_EQ(at_zero.histogram, referenceHistogram(left, right, zero));
+  EXPECT_EQ(at_zero.histogram[65536], left.total());
   EXPECT_EQ(differences(at_zero.table, miTable(left, right, zero)), 0);
   // A random map with invalid pixels and matches outside the row (both not counted), subpixel values rounded.
   const cv::Mat map = randomMap(left.size(), 104, -3 * 16, 20 * 16, 20);
   const MiHistogramRun run = runMiHistogram(left, right, map, MiHistogramStage::Guide::own, p);
+  EXPECT_EQ(run.histogram, referenceHistogram(left, right, map));
   EXPECT_EQ(differences(run.table, miTable(left, right, map)), 0);
-  uint64_t counted = 0;
-  for (int i = 0; i < 65536; ++i) counted += run.histogram[i];
-  EXPECT_EQ(counted, run.histogram[65536]);
-  EXPECT_LT(counted, left.total() * 8 / 10);
-  EXPECT_GT(counted, left.total() / 3);
+  EXPECT_LT(run.histogram[65536], left.total() * 8 / 10);
+  EXPECT_GT(run.histogram[65536], left.total() / 3);
 }
 
 TEST(MiHistogramStage, StartAndBelowGuidesEqualReference) {
@@ -817,13 +816,15 @@ TEST(MiHistogramStage, StartAndBelowGuidesEqualReference) {
   p.min_disparity = -2;
   // The start of the hierarchy: the pseudo-random disparity of miStartDisparity.
   const MiHistogramRun start = runMiHistogram(left, right, cv::Mat(), MiHistogramStage::Guide::start, p);
-  EXPECT_EQ(
-      differences(start.table, miTable(left, right, miStartDisparity(left.size(), p.min_disparity, p.num_disparities))),
-      0);
+  const cv::Mat start_map = miStartDisparity(left.size(), p.min_disparity, p.num_disparities);
+  EXPECT_EQ(start.histogram, referenceHistogram(left, right, start_map));
+  EXPECT_EQ(differences(start.table, miTable(left, right, start_map)), 0);
   // The map of the level below (an odd size's half), doubled.
   const cv::Mat below = randomMap({19, 12}, 106, 0, 6 * 16, 25);
   const MiHistogramRun doubled = runMiHistogram(left, right, below, MiHistogramStage::Guide::below, p);
-  EXPECT_EQ(differences(doubled.table, miTable(left, right, doubleDisparity(below, left.size()))), 0);
+  const cv::Mat doubled_map = doubleDisparity(below, left.size());
+  EXPECT_EQ(doubled.histogram, referenceHistogram(left, right, doubled_map));
+  EXPECT_EQ(differences(doubled.table, miTable(left, right, doubled_map)), 0);
 }
 
 }  // namespace

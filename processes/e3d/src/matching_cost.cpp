@@ -148,23 +148,30 @@ std::vector<T> parzen1(const std::vector<T>& in, bool repeat_edges) {
 
 }  // namespace
 
-cv::Mat miTable(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16) {
+JointHistogram miJointHistogram(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16) {
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() ||
       disparity16.type() != CV_16S || disparity16.size() != left.size())
-    throw std::invalid_argument("miTable: need two CV_8UC1 images and a CV_16S disparity map of one size");
+    throw std::invalid_argument("miJointHistogram: need two CV_8UC1 images and a CV_16S disparity map of one size");
   const int W = left.cols, H = left.rows;
-  // 1. Joint histogram of the matched pixels.
-  std::vector<uint64_t> hist(kBins * kBins, 0);
-  uint64_t n = 0;
+  JointHistogram h;
+  h.bins.assign(kBins * kBins, 0);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const int d = disparity16.at<int16_t>(y, x);
       if (d == kInvalidDisparity) continue;
       const int xr = x - ((d + kSubpixelScale / 2) >> 4);
       if (xr < 0 || xr >= W) continue;
-      ++hist[left.at<uint8_t>(y, x) * kBins + right.at<uint8_t>(y, xr)];
-      ++n;
+      ++h.bins[left.at<uint8_t>(y, x) * kBins + right.at<uint8_t>(y, xr)];
+      ++h.count;
     }
+  return h;
+}
+
+cv::Mat miTable(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16) {
+  // 1. Joint histogram of the matched pixels.
+  const JointHistogram histogram = miJointHistogram(left, right, disparity16);
+  const std::vector<uint64_t>& hist = histogram.bins;
+  const uint64_t n = histogram.count;
   // 2. Parzen smoothing of the joint histogram and of the marginals.
   std::vector<uint64_t> marginal_left(kBins, 0), marginal_right(kBins, 0);
   for (int i = 0; i < kBins; ++i)

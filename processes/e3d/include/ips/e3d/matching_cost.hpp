@@ -43,8 +43,18 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
 int log2q8(uint64_t v);
 const std::vector<int32_t>& log2FractionTable();  // 256 entries: round(256 log2(1 + j / 256))
 
+// The joint histogram the Mutual Information table learns from (the CPU reference of the histogram stage): bin
+// left grey * 256 + right grey of every pixel of the left image whose disparity (CV_16S, disparity x 16, rounded
+// half up to whole pixels) is valid and matches a pixel inside the right image's row; `count` is their number.
+struct JointHistogram {
+  std::vector<uint64_t> bins;  // 65536
+  uint64_t count = 0;
+};
+JointHistogram miJointHistogram(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16);
+
 // The Mutual Information cost table (CV_8UC1 256x256) of a pair and a disparity map of the left image (CV_16S,
-// disparity x 16, kInvalidDisparity where none). An empty histogram gives the table of a uniform one.
+// disparity x 16, kInvalidDisparity where none): from miJointHistogram. An empty histogram gives the table of a
+// uniform one.
 cv::Mat miTable(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16);
 
 // The start of the hierarchy: a pseudo-random disparity in [min_disparity, min_disparity + num_disparities)
