@@ -28,6 +28,19 @@ StereoCalibration testbedCalibration() {
   return c;
 }
 
+filter::NavState navStateOf(const sim::GroundTruth& g) {
+  filter::NavState n;
+  n.utime = g.utime;
+  n.position = g.position;
+  n.velocity = g.velocity;
+  n.acceleration = g.acceleration;
+  n.orientation = g.orientation;
+  n.angular_rate = g.angular_rate;
+  n.gyro_bias = g.gyro_bias;
+  n.accel_bias = g.accel_bias;
+  return n;
+}
+
 SensorSim::SensorSim(const AnalyticWalk& walk, const SensorSimParams& p, const StereoCalibration& calib, uint32_t seed)
     : walk_(walk), p_(p), calib_(calib), rng_(seed) {}
 

@@ -18,11 +18,13 @@
 
 #include "ips/args.hpp"
 #include "ips/config.hpp"
+#include "ips/eval/filter_testbed.hpp"
 #include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
 #include "ips/log.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/sim/sensors.hpp"
+#include "ips/sim/simulation.hpp"
 #include "ips/sim/trajectory.hpp"
 
 using namespace ips::filter;
@@ -81,17 +83,7 @@ int main(int argc, char** argv) {
         std::mt19937 rng(sc.seed * 7919u + 17u);
         std::normal_distribution<double> n01;
         auto truthAt = [&](int64_t utime, const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) {
-          const ips::sim::TrajectoryState s = traj.state((utime - sc.start_utime) * 1e-6);
-          NavState n;
-          n.utime = utime;
-          n.position = s.position;
-          n.velocity = s.velocity;
-          n.acceleration = s.acceleration;
-          n.orientation = s.orientation;
-          n.angular_rate = s.angular_rate;
-          n.gyro_bias = bg;
-          n.accel_bias = ba;
-          return n;
+          return ips::eval::navStateOf(ips::sim::groundTruthAt(traj, sc.start_utime, utime, bg, ba));
         };
         // Start at t = 0 (the head stands still) from a draw around the truth with the configured covariance.
         ips::sim::ImuMeasurement m = imu.next();

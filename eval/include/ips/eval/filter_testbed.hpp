@@ -14,6 +14,7 @@
 #include "ips/filter/estimator.hpp"
 #include "ips/filter/state.hpp"
 #include "ips/sim/analytic_walk.hpp"
+#include "ips/sim/simulation.hpp"
 
 namespace ips::eval {
 
@@ -21,6 +22,9 @@ namespace ips::eval {
 using sim::AnalyticWalk;
 using sim::TruthSample;
 using sim::WalkParams;
+
+// The simulator's truth as the filter's state (for NEES and starting a filter on the truth).
+filter::NavState navStateOf(const sim::GroundTruth& truth);
 
 struct SensorSimParams {
   double imu_rate_hz = 200.0;

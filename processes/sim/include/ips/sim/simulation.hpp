@@ -24,6 +24,10 @@ struct GroundTruth {
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // body (IMU) to world
 };
 
+// The truth at `utime` (true sensor time) of a trajectory that starts at `start_utime`, with the sensors' biases.
+GroundTruth groundTruthAt(const Trajectory& trajectory, int64_t start_utime, int64_t utime,
+                          const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias);
+
 struct SimEvent {
   enum Kind { kStereo = 0, kGtDisparity = 1, kImu = 2, kTilt = 3, kGtPose = 4 };
   Kind kind = kGtPose;
