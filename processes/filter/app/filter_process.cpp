@@ -74,6 +74,7 @@ FilterProcess::FilterProcess(fw::Node& node, filter::Estimator& estimator, std::
   node_.subscribe<ips::tracker_delta_t>(kTrackerDelta, [this](const ips::tracker_delta_t& m) { onDelta(m); });
   node_.subscribe<ips::keyframe_t>(kKeyframe, [this](const ips::keyframe_t& m) { onKeyframe(m); });
   node_.subscribe<ips::tracker_delta_t>(kCloudDelta, [this](const ips::tracker_delta_t& m) { onCloudDelta(m); });
+  node_.onHealthReport([this](fw::Health& health) { reportCounters(health); });
 }
 
 void FilterProcess::flush() {
@@ -155,14 +156,17 @@ void FilterProcess::onCloudDelta(const ips::tracker_delta_t& m) {
 
 void FilterProcess::publishOutputs() {
   for (const auto& out : est_.takeOutputs()) node_.publish(state_channel_, toMessage(out));
+}
+
+void FilterProcess::reportCounters(fw::Health& health) const {
   for (const auto& c : est_.counters()) {
     if (!c.name || !*c.name) continue;
-    node_.health().set(std::string(c.name) + "_accepted", c.accepted);
-    node_.health().set(std::string(c.name) + "_rejected", c.rejected);
-    node_.health().set(std::string(c.name) + "_too_late", c.too_late);
+    health.set(std::string(c.name) + "_accepted", c.accepted);
+    health.set(std::string(c.name) + "_rejected", c.rejected);
+    health.set(std::string(c.name) + "_too_late", c.too_late);
   }
-  node_.health().set("imu_gaps", est_.imuGaps());
-  node_.health().set("starts_in_motion", est_.startsInMotion());
+  health.set("imu_gaps", est_.imuGaps());
+  health.set("starts_in_motion", est_.startsInMotion());
 }
 
 }  // namespace ips::filter_app

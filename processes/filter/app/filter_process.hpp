@@ -33,6 +33,8 @@ class FilterProcess {
   void onKeyframe(const keyframe_t& m);
   void onCloudDelta(const tracker_delta_t& m);
   void publishOutputs();
+  // The estimator's counters into the health message, once per report.
+  void reportCounters(fw::Health& health) const;
 
   fw::Node& node_;
   filter::Estimator& est_;

@@ -90,6 +90,7 @@ bool Node::RecentMessages::seenBefore(const void* data, size_t size) {
 bool Node::handleOnce(int timeout_ms) { return lcm_->handleTimeout(timeout_ms) >= 0; }
 
 void Node::publishHealth(double interval_s) {
+  if (fill_health_) fill_health_(health_);
   ips::health_t msg = health_.report(interval_s);
   lcm_->publish(health_channel_, &msg);
 }

@@ -63,6 +63,9 @@ class Node {
   // Handles whatever is pending for up to timeout_ms; for tests and custom loops. Returns false on an LCM error.
   bool handleOnce(int timeout_ms);
   void publishHealth(double interval_s);
+  // Called just before each health message is made, to set figures the process keeps elsewhere (an estimator's
+  // counters) once per report instead of at every message.
+  void onHealthReport(std::function<void(Health&)> fill) { fill_health_ = std::move(fill); }
 
  private:
   struct RawSubscription {
@@ -89,6 +92,7 @@ class Node {
   std::string health_channel_;
   std::unique_ptr<lcm::LCM> lcm_;
   Health health_;
+  std::function<void(Health&)> fill_health_;
   std::vector<std::unique_ptr<RawSubscription>> subscriptions_;
 };
 
