@@ -231,6 +231,44 @@ TEST(FilterEstimator, LateDeltaIsStillFusedThroughItsClones) {
   EXPECT_EQ(est.counters()[kSensorTracker].too_late, 1);
 }
 
+// A tracker that falls behind (a loaded machine): for two seconds its deltas come 1.2 s late, a backlog of ten
+// images, far beyond max_clones, which then drains. The clones they need are waited for (clone_wait_us), so every delta
+// is fused; without the wait most of them are lost, as they were before it.
+TEST(FilterEstimator, DeltasOfATrackerThatFallsBehindAreAllFused) {
+  const AnalyticWalk walk;
+  const ips::StereoCalibration calib = testbedCalibration();
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    for (int64_t wait_us : {int64_t{1'500'000}, int64_t{0}}) {
+      SensorSim sim(walk, SensorSimParams{}, calib, 17);
+      FilterParams p = paramsFor(type);
+      p.clone_wait_us = wait_us;
+      Estimator est(p, calib);
+      est.initialize(sim.truth(0), initialCovariance(p.init));
+      std::vector<Msg> msgs = makeMessages(sim, 0, 8'000'000);
+      // The tracker works its pairs in order: the backlog builds up and drains, it does not reorder its deltas.
+      int delayed = 0;
+      for (Msg& m : msgs) {
+        if (m.kind != 3 || m.delta.utime <= 3'000'000) continue;
+        const int64_t t = m.delta.utime;
+        const int64_t lag = t <= 5'000'000 ? 1'200'000 : std::max<int64_t>(0, 1'200'000 - (t - 5'000'000));
+        m.arrival += lag;
+        delayed += lag > 0;
+      }
+      std::stable_sort(msgs.begin(), msgs.end(), [](const Msg& a, const Msg& b) { return a.arrival < b.arrival; });
+      feed(est, msgs);
+      est.flush();
+      const SensorCounters& tracker = est.counters()[kSensorTracker];
+      ASSERT_EQ(delayed, 25);
+      if (wait_us > 0) {
+        EXPECT_EQ(tracker.too_late, 0) << toString(type);
+        EXPECT_EQ(tracker.accepted, 63) << toString(type);  // every delta of the 8 s
+      } else {
+        EXPECT_GT(tracker.too_late, delayed / 2) << toString(type);
+      }
+    }
+  }
+}
+
 TEST(FilterEstimator, GateRejectsOutliersAndCountsThem) {
   const AnalyticWalk walk;
   const ips::StereoCalibration calib = testbedCalibration();

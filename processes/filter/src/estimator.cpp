@@ -132,16 +132,24 @@ void Estimator::addDelta(const TrackerDelta& d, Sensor sensor) {
 }
 
 void Estimator::pruneClones(KalmanFilter& kf) {
-  // From the newest clone back: the first max_clones are kept (consecutive image times, for the tracker), and of
-  // the older ones the keyframes until max_keyframe_clones keyframes are held in all.
+  // From the newest clone back: the first max_clones are kept (consecutive image times, for the tracker), of the
+  // older ones the keyframes until max_keyframe_clones keyframes are held in all, and those the tracker's next delta
+  // still needs while they are within clone_wait_us of the newest.
+  if (kf.state().clones.empty()) return;
+  const int64_t newest = kf.state().clones.back().utime;
   int images = 0, keyframes = 0;
   for (int i = static_cast<int>(kf.state().clones.size()) - 1; i >= 0; --i) {
-    const bool keyframe = keyframe_times_.count(kf.state().clones[i].utime) > 0;
+    const int64_t t = kf.state().clones[i].utime;
+    const bool keyframe = keyframe_times_.count(t) > 0;
     const bool recent = ++images <= params_.max_clones;
     const bool pinned = keyframe && keyframes < params_.max_keyframe_clones;
+    const bool awaited = earlier_images_fused_.count(t) == 0 && newest - t <= params_.clone_wait_us;
     if (keyframe) ++keyframes;
-    if (!recent && !pinned) kf.removeClone(i);
+    if (!recent && !pinned && !awaited) kf.removeClone(i);
   }
+  // Marks of clones that are gone can no longer matter.
+  const int64_t oldest = kf.state().clones.front().utime;
+  earlier_images_fused_.erase(earlier_images_fused_.begin(), earlier_images_fused_.lower_bound(oldest));
 }
 
 std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
@@ -304,6 +312,7 @@ void Estimator::process(const Event& e) {
         if (e.delta.far_valid) ++counters_[kSensorFarRotation].too_late;
         break;
       }
+      if (e.sensor == kSensorTracker) earlier_images_fused_.insert(e.delta.utime_prev);
       if (e.delta.far_valid) {
         // The rotation from far points first: it is the sharper rotation where the scene is open, and the gate of
         // the 6-DoF delta then judges it against a state that already knows the rotation.

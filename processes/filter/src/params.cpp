@@ -81,6 +81,8 @@ FilterParams loadFilterParams(const Config& c) {
   if (p.max_keyframe_clones < 2) throw ConfigError(c.path() + ": key 'cloud/max_keyframe_clones' must be at least 2");
   p.max_clones = c.getInt("max_clones", p.max_clones);
   if (p.max_clones < 2) throw ConfigError(c.path() + ": key 'max_clones' must be at least 2");
+  p.clone_wait_us = c.getInt("clone_wait_us", static_cast<int>(p.clone_wait_us));
+  nonNegative(c, "clone_wait_us", static_cast<double>(p.clone_wait_us));
 
   p.gate_probability = c.getDouble("gate/probability", p.gate_probability);
   if (!(p.gate_probability > 0 && p.gate_probability < 1))

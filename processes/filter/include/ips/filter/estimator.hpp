@@ -177,6 +177,8 @@ class Estimator {
   std::vector<FilterOutput> outputs_;
   // Keyframe times (latency-corrected) announced by E3D, newest last; bounded by the clones they can still pin.
   std::set<int64_t> keyframe_times_;
+  // Image times a tracker delta has used as its earlier image: those clones wait for nothing more.
+  std::set<int64_t> earlier_images_fused_;
 
   // Static initialisation.
   std::vector<ImuSample> init_imu_;

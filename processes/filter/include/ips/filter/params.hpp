@@ -104,6 +104,10 @@ struct FilterParams {
   // 8 Hz pairs, 2.5 s), then cannot make every real measurement too late.
   int64_t imu_silence_release_us = 3'000'000;
   int max_clones = 3;  // pose clones kept at image times
+  // Besides those, an image clone that no tracker delta has used as its earlier image yet is kept while it is at
+  // most this much older than the newest image: a tracker that falls behind (a loaded machine: a backlog of
+  // seconds) still has its deltas fused instead of counted too late. Steady state costs no clone more.
+  int64_t clone_wait_us = 1'500'000;
 
   double gate_probability = 0.9995;  // chi-square gate on the Mahalanobis distance of every measurement
   bool gate_imu = true;
