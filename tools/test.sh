@@ -19,7 +19,9 @@ jobs=$(nproc)
 if [ $sanitize = 1 ]; then
   dir=build-asan
   # Line tables (-g1) are all a sanitizer's report needs, and they compile and link far faster than full debug info.
-  cmake -S . -B $dir -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
+  # -O1, AddressSanitizer's recommended level: the instrumented build compiles markedly faster than at -O2 (the
+  # longest step of CI), and the unit tests run only a little slower.
+  cmake -S . -B $dir -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
     -DIPS_SANITIZE=ON >/dev/null
   # Only the tests' targets (and the libraries and tools they declare): the process mains, the other tools and
   # the benchmarks serve the process tests, which run in build/.
