@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdlib>
-#include <cstring>
 #include <iostream>
 #include <set>
 
@@ -64,13 +63,10 @@ ips::Args sheriffArgs(int argc, char** argv) {
   return args;
 }
 
-// A non-negative number of seconds; throws ArgError naming the option.
+// A non-negative number of seconds (Args::getDouble, which names the option when it is no number).
 double seconds(const ips::Args& args, const std::string& name) {
-  const std::string text = args.get(name);
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (text.empty() || *end != '\0' || value < 0)
-    throw ips::ArgError("procman-sheriff: " + name + " needs a non-negative number, got '" + text + "'");
+  const double value = args.getDouble(name);
+  if (value < 0) throw ips::ArgError("procman-sheriff: " + name + " must not be negative, got " + args.get(name));
   return value;
 }
 

@@ -80,11 +80,11 @@ TEST(SheriffCli, ErrorsExitWithOneAndSayWhy) {
   EXPECT_EQ(parseError({"--status", "--wait", "soon"}).second,
             "procman-sheriff: --wait must be started, running or none\n");
   EXPECT_EQ(parseError({"--status", "--timeout", "-1"}).second,
-            "procman-sheriff: --timeout needs a non-negative number, got '-1'\n");
+            "procman-sheriff: --timeout must not be negative, got -1\n");
   EXPECT_EQ(parseError({"--status", "--duration", "3s"}).second,
-            "procman-sheriff: --duration needs a non-negative number, got '3s'\n");
+            "procman-sheriff: option '--duration' needs a number, got '3s'\n");
   EXPECT_EQ(parseError({"--status", "--status-period", "1e"}).second,
-            "procman-sheriff: --status-period needs a non-negative number, got '1e'\n");
+            "procman-sheriff: option '--status-period' needs a number, got '1e'\n");
   EXPECT_EQ(parseError({"--status", "extra"}).second, "procman-sheriff: unexpected argument 'extra' (see --help)\n");
   EXPECT_EQ(parseError({"--status", "--colour"}),
             std::make_pair(1, std::string("procman-sheriff: unknown option '--colour' (see --help)\n")));
