@@ -444,6 +444,15 @@ TEST(CostStage, CensusEqualsReference) {
   expectCensusCostEqualsReference(flat, flat, p);
 }
 
+// The pair the second match sees, as the reference takes it: the right image mirrored as the left one and the left
+// mirrored as the right one (new matrices: flipping into headers of the inputs would overwrite them).
+std::pair<cv::Mat, cv::Mat> mirroredPair(const cv::Mat& left, const cv::Mat& right) {
+  cv::Mat mirrored_left, mirrored_right;
+  cv::flip(right, mirrored_left, 1);
+  cv::flip(left, mirrored_right, 1);
+  return {mirrored_left, mirrored_right};
+}
+
 // cost_ad, cost_sad, cost_mi into a cost volume of `lane_multiple` (4: the lines layout, 32-bit stores; 8: the
 // rows layout, 64-bit stores) at base row 3, split over buffers of 5 rows; `mirror`: the second match, which reads
 // the pair swapped and mirrored (and the table transposed), i.e. the reference's mirrored pair.
@@ -463,15 +472,11 @@ void expectIntensityCostEqualsReference(const cv::Mat& left, const cv::Mat& righ
                                          images.words[m], images.words[1 - m], volume.descriptors(), &table_buffer,
                                          base_row, 5, static_cast<int>(row_bytes / 4));
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
-  // (New matrices: flipping into headers of the inputs would overwrite them.)
-  cv::Mat ref_left = left, ref_right = right, ref_table = table;
-  if (mirror) {
-    ref_left = cv::Mat();
-    ref_right = cv::Mat();
-    ref_table = cv::Mat();
-    cv::flip(right, ref_left, 1);
-    cv::flip(left, ref_right, 1);
-    if (!table.empty()) cv::transpose(table, ref_table);
+  auto [ref_left, ref_right] = mirror ? mirroredPair(left, right) : std::pair<cv::Mat, cv::Mat>(left, right);
+  cv::Mat ref_table = table;
+  if (mirror && !table.empty()) {
+    ref_table = cv::Mat();  // a new matrix: transposing into the input's header would overwrite it
+    cv::transpose(table, ref_table);
   }
   int padding = 0;
   const std::vector<uint8_t> device = readSlice(volume, base_row, size, params.num_disparities, lanes, &padding);
@@ -527,13 +532,7 @@ void expectLineAggregationEqualsReference(const cv::Mat& left, const cv::Mat& ri
   const cv::Size size = left.size();
   const LinesPlan plan = linesPlan(size, params, 11);
   Volume volume((params.paths + 1) * size.height, plan.row_bytes, plan.rows_per_chunk);
-  cv::Mat ref_left = left, ref_right = right;
-  if (mirror) {
-    ref_left = cv::Mat();
-    ref_right = cv::Mat();
-    cv::flip(right, ref_left, 1);
-    cv::flip(left, ref_right, 1);
-  }
+  const auto [ref_left, ref_right] = mirror ? mirroredPair(left, right) : std::pair<cv::Mat, cv::Mat>(left, right);
   const std::vector<uint8_t> costs = costVolume(ref_left, ref_right, params);
   writeSlice(volume, plan.cost_base_row, size, params.num_disparities, plan.lanes, costs);
   vk::Buffer image = imageBuffer(mirror ? right : left);
