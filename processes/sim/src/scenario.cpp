@@ -164,6 +164,8 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "trajectory/roll_sway_deg", tr.roll_sway_deg);
   get(c, "trajectory/yaw_sway_deg", tr.yaw_sway_deg);
   get(c, "trajectory/ramp_s", tr.ramp_s);
+  get(c, "trajectory/wave_amplitude_deg", tr.wave_amplitude_deg);
+  get(c, "trajectory/wave_period_s", tr.wave_period_s);
 
   WorldConfig& w = s.world;
   get(c, "world/data_dir", w.data_dir);
@@ -216,8 +218,11 @@ void Scenario::validate() const {
               ce.stereo_rotation_deg >= 0 && ce.stereo_rotation_deg < 5 && ce.imu_rotation_deg >= 0 &&
               ce.imu_rotation_deg < 5 && ce.tilt_rotation_deg >= 0 && ce.tilt_rotation_deg < 5,
           "calibration_errors must be non-negative and small (focal_rel < 0.1, principal_px < 50, rotations < 5 deg)");
-  require(trajectory.type == "walk" || trajectory.type == "vehicle" || trajectory.type == "still",
-          "trajectory/type must be walk, vehicle or still");
+  require(trajectory.type == "walk" || trajectory.type == "vehicle" || trajectory.type == "still" ||
+              trajectory.type == "wave",
+          "trajectory/type must be walk, vehicle, still or wave");
+  require(trajectory.wave_amplitude_deg.cwiseAbs().maxCoeff() <= 60 && trajectory.wave_period_s.minCoeff() > 0,
+          "trajectory/wave_amplitude_deg must be within 60 deg, wave_period_s positive");
   require(!trajectory.waypoints.empty(), "trajectory/waypoints must not be empty");
   require(trajectory.speed_mps > 0, "trajectory/speed_mps must be positive");
   require(trajectory.knot_spacing_s > 0, "trajectory/knot_spacing_s must be positive");

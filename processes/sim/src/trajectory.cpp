@@ -19,10 +19,11 @@ Trajectory::Trajectory(const TrajectoryConfig& config, double gravity) : cfg_(co
     throw std::invalid_argument("Trajectory: speed and knot spacing must be positive");
   const auto& wp = cfg_.waypoints;
   for (size_t i = 1; i < wp.size(); ++i) path_length_ += (wp[i] - wp[i - 1]).norm();
-  if (cfg_.type == "still" || path_length_ < 1e-6) {
+  if (cfg_.type == "still" || cfg_.type == "wave" || path_length_ < 1e-6) {
+    // Held in place: at the first waypoint (still) or after start_still_s of rest turned about all axes (wave).
     path_length_ = 0;
-    motion_duration_ = cfg_.type == "still" ? cfg_.still_duration_s : 0;
-    duration_ = motion_duration_;
+    motion_duration_ = cfg_.type == "still" || cfg_.type == "wave" ? cfg_.still_duration_s : 0;
+    duration_ = motion_duration_ + (cfg_.type == "wave" ? cfg_.start_still_s : 0);
     return;
   }
   // Resample the polyline at equal arc length so that the walker keeps its speed; tripled end points make the
@@ -133,9 +134,17 @@ TrajectoryState Trajectory::state(double t_scenario) const {
   x = x - lateral * sin(yaw_path);
   y = y + lateral * cos(yaw_path);
   const Jet2 z = Jet2(cfg_.height_m) + cfg_.bounce_m * e * sin(w * T);
-  const Jet2 psi = yaw_path + cfg_.yaw_sway_deg * kDeg * e * sin(0.5 * w * T + 1.0);
-  const Jet2 theta = Jet2(cfg_.pitch_down_deg * kDeg) + cfg_.nod_deg * kDeg * e * sin(w * T + 0.5);
-  const Jet2 phi = Jet2(cfg_.roll_deg * kDeg) + cfg_.roll_sway_deg * kDeg * e * sin(0.5 * w * T + 0.3);
+  Jet2 psi = yaw_path + cfg_.yaw_sway_deg * kDeg * e * sin(0.5 * w * T + 1.0);
+  Jet2 theta = Jet2(cfg_.pitch_down_deg * kDeg) + cfg_.nod_deg * kDeg * e * sin(w * T + 0.5);
+  Jet2 phi = Jet2(cfg_.roll_deg * kDeg) + cfg_.roll_sway_deg * kDeg * e * sin(0.5 * w * T + 0.3);
+  if (cfg_.type == "wave") {
+    auto turn = [&](int axis) {
+      return cfg_.wave_amplitude_deg[axis] * kDeg * e * sin((2 * M_PI / cfg_.wave_period_s[axis]) * T);
+    };
+    phi = phi + turn(0);
+    theta = theta + turn(1);
+    psi = psi + turn(2);
+  }
 
   TrajectoryState s;
   s.t = t_scenario;

@@ -81,7 +81,9 @@ struct TiltFigures {
 };
 
 struct TrajectoryConfig {
-  std::string type = "walk";               // walk | vehicle | still (still: holds the first waypoint)
+  // walk | vehicle | still | wave. still: holds the first waypoint. wave: holds it too, turned about all three axes
+  // for still_duration_s as a user waves a head to calibrate its IMU against the cameras (wave_*).
+  std::string type = "walk";
   std::vector<Eigen::Vector2d> waypoints;  // [m] x y on the floor, polyline to follow
   double speed_mps = 0.75;
   double height_m = 1.45;        // IMU height above the floor
@@ -101,6 +103,10 @@ struct TrajectoryConfig {
   double roll_sway_deg = 1.5;  // roll amplitude at half the step frequency
   double yaw_sway_deg = 1.5;   // yaw amplitude at half the step frequency
   double ramp_s = 2.0;         // gait amplitude ramps up after start and down before stop
+  // wave: sinusoidal turns about the body's x (roll), y (pitch) and z (yaw) axes with these amplitudes and periods
+  // (different periods, so that the rotation axis sweeps all directions), on top of the gait keys.
+  Eigen::Vector3d wave_amplitude_deg{15.0, 10.0, 20.0};
+  Eigen::Vector3d wave_period_s{3.1, 2.3, 4.3};
 
   static std::vector<Eigen::Vector2d> defaultWaypoints();
 };
