@@ -1,11 +1,11 @@
-#include "ips/drivers/delay_estimation.hpp"
+#include "ips/calib/delay_estimation.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-namespace ips::drivers {
+namespace ips::calib {
 namespace {
 
 // The integral of the gyro (trapezoids between samples) from the first sample, to average over any interval.
@@ -131,4 +131,4 @@ DelayEstimate estimateCameraImuDelay(const std::vector<GyroSample>& gyro_in, con
   return result;
 }
 
-}  // namespace ips::drivers
+}  // namespace ips::calib

@@ -15,7 +15,7 @@
 #include <utility>
 #include <vector>
 
-namespace ips::drivers {
+namespace ips::calib {
 
 struct GyroSample {
   int64_t utime;
@@ -45,4 +45,4 @@ struct DelayEstimate {
 DelayEstimate estimateCameraImuDelay(const std::vector<GyroSample>& gyro, const std::vector<TrackerRotation>& deltas,
                                      const DelayEstimatorConfig& config = {});
 
-}  // namespace ips::drivers
+}  // namespace ips::calib
