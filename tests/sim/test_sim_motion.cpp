@@ -62,6 +62,37 @@ TEST(SimTrajectory, DerivativesMatchFiniteDifferences) {
   }
 }
 
+// The waved head (config/sim_imu_calib.yaml): still at the start, then turned about all three axes by the configured
+// amplitudes while it stays within a few centimetres of its place; its derivatives exact as the walk's.
+TEST(SimTrajectory, WaveTurnsAboutAllAxesInPlace) {
+  const Scenario sc = Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_imu_calib.yaml");
+  const Trajectory traj(sc.trajectory, sc.gravity);
+  EXPECT_DOUBLE_EQ(traj.duration(), sc.trajectory.start_still_s + sc.trajectory.still_duration_s);
+  EXPECT_LT(traj.state(1.0).angular_rate.norm(), 1e-12);  // still start: the filter and the tracker settle
+  Eigen::Vector3d peak_rate = Eigen::Vector3d::Zero();
+  double farthest_m = 0;
+  const Eigen::Vector3d place(sc.trajectory.waypoints.front().x(), sc.trajectory.waypoints.front().y(),
+                              sc.trajectory.height_m);
+  const double h = 1e-4;
+  for (double t = sc.trajectory.start_still_s; t < traj.duration(); t += 0.01) {
+    const TrajectoryState s = traj.state(t);
+    peak_rate = peak_rate.cwiseMax(s.angular_rate.cwiseAbs());
+    farthest_m = std::max(farthest_m, (s.position - place).norm());
+    if (std::fmod(t, 7.0) < 0.01) {
+      const TrajectoryState a = traj.state(t - h), b = traj.state(t + h);
+      const Eigen::Vector3d w_fd = rotationVector(a.orientation.conjugate() * b.orientation) / (2 * h);
+      EXPECT_LT((w_fd - s.angular_rate).norm(), 1e-5) << "t=" << t;
+      EXPECT_LT(((b.velocity - a.velocity) / (2 * h) - s.acceleration).norm(), 1e-5) << "t=" << t;
+    }
+  }
+  // Each axis at least 2 pi A / P of its own turn less what the others take away (about 10 deg/s here).
+  for (int axis = 0; axis < 3; ++axis)
+    EXPECT_GT(peak_rate[axis],
+              0.5 * 2 * M_PI * sc.trajectory.wave_amplitude_deg[axis] * kDeg / sc.trajectory.wave_period_s[axis])
+        << "axis " << axis;
+  EXPECT_LT(farthest_m, 0.1);
+}
+
 // Strapdown integration of the ideal IMU (200 Hz) reproduces the trajectory.
 TEST(SimImu, NoiseFreeIntegrationReproducesTrajectory) {
   const Scenario sc = Scenario::defaults();
@@ -212,7 +243,7 @@ TEST(SimTilt, StatisticsAndResponseToAcceleration) {
 }
 
 TEST(SimScenario, ConfigFilesLoadAndBadValuesAreNamed) {
-  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml", "sim_still.yaml"}) {
+  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml", "sim_still.yaml", "sim_imu_calib.yaml"}) {
     const Scenario sc = Scenario::load(std::string(IPS_CONFIG_DIR) + "/" + name);
     const Trajectory traj(sc.trajectory, sc.gravity);
     EXPECT_GT(traj.duration(), 10) << name;
