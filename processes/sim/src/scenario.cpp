@@ -166,6 +166,18 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "trajectory/ramp_s", tr.ramp_s);
   get(c, "trajectory/wave_amplitude_deg", tr.wave_amplitude_deg);
   get(c, "trajectory/wave_period_s", tr.wave_period_s);
+  if (c.has("trajectory/stations")) {
+    cv::Mat st = c.getMat("trajectory/stations");
+    if (st.total() < 6 || st.total() % 6 != 0)
+      throw ConfigError(path + ": key 'trajectory/stations' must be a flat list x, y, z, roll, pitch, yaw, ...");
+    st = st.reshape(1, 1);
+    tr.stations.clear();
+    for (int i = 0; i + 5 < static_cast<int>(st.total()); i += 6)
+      tr.stations.push_back({{st.at<double>(0, i), st.at<double>(0, i + 1), st.at<double>(0, i + 2)},
+                             {st.at<double>(0, i + 3), st.at<double>(0, i + 4), st.at<double>(0, i + 5)}});
+  }
+  get(c, "trajectory/station_hold_s", tr.station_hold_s);
+  get(c, "trajectory/station_move_s", tr.station_move_s);
 
   WorldConfig& w = s.world;
   get(c, "world/data_dir", w.data_dir);
@@ -177,6 +189,10 @@ Scenario Scenario::load(const std::string& path) {
   get(c, "world/poster_spacing_m", w.poster_spacing_m);
   get(c, "world/object_spacing_m", w.object_spacing_m);
   get(c, "world/texel_m", w.texel_m);
+  get(c, "world/chart_inner_corners", w.chart_inner_corners);
+  get(c, "world/chart_square_m", w.chart_square_m);
+  get(c, "world/chart_centre_m", w.chart_centre_m);
+  get(c, "world/chart_facing_deg", w.chart_facing_deg);
   get(c, "world/type", w.type);
   get(c, "world/street_half_width_m", w.street_half_width_m);
   get(c, "world/street_facade_height_m", w.street_facade_height_m);
@@ -219,8 +235,11 @@ void Scenario::validate() const {
               ce.imu_rotation_deg < 5 && ce.tilt_rotation_deg >= 0 && ce.tilt_rotation_deg < 5,
           "calibration_errors must be non-negative and small (focal_rel < 0.1, principal_px < 50, rotations < 5 deg)");
   require(trajectory.type == "walk" || trajectory.type == "vehicle" || trajectory.type == "still" ||
-              trajectory.type == "wave",
-          "trajectory/type must be walk, vehicle, still or wave");
+              trajectory.type == "wave" || trajectory.type == "stations",
+          "trajectory/type must be walk, vehicle, still, wave or stations");
+  require(trajectory.type != "stations" ||
+              (!trajectory.stations.empty() && trajectory.station_hold_s > 0 && trajectory.station_move_s > 0),
+          "trajectory/type stations needs trajectory/stations and positive station_hold_s, station_move_s");
   require(trajectory.wave_amplitude_deg.cwiseAbs().maxCoeff() <= 60 && trajectory.wave_period_s.minCoeff() > 0,
           "trajectory/wave_amplitude_deg must be within 60 deg, wave_period_s positive");
   require(!trajectory.waypoints.empty(), "trajectory/waypoints must not be empty");
@@ -233,6 +252,11 @@ void Scenario::validate() const {
               world.building_size_m.y() > 2 * world.corridor_width_m + 1,
           "world/building_size_m must leave room for the inner block");
   require(world.texel_m > 0, "world/texel_m must be positive");
+  require(world.chart_inner_corners.isZero() ||
+              (world.chart_inner_corners.minCoeff() >= 2 && world.chart_inner_corners.maxCoeff() <= 30 &&
+               world.chart_inner_corners == world.chart_inner_corners.array().round().matrix() &&
+               world.chart_square_m > 0.005 && world.chart_square_m < 1),
+          "world/chart_inner_corners must be 0 0 or whole numbers in 2..30, chart_square_m in (0.005, 1) m");
   require(world.type == "building" || world.type == "street", "world/type must be building or street");
   if (world.type == "street") {
     require(world.route.size() >= 2, "world/type street needs at least two trajectory/waypoints (the streets)");

@@ -19,6 +19,13 @@ Trajectory::Trajectory(const TrajectoryConfig& config, double gravity) : cfg_(co
     throw std::invalid_argument("Trajectory: speed and knot spacing must be positive");
   const auto& wp = cfg_.waypoints;
   for (size_t i = 1; i < wp.size(); ++i) path_length_ += (wp[i] - wp[i - 1]).norm();
+  if (cfg_.type == "stations") {
+    const double n = static_cast<double>(cfg_.stations.size());
+    path_length_ = 0;
+    motion_duration_ = n * cfg_.station_hold_s + (n - 1) * cfg_.station_move_s;
+    duration_ = motion_duration_;
+    return;
+  }
   if (cfg_.type == "still" || cfg_.type == "wave" || path_length_ < 1e-6) {
     // Held in place: at the first waypoint (still) or after start_still_s of rest turned about all axes (wave).
     path_length_ = 0;
@@ -113,7 +120,20 @@ Jet2 Trajectory::envelope(double t) const {
   return smooth(t / ramp, 1 / ramp) * smooth((motion_duration_ - t) / ramp, -1 / ramp);
 }
 
+namespace {
+
+// C2 smootherstep of x = (t - t0) / span in [0, 1]: at rest (zero rate and acceleration) at both ends.
+Jet2 smootherstep(double t, double t0, double span) {
+  const double x = std::clamp((t - t0) / span, 0.0, 1.0);
+  if (x <= 0 || x >= 1) return {x, 0, 0};
+  return {x * x * x * (x * (6 * x - 15) + 10), 30 * x * x * (x - 1) * (x - 1) / span,
+          60 * x * (2 * x - 1) * (x - 1) / (span * span)};
+}
+
+}  // namespace
+
 TrajectoryState Trajectory::state(double t_scenario) const {
+  if (cfg_.type == "stations") return stationsState(t_scenario);
   constexpr double kDeg = M_PI / 180;
   // The path and the gait run on the motion's own clock, which starts after the still start.
   const double t = cfg_.type == "still" ? t_scenario : t_scenario - cfg_.start_still_s;
@@ -146,6 +166,29 @@ TrajectoryState Trajectory::state(double t_scenario) const {
     psi = psi + turn(2);
   }
 
+  return fromJets(t_scenario, x, y, z, phi, theta, psi);
+}
+
+TrajectoryState Trajectory::stationsState(double t) const {
+  constexpr double kDeg = M_PI / 180;
+  const auto& st = cfg_.stations;
+  const double cycle = cfg_.station_hold_s + cfg_.station_move_s;
+  // Station k is held over [k cycle, k cycle + hold], then the head moves to k + 1.
+  const size_t k = std::min(st.size() - 1, static_cast<size_t>(std::max(0.0, t) / cycle));
+  const size_t next = std::min(st.size() - 1, k + 1);
+  const Jet2 a = smootherstep(t, k * cycle + cfg_.station_hold_s, cfg_.station_move_s);
+  auto blend = [&](double from, double to) { return Jet2(from) + (to - from) * a; };
+  const auto& p0 = st[k].position;
+  const auto& p1 = st[next].position;
+  const auto& r0 = st[k].roll_pitch_yaw_deg;
+  const auto& r1 = st[next].roll_pitch_yaw_deg;
+  return fromJets(t, blend(p0.x(), p1.x()), blend(p0.y(), p1.y()), blend(p0.z(), p1.z()),
+                  blend(r0.x() * kDeg, r1.x() * kDeg), blend(r0.y() * kDeg, r1.y() * kDeg),
+                  blend(r0.z() * kDeg, r1.z() * kDeg));
+}
+
+TrajectoryState Trajectory::fromJets(double t_scenario, const Jet2& x, const Jet2& y, const Jet2& z, const Jet2& phi,
+                                     const Jet2& theta, const Jet2& psi) const {
   TrajectoryState s;
   s.t = t_scenario;
   s.position = {x.v, y.v, z.v};

@@ -1,5 +1,6 @@
 #include "ips/sim/world.hpp"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -314,6 +315,38 @@ void buildStreet(World& world, const WorldConfig& cfg, uint64_t seed) {
   builder.add(o + Eigen::Vector3d(0, 0, S), {1, 0, 0}, {0, 1, 0}, 2 * S, 2 * S, clouds, sky_texel, sky);
 }
 
+// The calibration chart (WorldConfig::chart_*): one two-sided quad whose texture is the board with a white margin of
+// one square, so that inner corner (i, j) lies exactly (2 + i, 2 + j) squares from the quad's top left corner
+// along its rows and down its columns (texel edges fall on integer texture coordinates). Added after everything
+// else and without the world's random stream, so a world without a chart is unchanged.
+void addChart(World& world, const WorldConfig& cfg) {
+  if (cfg.chart_inner_corners.isZero()) return;
+  const int cols = static_cast<int>(cfg.chart_inner_corners.x()) + 3,
+            rows = static_cast<int>(cfg.chart_inner_corners.y()) + 3;
+  constexpr int kSquareTexels = 64;
+  int side = 64;
+  while (side < std::max(cols, rows) * kSquareTexels) side *= 2;
+  constexpr uint8_t kWhite = 215, kBlack = 30;  // printed paper and toner under the corridor's light
+  cv::Mat board(side, side, CV_8UC1, cv::Scalar(kWhite));
+  for (int r = 1; r < rows - 1; ++r)
+    for (int c = 1; c < cols - 1; ++c)
+      if ((r + c) % 2 == 0)
+        board(cv::Rect(c * kSquareTexels, r * kSquareTexels, kSquareTexels, kSquareTexels)).setTo(kBlack);
+  Quad q;
+  const double facing = cfg.chart_facing_deg * M_PI / 180;
+  const Eigen::Vector3d normal(std::cos(facing), std::sin(facing), 0), down(0, 0, -1);
+  q.axis_s = down.cross(normal);  // to the right, as seen from the front
+  q.axis_t = down;
+  q.size_s = cols * cfg.chart_square_m;
+  q.size_t = rows * cfg.chart_square_m;
+  q.origin = cfg.chart_centre_m - 0.5 * q.size_s * q.axis_s - 0.5 * q.size_t * q.axis_t;
+  q.texture = world.addTexture("calibration chart", board);
+  q.texel_s = q.texel_t = cfg.chart_square_m / kSquareTexels;
+  q.texture_offset = {0, 0};
+  q.brightness = 1.0f;
+  world.quads.push_back(q);
+}
+
 }  // namespace
 
 World World::build(const WorldConfig& cfg, uint64_t seed) {
@@ -392,6 +425,7 @@ World World::build(const WorldConfig& cfg, uint64_t seed) {
   // Room: a table in the middle and a shelf on the back wall.
   b.box({rx0 + 2.9, -3.5}, 0.9, 0.6, 0.75, b.wood);
   b.box({rx0 + room_w / 2, -room_d + 0.25}, 2.0, 0.4, 1.8, b.wood);
+  addChart(world, cfg);
   return world;
 }
 

@@ -81,8 +81,9 @@ struct TiltFigures {
 };
 
 struct TrajectoryConfig {
-  // walk | vehicle | still | wave. still: holds the first waypoint. wave: holds it too, turned about all three axes
-  // for still_duration_s as a user waves a head to calibrate its IMU against the cameras (wave_*).
+  // walk | vehicle | still | wave | stations. still: holds the first waypoint. wave: holds it too, turned about all
+  // three axes for still_duration_s as a user waves a head to calibrate its IMU against the cameras (wave_*).
+  // stations: the head set down at each of `stations` in turn (static positions, e.g. in front of a chart).
   std::string type = "walk";
   std::vector<Eigen::Vector2d> waypoints;  // [m] x y on the floor, polyline to follow
   double speed_mps = 0.75;
@@ -107,6 +108,15 @@ struct TrajectoryConfig {
   // (different periods, so that the rotation axis sweeps all directions), on top of the gait keys.
   Eigen::Vector3d wave_amplitude_deg{15.0, 10.0, 20.0};
   Eigen::Vector3d wave_period_s{3.1, 2.3, 4.3};
+  // stations: body poses x y z [m], roll pitch yaw [deg] (pitch > 0: nose down), each held station_hold_s, moved
+  // between in station_move_s (smooth: at rest at both ends of a move).
+  struct Station {
+    Eigen::Vector3d position;
+    Eigen::Vector3d roll_pitch_yaw_deg;
+  };
+  std::vector<Station> stations;
+  double station_hold_s = 4.0;
+  double station_move_s = 2.0;
 
   static std::vector<Eigen::Vector2d> defaultWaypoints();
 };
@@ -140,6 +150,13 @@ struct WorldConfig {
   double poster_spacing_m = 4.0;                // along the walls
   double object_spacing_m = 6.0;                // cabinets and boxes along the walls
   double texel_m = 0.004;                       // size of a procedural texel on the walls
+  // A calibration chart standing in the building: a chessboard of chart_inner_corners (columns, rows; 0 0: no chart)
+  // with squares of chart_square_m and a white margin of one square, its centre at chart_centre_m, upright (rows
+  // level, the board plumb), its printed side facing the heading chart_facing_deg (0: +x).
+  Eigen::Vector2d chart_inner_corners{0, 0};
+  double chart_square_m = 0.1;
+  Eigen::Vector3d chart_centre_m{6.5, 1.2, 1.45};
+  double chart_facing_deg = 180;
 
   // street: the streets are the segments of `route` (Scenario::load sets it to the trajectory's waypoints).
   std::vector<Eigen::Vector2d> route;

@@ -34,6 +34,10 @@ class Trajectory {
 
  private:
   Jet2 spline(const std::vector<double>& ctrl, double t) const;
+  TrajectoryState stationsState(double t) const;
+  // The state from the position and the roll, pitch, yaw (R = Rz(psi) Ry(theta) Rx(phi)) with their derivatives.
+  TrajectoryState fromJets(double t_scenario, const Jet2& x, const Jet2& y, const Jet2& z, const Jet2& phi,
+                           const Jet2& theta, const Jet2& psi) const;
   Jet2 envelope(double t) const;
 
   TrajectoryConfig cfg_;
