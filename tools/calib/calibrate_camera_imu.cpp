@@ -30,7 +30,9 @@ int main(int argc, char** argv) {
     ips::Args args(argc, argv,
                    "Camera-to-IMU rotation and camera-IMU time offset, together, from an LCM log (tracker deltas "
                    "against the gyro)");
-    args.required("--log", "FILE", "LCM log with the IMU and tracker delta channels (the head turned about all axes)")
+    args.repeated("--log", "FILE",
+                  "LCM log with the IMU or tracker delta channels (the head turned about all axes); give it twice "
+                  "when the head's recording and the tracker's are separate files")
         .option("--calib", "FILE", "the head's calibration: the rotation is reported against its T_imu_cam0")
         .option("--out", "FILE.yaml", "write --calib with the estimated rotation (translation kept) and the figures")
         .option("--imu-channel", "NAME", "channel of ips::imu_sample_t", "IMU")
@@ -41,32 +43,36 @@ int main(int argc, char** argv) {
         .epilog("Exit status: 0 estimated, 1 error, 2 bad command line, 3 the recording does not determine it.");
     if (!args.parse()) return 0;
     if (args.has("--out") && !args.has("--calib")) throw std::runtime_error("--out needs --calib (the file to update)");
-    lcm::LogFile log(args.get("--log"), "r");
-    if (!log.good()) throw std::runtime_error("cannot open log " + args.get("--log"));
+    const std::vector<std::string> logs = args.getAll("--log");
+    if (logs.empty()) throw ips::ArgError("calibrate_camera_imu: --log is required (see --help)");
     std::vector<ips::calib::GyroSample> gyro;
     std::vector<ips::calib::TrackerRotation> deltas;
     long long undecodable = 0, invalid = 0;
     const std::string imu_channel = args.get("--imu-channel"), delta_channel = args.get("--delta-channel");
-    while (const lcm::LogEvent* e = log.readNextEvent()) {
-      if (e->channel == imu_channel) {
-        ips::imu_sample_t m;
-        if (m.decode(e->data, 0, e->datalen) < 0) {
-          ++undecodable;
-          continue;
+    for (const std::string& path : logs) {
+      lcm::LogFile log(path, "r");
+      if (!log.good()) throw std::runtime_error("cannot open log " + path);
+      while (const lcm::LogEvent* e = log.readNextEvent()) {
+        if (e->channel == imu_channel) {
+          ips::imu_sample_t m;
+          if (m.decode(e->data, 0, e->datalen) < 0) {
+            ++undecodable;
+            continue;
+          }
+          gyro.push_back({m.utime, Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2])});
+        } else if (e->channel == delta_channel) {
+          ips::tracker_delta_t m;
+          if (m.decode(e->data, 0, e->datalen) < 0) {
+            ++undecodable;
+            continue;
+          }
+          if (!m.valid) {
+            ++invalid;
+            continue;
+          }
+          deltas.push_back(
+              {m.utime_prev, m.utime, Eigen::Quaterniond(m.rotation[0], m.rotation[1], m.rotation[2], m.rotation[3])});
         }
-        gyro.push_back({m.utime, Eigen::Vector3d(m.angular_rate[0], m.angular_rate[1], m.angular_rate[2])});
-      } else if (e->channel == delta_channel) {
-        ips::tracker_delta_t m;
-        if (m.decode(e->data, 0, e->datalen) < 0) {
-          ++undecodable;
-          continue;
-        }
-        if (!m.valid) {
-          ++invalid;
-          continue;
-        }
-        deltas.push_back(
-            {m.utime_prev, m.utime, Eigen::Quaterniond(m.rotation[0], m.rotation[1], m.rotation[2], m.rotation[3])});
       }
     }
     ips::calib::CameraImuConfig config;
@@ -102,7 +108,7 @@ int main(int argc, char** argv) {
           std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
           fs << "camera_imu_figures"
              << "{"
-             << "date" << date << "log" << args.get("--log") << "delay_us" << est.delay_us << "delay_sigma_us"
+             << "date" << date << "log" << logs.front() << "delay_us" << est.delay_us << "delay_sigma_us"
              << est.delay_sigma_us << "rotation_sigma_deg"
              << std::vector<double>{est.rotation_sigma_deg.x(), est.rotation_sigma_deg.y(), est.rotation_sigma_deg.z()}
              << "residual_rms_deg" << est.residual_rms_deg << "intervals" << static_cast<int>(est.intervals)
