@@ -1,15 +1,20 @@
-// calibrate_stereo: both cameras and the stereo geometry of a head from chessboard image pairs, written as the
-// project's calibration file. The library (ips/calib/stereo_calibration.hpp) does the work; this reads the
-// images and prints the figures. The last line is `rms_px=... epipolar_px=... heldout_epipolar_px=...`.
+// calibrate_stereo: both cameras and the stereo geometry of a head from chessboard image pairs (image files, or the
+// head's LCM log), written as the project's calibration file. The library (ips/calib/stereo_calibration.hpp) does the
+// work; this reads the images and prints the figures. The last line is `rms_px=... epipolar_px=...
+// heldout_epipolar_px=...`.
 #include <glob.h>
 
 #include <cstdio>
+#include <ips/stereo_pair_t.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
 #include "ips/args.hpp"
 #include "ips/calib/stereo_calibration.hpp"
+#include "ips/framework/image.hpp"
+#include "ips/framework/log_reader.hpp"
+#include "ips/framework/validate.hpp"
 
 namespace {
 
@@ -28,28 +33,75 @@ std::vector<std::string> matching(const std::string& pattern) {
 int main(int argc, char** argv) {
   try {
     ips::Args args(argc, argv, "Stereo calibration from chessboard image pairs -> the project's calibration file");
-    args.required("--left", "GLOB", "left images (quoted glob; sorted, paired by order with --right)")
-        .required("--right", "GLOB", "right images")
+    args.option("--left", "GLOB", "left images (quoted glob; sorted, paired by order with --right)")
+        .option("--right", "GLOB", "right images")
+        .option("--log", "FILE.lcmlog",
+                "instead of --left/--right: the head's recording; one view per pose, taken while the board stands "
+                "still")
+        .option("--stereo-channel", "NAME", "with --log: channel of ips::stereo_pair_t", "STEREO")
         .required("--board", "WxH", "inner corners per row and column, e.g. 9x6")
         .required("--square", "METRES", "edge of one board square")
         .required("--out", "FILE.yaml", "calibration file to write")
         .option("--check-png", "FILE.png", "write the first pair rectified, with horizontal lines, to this file");
     if (!args.parse()) return 0;
-    const std::vector<std::string> left = matching(args.get("--left")), right = matching(args.get("--right"));
-    if (left.empty()) throw std::runtime_error("--left " + args.get("--left") + ": no files matched");
-    if (right.empty()) throw std::runtime_error("--right " + args.get("--right") + ": no files matched");
-    if (left.size() != right.size())
-      throw std::runtime_error("--left matched " + std::to_string(left.size()) + " files, --right " +
-                               std::to_string(right.size()));
+    if (args.has("--log") == (args.has("--left") || args.has("--right")) ||
+        (!args.has("--log") && !(args.has("--left") && args.has("--right"))))
+      throw ips::ArgError("calibrate_stereo: give --left and --right, or --log (see --help)");
     ips::calib::ChessboardSpec board;
     if (std::sscanf(args.get("--board").c_str(), "%dx%d", &board.inner_corners.width, &board.inner_corners.height) != 2)
       throw std::runtime_error("--board " + args.get("--board") + ": expected WxH, e.g. 9x6");
     board.square_m = args.getDouble("--square");
 
-    std::vector<ips::calib::StereoImagePair> pairs;
-    for (size_t i = 0; i < left.size(); ++i)
-      pairs.push_back({left[i], cv::imread(left[i], cv::IMREAD_GRAYSCALE), cv::imread(right[i], cv::IMREAD_GRAYSCALE)});
-    const ips::calib::StereoCalibrationResult result = ips::calib::calibrateStereo(pairs, board);
+    std::vector<ips::calib::StereoImagePair> pairs;  // kept for the check picture
+    ips::calib::StereoCalibrationResult result;
+    if (args.has("--log")) {
+      // One view per pose: corners only, so that a long recording does not stay in memory.
+      std::vector<std::string> names;
+      std::vector<std::vector<cv::Point2f>> left_corners, right_corners;
+      std::vector<ips::calib::RejectedView> rejected;
+      ips::calib::StillViewPicker picker;
+      cv::Size size;
+      long long seen = 0;
+      ips::fw::LogReader log(args.get("--log"));
+      ips::fw::LogMessage event;
+      while (log.next(&event)) {
+        if (event.channel != args.get("--stereo-channel")) continue;
+        ips::stereo_pair_t m;
+        if (m.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0 || !ips::fw::validate(m).ok())
+          continue;
+        ++seen;
+        const cv::Mat left = ips::fw::leftImage(m), right = ips::fw::rightImage(m);
+        if (size.empty()) size = left.size();
+        if (left.size() != size || right.size() != size)
+          throw std::runtime_error("pair " + std::to_string(m.utime) + ": image size differs from the first pair's");
+        std::vector<cv::Point2f> l, r;
+        if (!ips::calib::detectChessboard(left, board.inner_corners, l)) l.clear();
+        if (!picker.offer(l)) continue;
+        const std::string name = "utime " + std::to_string(m.utime);
+        if (!ips::calib::detectChessboard(right, board.inner_corners, r)) {
+          rejected.push_back({name, "board not found in the right image"});
+          continue;
+        }
+        if (pairs.empty()) pairs.push_back({name, left.clone(), right.clone()});
+        names.push_back(name);
+        left_corners.push_back(l);
+        right_corners.push_back(r);
+      }
+      std::printf("pairs in the log %lld, views taken (board still, one per pose) %zu\n", seen, names.size());
+      if (names.empty()) throw std::runtime_error(args.get("--log") + ": no still view of the board");
+      result = ips::calib::calibrateStereoFromCorners(names, left_corners, right_corners, board, size, {}, rejected);
+    } else {
+      const std::vector<std::string> left = matching(args.get("--left")), right = matching(args.get("--right"));
+      if (left.empty()) throw std::runtime_error("--left " + args.get("--left") + ": no files matched");
+      if (right.empty()) throw std::runtime_error("--right " + args.get("--right") + ": no files matched");
+      if (left.size() != right.size())
+        throw std::runtime_error("--left matched " + std::to_string(left.size()) + " files, --right " +
+                                 std::to_string(right.size()));
+      for (size_t i = 0; i < left.size(); ++i)
+        pairs.push_back(
+            {left[i], cv::imread(left[i], cv::IMREAD_GRAYSCALE), cv::imread(right[i], cv::IMREAD_GRAYSCALE)});
+      result = ips::calib::calibrateStereo(pairs, board);
+    }
 
     for (const auto& r : result.rejected) std::printf("rejected %s: %s\n", r.name.c_str(), r.reason.c_str());
     for (const auto& v : result.views)

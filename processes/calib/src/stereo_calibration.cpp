@@ -246,6 +246,26 @@ bool detectChessboard(const cv::Mat& image, cv::Size inner_corners, std::vector<
   return true;
 }
 
+namespace {
+
+// Mean distance of corresponding corners; infinite when the sets differ in size (or one is empty).
+double meanShift(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b) {
+  if (a.empty() || a.size() != b.size()) return INFINITY;
+  double sum = 0;
+  for (size_t i = 0; i < a.size(); ++i) sum += std::hypot(a[i].x - b[i].x, a[i].y - b[i].y);
+  return sum / static_cast<double>(a.size());
+}
+
+}  // namespace
+
+bool StillViewPicker::offer(const std::vector<cv::Point2f>& corners) {
+  const bool still = meanShift(corners, previous_) < still_px_;
+  previous_ = corners;
+  if (!still || !(last_taken_.empty() || meanShift(corners, last_taken_) >= distinct_px_)) return false;
+  last_taken_ = corners;
+  return true;
+}
+
 StereoCalibrationResult calibrateStereo(const std::vector<StereoImagePair>& pairs, const ChessboardSpec& board,
                                         const CalibrationOptions& options) {
   if (pairs.empty()) throw std::runtime_error("no image pairs");

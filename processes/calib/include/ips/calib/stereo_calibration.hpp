@@ -85,6 +85,21 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
                                                    const CalibrationOptions& options = {},
                                                    std::vector<RejectedView> rejected = {});
 
+// Picks calibration views from a recording (an LCM log of the head), one per pose: a view is taken when the board
+// stands still (its corners moved less than still_px on average since the previous image, so there is no motion
+// blur) and it has moved by at least distinct_px on average since the last view taken.
+class StillViewPicker {
+ public:
+  explicit StillViewPicker(double still_px = 0.5, double distinct_px = 20.0)
+      : still_px_(still_px), distinct_px_(distinct_px) {}
+  // Corners of the board in one image of the stream (empty: not found). True: take this view.
+  bool offer(const std::vector<cv::Point2f>& corners);
+
+ private:
+  double still_px_, distinct_px_;
+  std::vector<cv::Point2f> previous_, last_taken_;
+};
+
 // Writes the calibration (saveCalibration) followed by the figures, the rejected views and the date.
 void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result);
 
