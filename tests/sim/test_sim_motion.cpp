@@ -243,7 +243,8 @@ TEST(SimTilt, StatisticsAndResponseToAcceleration) {
 }
 
 TEST(SimScenario, ConfigFilesLoadAndBadValuesAreNamed) {
-  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml", "sim_still.yaml", "sim_imu_calib.yaml"}) {
+  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml", "sim_still.yaml", "sim_imu_calib.yaml",
+                           "sim_imu_calib_askew.yaml", "sim_tilt_calib.yaml", "sim_stereo_calib.yaml"}) {
     const Scenario sc = Scenario::load(std::string(IPS_CONFIG_DIR) + "/" + name);
     const Trajectory traj(sc.trajectory, sc.gravity);
     EXPECT_GT(traj.duration(), 10) << name;
@@ -267,6 +268,29 @@ TEST(SimScenario, ConfigFilesLoadAndBadValuesAreNamed) {
     EXPECT_NE(std::string(e.what()).find("bad_scenario.yaml"), std::string::npos) << e.what();
   }
   EXPECT_THROW(Scenario::load("/nonexistent/sim.yaml"), ips::ConfigError);
+
+  // A variant names its base and says only what differs.
+  const Scenario askew = Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_imu_calib_askew.yaml");
+  const Scenario waved = Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_imu_calib.yaml");
+  EXPECT_EQ(askew.trajectory.type, "wave");
+  EXPECT_EQ(askew.trajectory.wave_period_s, waved.trajectory.wave_period_s);
+  EXPECT_EQ(askew.camera.stamp_offset_us, 3700);
+  EXPECT_EQ(waved.camera.stamp_offset_us, def.camera.stamp_offset_us);
+  EXPECT_EQ(askew.name, "imu_calib_askew");
+  // A base that names itself nests without end: refused, naming the file.
+  const std::string looping = testing::TempDir() + "/looping_scenario.yaml";
+  {
+    FILE* f = std::fopen(looping.c_str(), "w");
+    ASSERT_NE(f, nullptr);
+    std::fputs("%YAML:1.0\n---\nbase: looping_scenario.yaml\n", f);
+    std::fclose(f);
+  }
+  try {
+    Scenario::load(looping);
+    FAIL() << "no exception";
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("base"), std::string::npos) << e.what();
+  }
 }
 
 // The walk and the vehicle stay clear of every surface of the building (walls, door frame, cabinets): the head

@@ -62,11 +62,23 @@ void get(const Config& c, const std::string& key, Eigen::Matrix<double, N, 1>& v
   if (c.has(key)) v = c.getMatrix(key, N, 1);
 }
 
-}  // namespace
-
-Scenario Scenario::load(const std::string& path) {
-  Scenario s = defaults();
+// The keys of the file at `path` over `s`. A file may name another scenario as its `base` (a path relative to its
+// own folder): that one is read first, so a variant says only what differs (the head of the walk, waved instead of
+// walked). Bases nest up to kMaxBaseDepth deep (a loop of bases is an error).
+constexpr int kMaxBaseDepth = 4;
+Scenario loadOver(const std::string& path, int depth) {
   Config c(path);
+  Scenario s = Scenario::defaults();
+  if (c.has("base")) {
+    if (depth >= kMaxBaseDepth)
+      throw ConfigError(path + ": key 'base' nests deeper than " + std::to_string(kMaxBaseDepth) + " files");
+    std::string base = c.getString("base");
+    if (!base.empty() && base.front() != '/') {
+      const auto slash = path.find_last_of('/');
+      if (slash != std::string::npos) base = path.substr(0, slash + 1) + base;
+    }
+    s = loadOver(base, depth + 1);
+  }
   s.source = path;
   get(c, "name", s.name);
   if (c.has("seed")) {
@@ -210,6 +222,10 @@ Scenario Scenario::load(const std::string& path) {
   }
   return s;
 }
+
+}  // namespace
+
+Scenario Scenario::load(const std::string& path) { return loadOver(path, 0); }
 
 void Scenario::validate() const {
   auto require = [](bool ok, const char* what) {

@@ -184,7 +184,8 @@ struct Scenario {
   WorldConfig world;
 
   static Scenario defaults();
-  // Keys present in the file override the defaults; a wrong key type throws ips::ConfigError naming file and key.
+  // Keys present in the file override the defaults, or the scenario the file names as its `base` (a path relative to
+  // the file); a wrong key type throws ips::ConfigError naming file and key.
   static Scenario load(const std::string& path);
   void validate() const;  // throws std::invalid_argument on impossible figures
 };
