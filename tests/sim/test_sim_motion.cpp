@@ -318,6 +318,30 @@ TEST(SimTrajectory, RoutesStayClearOfTheBuilding) {
 // errors whose spread over many seeds is the configured one (per axis for rotations: the mean squared angle of
 // a rotation with three independent axes of standard deviation s is 3 s^2), the same for one seed every time,
 // and written with its source so that a run can say what it ran on.
+// The head as designed, where the calibration tools start: nominal pinhole cameras, parallel at the nominal baseline,
+// IMU and tilt sensor on the head's axes at the drawn lever arm; the true head is within its drawn errors of it.
+TEST(SimHead, DesignIsTheNominalHead) {
+  const Scenario sc = Scenario::defaults();
+  const ips::StereoCalibration design = SensorHead::design(sc);
+  const SensorHead head = SensorHead::make(sc);
+  EXPECT_EQ(design.source, "design");
+  EXPECT_DOUBLE_EQ(design.cam0.K(0, 0), sc.camera.focal_px);
+  EXPECT_DOUBLE_EQ(design.cam1.K(1, 2), (sc.camera.height - 1) * 0.5);
+  EXPECT_TRUE(design.cam0.distortion.isZero());
+  EXPECT_TRUE(design.R_cam1_cam0.isIdentity());
+  EXPECT_DOUBLE_EQ(design.baseline(), sc.camera.baseline_m);
+  EXPECT_EQ(design.T_imu_cam0.translation(), head.calibration.T_imu_cam0.translation());
+  // The IMU's misalignment (5 mrad per axis) and the tilt sensor's (1 deg per axis) separate the truth from it.
+  const double imu_deg =
+      Eigen::AngleAxisd(design.T_imu_cam0.linear().transpose() * head.calibration.T_imu_cam0.linear()).angle() / kDeg;
+  const double tilt_deg =
+      Eigen::AngleAxisd(design.R_tilt_cam0.transpose() * head.calibration.R_tilt_cam0).angle() / kDeg;
+  EXPECT_GT(imu_deg, 0.01);
+  EXPECT_LT(imu_deg, 5 * std::sqrt(3.0) * sc.imu.misalignment_mrad * 1e-3 / kDeg);
+  EXPECT_GT(tilt_deg, 0.05);
+  EXPECT_LT(tilt_deg, 5 * std::sqrt(3.0) * sc.tilt.misalignment_deg);
+}
+
 TEST(SimHead, CalibrationForProcessesCarriesTheConfiguredErrors) {
   Scenario sc = Scenario::defaults();
   const SensorHead head = SensorHead::make(sc);

@@ -27,6 +27,9 @@ int main(int argc, char** argv) {
         .option("--rate", "FACTOR", "live mode: speed relative to real time", "1")
         .option("--lcm-url", "URL", "live mode: LCM URL (default $LCM_DEFAULT_URL)")
         .option("--calib-out", "FILE", "live mode: where to write the calibration", "sim.calib.yaml")
+        .option("--design-out", "FILE",
+                "also write the head as designed (nominal lenses and mounting, source: design), where the "
+                "calibration tools start")
         .option("--log-level", "LEVEL", "debug, info, warn, error", "info");
     if (!args.parse()) return 0;
     ips::setLogName("sim");
@@ -48,6 +51,8 @@ int main(int argc, char** argv) {
     if (!(rate > 0)) throw ips::ArgError("--rate must be positive");
 
     const std::string calib_path = args.has("--out") ? args.get("--out") + ".calib.yaml" : args.get("--calib-out");
+    if (args.has("--design-out"))
+      ips::saveCalibration(args.get("--design-out"), ips::sim::SensorHead::design(scenario));
     if (options.duration_s == 0) {  // only the calibration (for processes started before the head)
       ips::sim::writeCalibrations(scenario, ips::sim::SensorHead::make(scenario), calib_path);
       IPS_INFO("--duration 0: wrote the calibration " << calib_path << " and nothing else");

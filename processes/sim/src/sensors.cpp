@@ -18,6 +18,13 @@ Eigen::Matrix3d smallRotation(Rng& rng, double sigma_rad) {
 
 double quantize(double v, double lsb) { return lsb > 0 ? std::round(v / lsb) * lsb : v; }
 
+// Nominal mounting: camera z (forward) along body x, camera x (right) along body -y, camera y (down) along -z.
+Eigen::Matrix3d nominalHeadCamera() {
+  Eigen::Matrix3d R_head_cam;
+  R_head_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  return R_head_cam;
+}
+
 }  // namespace
 
 SensorHead SensorHead::make(const Scenario& s) {
@@ -45,9 +52,7 @@ SensorHead SensorHead::make(const Scenario& s) {
   head.T_cam0_cam1.linear() = R10.transpose();
   head.T_cam0_cam1.translation() = c1_in_cam0;
 
-  // Nominal mounting: camera z (forward) along body x, camera x (right) along body -y, camera y (down) along -z.
-  Eigen::Matrix3d R_head_cam;
-  R_head_cam << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  const Eigen::Matrix3d R_head_cam = nominalHeadCamera();
   Rng rng(streamSeed(s.seed, kStreamHead));
   const Eigen::Matrix3d R_imu_head = smallRotation(rng, s.imu.misalignment_mrad * 1e-3);
   head.T_imu_cam0.linear() = R_imu_head * R_head_cam;
@@ -59,6 +64,22 @@ SensorHead SensorHead::make(const Scenario& s) {
   head.cam1_step_s = c.relative_rotation_step_s;
   head.cam1_drift_per_s = c.relative_rotation_drift_deg_per_min * kDeg / 60.0;
   return head;
+}
+
+StereoCalibration SensorHead::design(const Scenario& s) {
+  const CameraFigures& c = s.camera;
+  StereoCalibration cal;
+  for (CameraIntrinsics* cam : {&cal.cam0, &cal.cam1}) {
+    cam->width = c.width;
+    cam->height = c.height;
+    cam->K << c.focal_px, 0, (c.width - 1) * 0.5, 0, c.focal_px, (c.height - 1) * 0.5, 0, 0, 1;
+  }
+  cal.t_cam1_cam0 = Eigen::Vector3d(-c.baseline_m, 0, 0);
+  cal.T_imu_cam0.linear() = nominalHeadCamera();
+  cal.T_imu_cam0.translation() = s.imu.lever_arm_m;
+  cal.R_tilt_cam0 = nominalHeadCamera();
+  cal.source = "design";
+  return cal;
 }
 
 Eigen::Matrix3d SensorHead::cam1Turn(double t) const {

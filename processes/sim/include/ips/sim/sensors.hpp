@@ -28,6 +28,11 @@ struct SensorHead {
   // The calibration the processes are given: the true one (source "true") or, with calibration_errors, the true
   // one with errors drawn from the seed (source "perturbed"). The renderer always uses the truth.
   StereoCalibration calibrationForProcesses(const Scenario& scenario) const;
+  // The head as designed (what a user knows before calibrating: the data sheets and the drawing): pinhole cameras of
+  // the nominal focal length centred on the image without distortion, parallel at the nominal baseline, the IMU and
+  // the tilt sensor aligned with the head's axes at the drawn lever arm; source "design". The calibration tools
+  // start from it.
+  static StereoCalibration design(const Scenario& scenario);
   // Pose of camera 0 / camera 1 in the world when the body is at T_world_imu.
   Eigen::Isometry3d cam0InWorld(const Eigen::Isometry3d& T_world_imu) const { return T_world_imu * T_imu_cam0; }
   // t [s] since the scenario start: the right camera as turned by then.
