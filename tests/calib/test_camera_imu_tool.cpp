@@ -7,6 +7,7 @@
 #include <ips/imu_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <lcm/lcm-cpp.hpp>
+#include <opencv2/core.hpp>
 #include <string>
 
 #include "ips/calibration.hpp"
@@ -86,7 +87,19 @@ TEST(CameraImuTool, ReportsAndWritesTheRotationAndDelayOfARecordedLog) {
   designed.T_imu_cam0.translation() = Eigen::Vector3d(0.05, 0.01, -0.06);
   const std::string calib_in = ::testing::TempDir() + "camera_imu_designed.yaml";
   const std::string calib_out = ::testing::TempDir() + "camera_imu_estimated.yaml";
-  ips::saveCalibration(calib_in, designed);
+  // As calibrate_stereo leaves it: its figures in a block of the file, which the next tool must keep.
+  ips::saveCalibration(calib_in, designed, [](cv::FileStorage& fs) {
+    fs << "calibration_figures"
+       << "{"
+       << "rms_px" << 0.125 << "views"
+       << "["
+       << "{"
+       << "name"
+       << "left01.jpg"
+       << "}"
+       << "]"
+       << "}";
+  });
   const std::string out =
       run(std::string(IPS_CAMERA_IMU_TOOL) + " --log " + path + " --calib " + calib_in + " --out " + calib_out);
   // The last line: the figures a script reads.
@@ -105,6 +118,12 @@ TEST(CameraImuTool, ReportsAndWritesTheRotationAndDelayOfARecordedLog) {
             4 * std::sqrt(3.0) * sigma_deg)
       << out;
   EXPECT_TRUE(estimated.T_imu_cam0.translation().isApprox(designed.T_imu_cam0.translation()));  // mechanical, kept
+  {
+    cv::FileStorage written(calib_out, cv::FileStorage::READ);
+    EXPECT_DOUBLE_EQ(static_cast<double>(written["calibration_figures"]["rms_px"]), 0.125);
+    EXPECT_EQ(static_cast<std::string>(written["calibration_figures"]["views"][0]["name"]), "left01.jpg");
+    EXPECT_NEAR(static_cast<double>(written["camera_imu_figures"]["delay_us"]), delay, 1.0);
+  }
   std::remove(path.c_str());
   std::remove(calib_in.c_str());
   std::remove(calib_out.c_str());

@@ -4,7 +4,6 @@
 // calibration with the estimated rotation. The last line is
 // `delay_us=... delay_sigma_us=... rotation_sigma_deg=... residual_deg=... intervals=...`.
 #include <cstdio>
-#include <ctime>
 #include <ips/imu_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <lcm/lcm-cpp.hpp>
@@ -12,6 +11,7 @@
 
 #include "ips/args.hpp"
 #include "ips/calib/camera_imu.hpp"
+#include "ips/calib/figures.hpp"
 #include "ips/calibration.hpp"
 
 namespace {
@@ -103,13 +103,11 @@ int main(int argc, char** argv) {
         calib.T_imu_cam0.linear() = est.R_imu_cam;
         calib.source = "estimated";
         ips::saveCalibration(args.get("--out"), calib, [&](cv::FileStorage& fs) {
-          char date[32];
-          const std::time_t now = std::time(nullptr);
-          std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+          ips::calib::copyFigureBlocks(fs, args.get("--calib"), "camera_imu_figures");
           fs << "camera_imu_figures"
              << "{"
-             << "date" << date << "log" << logs.front() << "delay_us" << est.delay_us << "delay_sigma_us"
-             << est.delay_sigma_us << "rotation_sigma_deg"
+             << "date" << ips::calib::utcNow() << "log" << logs.front() << "delay_us" << est.delay_us
+             << "delay_sigma_us" << est.delay_sigma_us << "rotation_sigma_deg"
              << std::vector<double>{est.rotation_sigma_deg.x(), est.rotation_sigma_deg.y(), est.rotation_sigma_deg.z()}
              << "residual_rms_deg" << est.residual_rms_deg << "intervals" << static_cast<int>(est.intervals)
              << "rejected" << static_cast<int>(est.rejected) << "}";

@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
         .required("--board", "WxH", "inner corners per row and column, e.g. 9x6")
         .required("--square", "METRES", "edge of one board square")
         .required("--out", "FILE.yaml", "calibration file to write")
+        .option("--calib", "FILE",
+                "the head's calibration so far (or as designed): its IMU and tilt sensor mounting go into --out "
+                "unchanged (without it they are the identity, to be calibrated)")
         .option("--check-png", "FILE.png", "write the first pair rectified, with horizontal lines, to this file");
     if (!args.parse()) return 0;
     if (args.has("--log") == (args.has("--left") || args.has("--right")) ||
@@ -120,7 +123,12 @@ int main(int argc, char** argv) {
     std::printf("chosen %s (lowest held-out epipolar error), %zu views used, %zu rejected, baseline %.4f m\n",
                 ips::calib::lensModelName(result.model).c_str(), result.views.size(), result.rejected.size(),
                 result.calib.baseline());
-    ips::calib::saveStereoCalibration(args.get("--out"), result);
+    if (args.has("--calib")) {
+      const ips::StereoCalibration before = ips::loadCalibration(args.get("--calib"));
+      result.calib.T_imu_cam0 = before.T_imu_cam0;
+      result.calib.R_tilt_cam0 = before.R_tilt_cam0;
+    }
+    ips::calib::saveStereoCalibration(args.get("--out"), result, args.has("--calib") ? args.get("--calib") : "");
     if (args.has("--check-png")) {
       const cv::Mat check = ips::calib::drawRectifiedCheck(result.calib, pairs.front().left, pairs.front().right);
       if (!cv::imwrite(args.get("--check-png"), check))

@@ -2,12 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <ctime>
 #include <limits>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+
+#include "ips/calib/figures.hpp"
 
 namespace ips::calib {
 namespace {
@@ -383,15 +384,14 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
   return result;
 }
 
-void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result) {
+void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result,
+                           const std::string& previous) {
   // The figures go into the calibration's own YAML document (FileStorage::APPEND would start a second one).
   saveCalibration(path, result.calib, [&](cv::FileStorage& fs) {
-    char date[32];
-    const std::time_t now = std::time(nullptr);
-    std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+    if (!previous.empty()) copyFigureBlocks(fs, previous, "calibration_figures");
     fs << "calibration_figures"
        << "{";
-    fs << "date" << date << "lens_model" << lensModelName(result.model);
+    fs << "date" << utcNow() << "lens_model" << lensModelName(result.model);
     fs << "rms_px" << result.figures.rms_px << "epipolar_px" << result.figures.epipolar_px;
     fs << "heldout_epipolar_px" << result.figures.heldout_epipolar_px;
     fs << "rectified_row_px" << result.figures.rectified_row_px;

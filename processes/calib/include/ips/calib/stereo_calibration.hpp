@@ -100,8 +100,10 @@ class StillViewPicker {
   std::vector<cv::Point2f> previous_, last_taken_;
 };
 
-// Writes the calibration (saveCalibration) followed by the figures, the rejected views and the date.
-void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result);
+// Writes the calibration (saveCalibration) followed by the figures, the rejected views and the date; the figure blocks
+// of the file `previous` (the other tools'), if given, are kept.
+void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result,
+                           const std::string& previous = "");
 
 // One rectified pair side by side with horizontal lines every `line_spacing_px` rows: matching points must lie on
 // the same line.
