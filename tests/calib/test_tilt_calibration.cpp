@@ -58,12 +58,10 @@ std::string run(const std::string& command) {
 }  // namespace
 
 TEST(TiltCalibration, SyntheticStationsGiveTheTwoAngles) {
-  const Eigen::Matrix3d nominal = cameraInBody();  // R_tilt_cam0 as designed: the tilt axes are the body axes
-  const Eigen::Vector2d turn_deg(0.42, -0.31);
-  const Eigen::Matrix3d truth = Eigen::AngleAxisd(Eigen::Vector3d(turn_deg.x(), turn_deg.y(), 0).norm() * kDeg,
-                                                  Eigen::Vector3d(turn_deg.x(), turn_deg.y(), 0).normalized())
-                                    .toRotationMatrix() *
-                                nominal;
+  const Eigen::Matrix3d nominal = cameraInBody();    // R_tilt_cam0 as designed: the tilt axes are the body axes
+  const Eigen::Vector3d turn_deg(0.42, -0.31, 0.9);  // about the sensor's x, y and vertical
+  const Eigen::Matrix3d truth =
+      Eigen::AngleAxisd(turn_deg.norm() * kDeg, turn_deg.normalized()).toRotationMatrix() * nominal;
   const double stations[][3] = {{0, 0, 0}, {10, 0, 3}, {-10, 5, -3}, {0, 10, 0}, {0, -8, 2}, {8, 8, 6}};
   for (double noise_deg : {0.0, 0.03}) {
     std::mt19937 rng(4);
@@ -99,13 +97,41 @@ TEST(TiltCalibration, SyntheticStationsGiveTheTwoAngles) {
     const TiltCalibrationResult r = calibrateTilt(views, readings, nominal);
     ASSERT_TRUE(r.ok) << r.reason;
     EXPECT_EQ(r.stations.size(), 6u);
-    std::printf("noise %.2f deg: angles %.5f %.5f deg (truth %.2f %.2f), sigma %.5f %.5f, residual %.5f\n", noise_deg,
-                r.angles_deg.x(), r.angles_deg.y(), turn_deg.x(), turn_deg.y(), r.sigma_deg.x(), r.sigma_deg.y(),
-                r.residual_rms_deg);
-    const double tolerance = noise_deg == 0 ? 1e-6 : 0.02;
+    std::printf(
+        "noise %.2f deg: angles %.5f %.5f %.5f deg (truth %.2f %.2f %.2f), sigma %.5f %.5f %.5f, residual %.5f\n",
+        noise_deg, r.angles_deg.x(), r.angles_deg.y(), r.angles_deg.z(), turn_deg.x(), turn_deg.y(), turn_deg.z(),
+        r.sigma_deg.x(), r.sigma_deg.y(), r.sigma_deg.z(), r.residual_rms_deg);
+    ASSERT_TRUE(r.vertical_estimated);  // tilts of 5-12 deg determine it
+    const double tolerance = noise_deg == 0 ? 1e-6 : 0.03;
     EXPECT_NEAR(r.angles_deg.x(), turn_deg.x(), tolerance);
     EXPECT_NEAR(r.angles_deg.y(), turn_deg.y(), tolerance);
-    EXPECT_LT(Eigen::AngleAxisd(r.R_tilt_cam0.transpose() * truth).angle() / kDeg, tolerance * 1.5);
+    EXPECT_NEAR(r.angles_deg.z(), turn_deg.z(), noise_deg == 0 ? 1e-6 : 5 * r.sigma_deg.z());
+    if (noise_deg == 0) EXPECT_LT(Eigen::AngleAxisd(r.R_tilt_cam0.transpose() * truth).angle() / kDeg, 1e-5);
+  }
+  // Stations that are all level tell nothing about the turn about the vertical: it stays as designed, and the two
+  // angles still come out.
+  {
+    std::vector<ChartView> views;
+    std::vector<TiltReading> readings;
+    int64_t t = 1'000'000;
+    for (const auto& s : stations) {
+      const Eigen::Matrix3d R_cam_world =
+          cameraInBody().transpose() * bodyInWorld(0.01 * s[0], 0.01 * s[1], s[2]).transpose();
+      for (int k = 0; k <= 16; ++k)
+        views.push_back(
+            {t + k * 250'000, R_cam_world * chartInWorld(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0});
+      const Eigen::Vector2d angles = tiltAngles(truth * R_cam_world * Eigen::Vector3d::UnitZ());
+      for (int64_t u = t; u <= t + 4'000'000; u += 71'429) readings.push_back({u, angles.x(), angles.y()});
+      t += 6'000'000;
+    }
+    const TiltCalibrationResult level = calibrateTilt(views, readings, nominal);
+    ASSERT_TRUE(level.ok) << level.reason;
+    EXPECT_FALSE(level.vertical_estimated);
+    EXPECT_EQ(level.angles_deg.z(), 0.0);
+    // Within 0.1 deg of level: the two angles are the truth's up to what the unestimated 0.9 deg about the vertical
+    // mixes in (0.9 deg times 0.1 deg in radians).
+    EXPECT_NEAR(level.angles_deg.x(), turn_deg.x(), 0.005);
+    EXPECT_NEAR(level.angles_deg.y(), turn_deg.y(), 0.005);
   }
   // Two stations are too few (the answer would have no spread to judge it by).
   std::vector<ChartView> few;
@@ -127,16 +153,24 @@ TEST(TiltCalibrationSim, ChartAtStaticPositionsGivesTheSensorsAngles) {
       std::system((std::string(SIM_EXECUTABLE) + " --scenario " + scenario_path + " --out " + log + " --log-level warn")
                       .c_str()),
       0);
-  const std::string out = run(std::string(CALIBRATE_TILT) + " --log " + log + " --calib " + log +
-                              ".calib.yaml --board 9x6 --square 0.1 --out " + out_calib);
+  // The tool starts from the cameras as calibrated (here: their truth) and the tilt sensor as designed, 1 deg per
+  // axis off its true mounting (the seed's draw) besides its zero offsets.
+  const ips::sim::Scenario scenario = ips::sim::Scenario::load(scenario_path);
+  ips::StereoCalibration start = ips::loadCalibration(log + ".calib.yaml");
+  start.R_tilt_cam0 = ips::sim::SensorHead::design(scenario).R_tilt_cam0;
+  const std::string start_path = ::testing::TempDir() + "tilt_calib_start.yaml";
+  ips::saveCalibration(start_path, start);
+  const std::string out = run(std::string(CALIBRATE_TILT) + " --log " + log + " --calib " + start_path +
+                              " --board 9x6 --square 0.1 --out " + out_calib);
   std::printf("%s", out.c_str());
   ASSERT_NE(out.find("angle_x_deg="), std::string::npos) << out;
   EXPECT_NE(out.find("stations=8"), std::string::npos) << out;
+  EXPECT_EQ(out.find("vertical_deg=kept"), std::string::npos) << out;  // tilts of 4-13 deg determine it
   const ips::StereoCalibration estimated = ips::loadCalibration(out_calib);
   EXPECT_EQ(estimated.source, "estimated");
 
   // The sensor as the simulator has it: its mounting (R_tilt_imu) and its zero offsets, noise-free, static.
-  const ips::sim::Scenario sc = ips::sim::Scenario::load(scenario_path);
+  const ips::sim::Scenario& sc = scenario;
   const ips::sim::Rig rig(sc);
   const ips::sim::TiltSimulator sensor(sc.tilt, rig.trajectory, rig.head.R_tilt_imu, sc.start_utime, sc.gravity,
                                        sc.seed);
@@ -144,7 +178,7 @@ TEST(TiltCalibrationSim, ChartAtStaticPositionsGivesTheSensorsAngles) {
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> tilt(-15, 15);
   double worst_deg = 0, worst_told_deg = 0;
-  const ips::StereoCalibration told = ips::loadCalibration(log + ".calib.yaml");
+  const ips::StereoCalibration& told = start;
   for (int k = 0; k < 200; ++k) {
     const Eigen::Matrix3d R_world_body = bodyInWorld(tilt(rng), tilt(rng), 0);
     const Eigen::Vector3d up_body = R_world_body.transpose() * Eigen::Vector3d::UnitZ();
@@ -156,10 +190,11 @@ TEST(TiltCalibrationSim, ChartAtStaticPositionsGivesTheSensorsAngles) {
   }
   std::printf(
       "[ SIM      ] sensor offsets %.3f %.3f deg; worst predicted angle error over +-15 deg: %.4f deg with the "
-      "estimate, %.4f deg with the mounting alone\n",
+      "estimate, %.4f deg as designed\n",
       sensor.offset().x() / kDeg, sensor.offset().y() / kDeg, worst_deg, worst_told_deg);
   EXPECT_LT(worst_deg, 0.05);
   std::remove(log.c_str());
   std::remove((log + ".calib.yaml").c_str());
   std::remove(out_calib.c_str());
+  std::remove(start_path.c_str());
 }

@@ -1,14 +1,14 @@
-// calibrate_tilt: the tilt sensor's two angles against camera 0 from an LCM log of the head set down at a few static
+// calibrate_tilt: the tilt sensor's angles against camera 0 from an LCM log of the head set down at a few static
 // positions in front of a chessboard chart that hangs plumb (STEREO and TILT, as the head or the simulator records
 // them). The library (ips/calib/tilt_calibration.hpp) does the work; this reads the log, prints the stations and
 // writes the calibration with the estimated R_tilt_cam0. The last line is
-// `angle_x_deg=... angle_y_deg=... sigma_deg=... residual_deg=... stations=...`.
+// `angle_x_deg=... angle_y_deg=... vertical_deg=...|kept sigma_deg=... residual_deg=... stations=...`.
 #include <cstdio>
-#include <ctime>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 
 #include "ips/args.hpp"
+#include "ips/calib/figures.hpp"
 #include "ips/calib/tilt_calibration.hpp"
 #include "ips/calibration.hpp"
 #include "ips/framework/image.hpp"
@@ -77,26 +77,31 @@ int main(int argc, char** argv) {
       std::printf("no estimate: %s\n", r.reason.c_str());
       return 3;
     }
-    std::printf("turn against %s about the sensor's x and y: %.4f %.4f deg (sigma %.4f %.4f)\n",
+    std::printf("turn against %s about the sensor's x and y: %.4f %.4f deg (sigma %.4f %.4f); about its vertical: ",
                 args.get("--calib").c_str(), r.angles_deg.x(), r.angles_deg.y(), r.sigma_deg.x(), r.sigma_deg.y());
+    if (r.vertical_estimated)
+      std::printf("%.4f deg (sigma %.4f)\n", r.angles_deg.z(), r.sigma_deg.z());
+    else
+      std::printf("not determined by these stations (tilt the head more), kept\n");
     if (args.has("--out")) {
       calib.R_tilt_cam0 = r.R_tilt_cam0;
       calib.source = "estimated";
       ips::saveCalibration(args.get("--out"), calib, [&](cv::FileStorage& fs) {
-        char date[32];
-        const std::time_t now = std::time(nullptr);
-        std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+        ips::calib::copyFigureBlocks(fs, args.get("--calib"), "tilt_figures");
         fs << "tilt_figures"
            << "{"
-           << "date" << date << "log" << args.get("--log") << "angles_deg"
-           << std::vector<double>{r.angles_deg.x(), r.angles_deg.y()} << "sigma_deg"
-           << std::vector<double>{r.sigma_deg.x(), r.sigma_deg.y()} << "residual_rms_deg" << r.residual_rms_deg
-           << "stations" << static_cast<int>(r.stations.size()) << "}";
+           << "date" << ips::calib::utcNow() << "log" << args.get("--log") << "angles_deg"
+           << std::vector<double>{r.angles_deg.x(), r.angles_deg.y(), r.angles_deg.z()} << "sigma_deg"
+           << std::vector<double>{r.sigma_deg.x(), r.sigma_deg.y(), r.sigma_deg.z()} << "vertical_estimated"
+           << static_cast<int>(r.vertical_estimated) << "residual_rms_deg" << r.residual_rms_deg << "stations"
+           << static_cast<int>(r.stations.size()) << "}";
       });
       std::printf("wrote %s\n", args.get("--out").c_str());
     }
-    std::printf("angle_x_deg=%.4f angle_y_deg=%.4f sigma_deg=%.4f residual_deg=%.4f stations=%zu\n", r.angles_deg.x(),
-                r.angles_deg.y(), r.sigma_deg.maxCoeff(), r.residual_rms_deg, r.stations.size());
+    const std::string vertical = r.vertical_estimated ? std::to_string(r.angles_deg.z()) : std::string("kept");
+    std::printf("angle_x_deg=%.4f angle_y_deg=%.4f vertical_deg=%s sigma_deg=%.4f residual_deg=%.4f stations=%zu\n",
+                r.angles_deg.x(), r.angles_deg.y(), vertical.c_str(), r.sigma_deg.maxCoeff(), r.residual_rms_deg,
+                r.stations.size());
     return 0;
   } catch (const ips::ArgError& e) {
     std::fprintf(stderr, "%s\n", e.what());

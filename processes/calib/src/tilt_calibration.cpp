@@ -12,8 +12,7 @@ namespace {
 
 constexpr double kDeg = M_PI / 180.0;
 
-Eigen::Matrix3d tiltTurn(double a, double b) {
-  const Eigen::Vector3d w(a, b, 0);
+Eigen::Matrix3d tiltTurn(const Eigen::Vector3d& w) {
   const double angle = w.norm();
   return angle > 0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
 }
@@ -135,39 +134,52 @@ TiltCalibrationResult calibrateTilt(const std::vector<ChartView>& views_in, cons
     return out;
   }
 
-  // Gauss-Newton on (a, b), numeric derivatives: two parameters, a few stations.
-  Eigen::Vector2d p = Eigen::Vector2d::Zero();
+  // Gauss-Newton on the turn (about the sensor's x, y and, when the stations tell it, its vertical), numeric
+  // derivatives: three parameters, a few stations.
   const size_t n = out.stations.size();
-  auto residuals = [&](const Eigen::Vector2d& q) {
+  auto residuals = [&](const Eigen::Vector3d& q) {
     Eigen::VectorXd r(2 * n);
-    const Eigen::Matrix3d R = tiltTurn(q.x(), q.y()) * nominal;
+    const Eigen::Matrix3d R = tiltTurn(q) * nominal;
     for (size_t k = 0; k < n; ++k)
       r.segment<2>(2 * k) = out.stations[k].measured_deg * kDeg - tiltAngles(R * out.stations[k].up_in_camera);
     return r;
   };
-  Eigen::MatrixXd J(2 * n, 2);
-  for (int iteration = 0; iteration < 20; ++iteration) {
-    const Eigen::VectorXd r = residuals(p);
-    const double h = 1e-7;
-    for (int j = 0; j < 2; ++j) {
-      Eigen::Vector2d dp = Eigen::Vector2d::Zero();
-      dp[j] = h;
-      J.col(j) = (residuals(p + dp) - residuals(p - dp)) / (2 * h);
+  struct Fit {
+    Eigen::Vector3d p = Eigen::Vector3d::Zero();
+    Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  };
+  auto fit = [&](int params) {
+    Fit f;
+    Eigen::MatrixXd J(2 * n, params);
+    for (int iteration = 0; iteration < 20; ++iteration) {
+      const Eigen::VectorXd r = residuals(f.p);
+      const double h = 1e-7;
+      for (int j = 0; j < params; ++j) {
+        const Eigen::Vector3d dp = h * Eigen::Vector3d::Unit(j);
+        J.col(j) = (residuals(f.p + dp) - residuals(f.p - dp)) / (2 * h);
+      }
+      const Eigen::VectorXd step = -(J.transpose() * J).ldlt().solve(J.transpose() * r);
+      f.p.head(params) += step;
+      if (step.norm() < 1e-12) break;
     }
-    const Eigen::Vector2d step = -(J.transpose() * J).ldlt().solve(J.transpose() * r);
-    p += step;
-    if (step.norm() < 1e-12) break;
-  }
-  const Eigen::VectorXd r = residuals(p);
+    const Eigen::VectorXd r = residuals(f.p);
+    // min_stations >= 2 keeps more residuals than parameters.
+    const double floor = config.min_reading_sigma_deg * kDeg;
+    const double variance =
+        std::max(floor * floor, r.squaredNorm() / static_cast<double>(std::max<Eigen::Index>(1, r.size() - params)));
+    f.covariance.topLeftCorner(params, params) = variance * (J.transpose() * J).inverse();
+    return f;
+  };
+  Fit best = fit(3);
+  out.vertical_estimated = std::sqrt(std::max(0.0, best.covariance(2, 2))) / kDeg <= config.max_vertical_sigma_deg;
+  if (!out.vertical_estimated) best = fit(2);  // level stations: the turn about the vertical stays as designed
+  const Eigen::VectorXd r = residuals(best.p);
   for (size_t k = 0; k < n; ++k) out.stations[k].residual_deg = r.segment<2>(2 * k) / kDeg;
   out.residual_rms_deg = std::sqrt(r.squaredNorm() / static_cast<double>(r.size())) / kDeg;
-  // With as many residuals as parameters the spread is unknown: no sigma then (min_stations keeps it above).
-  const double variance = r.squaredNorm() / static_cast<double>(r.size() - 2);
-  const Eigen::Matrix2d covariance = variance * (J.transpose() * J).inverse();
-  out.sigma_deg = covariance.diagonal().cwiseMax(0.0).cwiseSqrt() / kDeg;
-  out.angles_deg = p / kDeg;
-  out.R_tilt_cam0 = tiltTurn(p.x(), p.y()) * nominal;
-  out.ok = p.allFinite() && covariance.allFinite();
+  out.sigma_deg = best.covariance.diagonal().cwiseMax(0.0).cwiseSqrt() / kDeg;
+  out.angles_deg = best.p / kDeg;
+  out.R_tilt_cam0 = tiltTurn(best.p) * nominal;
+  out.ok = best.p.allFinite() && best.covariance.allFinite();
   if (!out.ok) out.reason = "the fit did not converge: the stations' tilts are too alike";
   return out;
 }

@@ -4,10 +4,12 @@
 // stereo system and tilt sensor". The chart hangs plumb with its rows level, so its pose seen by camera 0 gives the
 // direction of "up" in the camera at each station; the tilt sensor's two angles give it in the sensor's frame.
 //
-// Estimated: R_tilt_cam0 = exp(a x_tilt + b y_tilt) * R_nominal, the two angles a, b about the sensor's own x and y
-// axes (the turn about its vertical axis does not change what it measures at small tilts, and stays as the file
-// has it). They take up the sensor's mounting and its zero offsets alike, which is what the filter's model of the
-// sensor needs. Least squares over the stations on the measured angles; sigmas from the residuals.
+// Estimated: R_tilt_cam0 = exp(a x_tilt + b y_tilt + c z_tilt) * R_nominal. The two angles a, b about the sensor's
+// own x and y axes are the paper's; they take up the sensor's mounting and its zero offsets alike, which is what the
+// filter's model of the sensor needs. The turn c about its vertical changes what it reads only when the head is
+// tilted (a 1 deg turn moves the readings by 0.2 deg at 12 deg of tilt): it is estimated when the stations' tilts
+// determine it (its sigma within max_vertical_sigma_deg), and otherwise stays as the file has it. Least squares over
+// the stations on the measured angles; sigmas from the residuals.
 #include <Eigen/Core>
 #include <cstdint>
 #include <opencv2/core.hpp>
@@ -49,6 +51,11 @@ struct TiltCalibrationConfig {
   double settle_s = 1.0;
   int min_stations = 3;
   int min_readings = 10;  // tilt readings a station needs
+  // The turn about the vertical is estimated only if the stations determine it this well (else: as designed).
+  double max_vertical_sigma_deg = 0.5;
+  // The sigmas take the stations' mean readings as no better than this (the Z260's 0.03 deg noise averaged over a
+  // station, and its 0.1 deg steps): a fit that happens to leave no residual is not infinitely certain.
+  double min_reading_sigma_deg = 0.01;
 };
 
 struct TiltStation {
@@ -64,8 +71,10 @@ struct TiltCalibrationResult {
   bool ok = false;
   std::string reason;
   Eigen::Matrix3d R_tilt_cam0 = Eigen::Matrix3d::Identity();
-  Eigen::Vector2d angles_deg = Eigen::Vector2d::Zero();  // a, b: the turn against the nominal, about the sensor's x, y
-  Eigen::Vector2d sigma_deg = Eigen::Vector2d::Zero();
+  // a, b, c: the turn against the nominal about the sensor's x, y and vertical (c 0 when not estimated).
+  Eigen::Vector3d angles_deg = Eigen::Vector3d::Zero();
+  Eigen::Vector3d sigma_deg = Eigen::Vector3d::Zero();
+  bool vertical_estimated = false;
   double residual_rms_deg = 0;
   std::vector<TiltStation> stations;
 };
