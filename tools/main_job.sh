@@ -6,7 +6,8 @@
 # Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario
 # file instead of the built-in walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
 # replaces filter_sim.yaml), IPS_REPLAY_SPEED (default 1), IPS_CONFIG (the config folder; default config/),
-# IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), LCM_DEFAULT_URL.
+# IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), IPS_CALIB (a calibration file the
+# processes run on instead of the log's; the log's is then the truth the report compares with), LCM_DEFAULT_URL.
 # IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder or KITTI odometry folder, told
 # apart by layout): dataset_to_lcm writes it as the head's log, the tracker runs with the head's config
 # (config/euroc.yaml, config/kitti.yaml), the filters when it has IMU, and the report adds the recording figures
@@ -57,11 +58,22 @@ elif [ -n "${IPS_SIM_LOG:-}" ]; then
   cp "$IPS_SIM_LOG.calib.yaml" "$run/walk.lcmlog.calib.yaml"
   [ ! -f "$IPS_SIM_LOG.true.calib.yaml" ] || cp "$IPS_SIM_LOG.true.calib.yaml" "$run/walk.lcmlog.true.calib.yaml"
 else
-  say "1/4 simulating the default walk (build/bin/sim; the paper's 90 m, 2 min indoor walk)"
+  if [ -n "${IPS_SCENARIO:-}" ]; then say "1/4 simulating $IPS_SCENARIO (build/bin/sim)"
+  else say "1/4 simulating the default walk (build/bin/sim; the paper's 90 m, 2 min indoor walk)"
+  fi
   sim_args=(--out "$run/walk.lcmlog" --gt-disparity-every 8 --seed "${IPS_SEED:-1}")
   [ -n "${IPS_DURATION:-}" ] && sim_args+=(--duration "$IPS_DURATION")
   [ -n "${IPS_SCENARIO:-}" ] && sim_args+=(--scenario "$IPS_SCENARIO")
   sim "${sim_args[@]}" 2>&1 | sed -u 's/^/    /'
+fi
+# IPS_CALIB=FILE: the processes run on this calibration instead of the one that came with the log (for the
+# simulated head: what the calibration tools estimated, tools/calib/calibrate_sim_head.sh); the log's own, the
+# truth for a simulated head, goes beside it for the evaluation.
+if [ -n "${IPS_CALIB:-}" ]; then
+  [ -f "$IPS_CALIB" ] || { say "IPS_CALIB=$IPS_CALIB: no such file"; exit 1; }
+  [ -f "$run/walk.lcmlog.true.calib.yaml" ] || cp "$run/walk.lcmlog.calib.yaml" "$run/walk.lcmlog.true.calib.yaml"
+  cp "$IPS_CALIB" "$run/walk.lcmlog.calib.yaml"
+  say "    the processes run on $IPS_CALIB"
 fi
 # A simulated scenario may come with its own filter settings: config/filter_<name>.yaml for config/sim_<name>.yaml
 # (a car's body vibration needs another process noise than a walker's gait) takes filter_sim.yaml's place.
