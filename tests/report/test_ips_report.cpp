@@ -121,6 +121,34 @@ TEST(IpsReport, NamesTheCalibrationTheProcessesRanOn) {
   EXPECT_NE(r.report.find("\"calibration_source\": \"perturbed\""), std::string::npos) << r.report;
   EXPECT_NE(runReport(log, "true_calib", "--calib " + truth_file).report.find("\"calibration_source\": \"true\""),
             std::string::npos);
+  EXPECT_NE(r.report.find("\"calibration_figures\": {}"), std::string::npos) << r.report;
+  // An estimated calibration brings the tools' figures along (their numbers and words; lists left out).
+  ips::StereoCalibration estimated = truth;
+  estimated.source = "estimated";
+  const std::string estimated_file = tempLog("estimated") + ".calib.yaml";
+  ips::saveCalibration(estimated_file, estimated, [](cv::FileStorage& fs) {
+    fs << "calibration_figures"
+       << "{"
+       << "rms_px" << 0.0424 << "lens_model"
+       << "radial-tangential"
+       << "views"
+       << "["
+       << "{"
+       << "name"
+       << "a"
+       << "}"
+       << "]"
+       << "}";
+    fs << "tilt_figures"
+       << "{"
+       << "stations" << 8 << "}";
+  });
+  const Result e = runReport(log, "estimated", "--calib " + truth_file + " --process-calib " + estimated_file);
+  EXPECT_NE(e.report.find("\"calibration_source\": \"estimated\""), std::string::npos) << e.report;
+  EXPECT_NE(e.report.find("\"calibration_figures\": {\"calibration_figures\": {\"rms_px\": 0.0424, \"lens_model\": "
+                          "\"radial-tangential\"}, \"tilt_figures\": {\"stations\": 8}}"),
+            std::string::npos)
+      << e.report;
 }
 
 TEST(IpsReport, StatesStoppingBeforeTheEndFailTheRun) {

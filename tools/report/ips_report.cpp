@@ -44,6 +44,40 @@ namespace {
 using ips::eval::Trajectory;
 using ips::eval::TrajPoint;
 
+// The figures the calibration tools wrote into the calibration file (its top-level "*_figures" blocks, their
+// numbers and words; lists such as the views are left out) as a JSON object, so that a run on an estimated
+// calibration says how good it was. "{}" when the file has none.
+std::string calibrationFiguresJson(const std::string& path) {
+  cv::FileStorage fs;
+  try {
+    if (path.empty() || !fs.open(path, cv::FileStorage::READ)) return "{}";
+  } catch (const cv::Exception&) {
+    return "{}";
+  }
+  std::ostringstream js;
+  js << std::setprecision(6) << "{";
+  bool first_block = true;
+  for (const cv::FileNode& block : fs.root()) {
+    const std::string name = block.name();
+    if (!block.isMap() || name.size() < 8 || name.compare(name.size() - 8, 8, "_figures") != 0) continue;
+    js << (first_block ? "" : ", ") << ips::report::jsonString(name) << ": {";
+    first_block = false;
+    bool first = true;
+    for (const cv::FileNode& item : block) {
+      if (!(item.isInt() || item.isReal() || item.isString())) continue;
+      js << (first ? "" : ", ") << ips::report::jsonString(item.name()) << ": ";
+      if (item.isString())
+        js << ips::report::jsonString(static_cast<std::string>(item));
+      else
+        js << static_cast<double>(item);
+      first = false;
+    }
+    js << "}";
+  }
+  js << "}";
+  return js.str();
+}
+
 template <class Msg>
 bool decode(const ips::fw::LogMessage& e, Msg* m) {
   return m->decode(e.data.data(), 0, static_cast<int>(e.data.size())) >= 0;
@@ -829,6 +863,9 @@ int main(int argc, char** argv) {
     js << "\n  },\n";
     js << "  \"bad_messages\": " << bad_messages << ",\n";
     js << "  \"calibration_source\": " << ips::report::jsonString(calibration_source) << ",\n";
+    js << "  \"calibration_figures\": "
+       << calibrationFiguresJson(args.has("--process-calib") ? args.get("--process-calib") : args.get("--calib"))
+       << ",\n";
     js << "  \"status\": \"" << (failures.empty() ? "ok" : "failed") << "\",\n  \"failures\": [";
     for (size_t i = 0; i < failures.size(); ++i) js << (i ? ", " : "") << ips::report::jsonString(failures[i]);
     js << "]\n}\n";
