@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
         .required("--board", "WxH", "inner corners per row and column, e.g. 9x6")
         .required("--square", "METRES", "edge of one board square")
         .required("--out", "FILE.yaml", "calibration file to write")
+        .option("--lens-model", "MODEL",
+                "auto (both fitted, the lower held-out epipolar error chosen), radial-tangential or equidistant",
+                "auto")
         .option("--calib", "FILE",
                 "the head's calibration so far (or as designed): its IMU and tilt sensor mounting go into --out "
                 "unchanged (without it they are the identity, to be calibrated)")
@@ -54,6 +57,14 @@ int main(int argc, char** argv) {
     if (std::sscanf(args.get("--board").c_str(), "%dx%d", &board.inner_corners.width, &board.inner_corners.height) != 2)
       throw std::runtime_error("--board " + args.get("--board") + ": expected WxH, e.g. 9x6");
     board.square_m = args.getDouble("--square");
+    ips::calib::CalibrationOptions options;
+    if (args.get("--lens-model") != "auto") {
+      try {
+        options.lens_models = {ips::calib::lensModelFromName(args.get("--lens-model"))};
+      } catch (const std::invalid_argument& e) {
+        throw ips::ArgError(std::string("calibrate_stereo: --lens-model: ") + e.what());
+      }
+    }
 
     std::vector<ips::calib::StereoImagePair> pairs;  // kept for the check picture
     ips::calib::StereoCalibrationResult result;
@@ -92,7 +103,8 @@ int main(int argc, char** argv) {
       }
       std::printf("pairs in the log %lld, views taken (board still, one per pose) %zu\n", seen, names.size());
       if (names.empty()) throw std::runtime_error(args.get("--log") + ": no still view of the board");
-      result = ips::calib::calibrateStereoFromCorners(names, left_corners, right_corners, board, size, {}, rejected);
+      result =
+          ips::calib::calibrateStereoFromCorners(names, left_corners, right_corners, board, size, options, rejected);
     } else {
       const std::vector<std::string> left = matching(args.get("--left")), right = matching(args.get("--right"));
       if (left.empty()) throw std::runtime_error("--left " + args.get("--left") + ": no files matched");
@@ -103,7 +115,7 @@ int main(int argc, char** argv) {
       for (size_t i = 0; i < left.size(); ++i)
         pairs.push_back(
             {left[i], cv::imread(left[i], cv::IMREAD_GRAYSCALE), cv::imread(right[i], cv::IMREAD_GRAYSCALE)});
-      result = ips::calib::calibrateStereo(pairs, board);
+      result = ips::calib::calibrateStereo(pairs, board, options);
     }
 
     for (const auto& r : result.rejected) std::printf("rejected %s: %s\n", r.name.c_str(), r.reason.c_str());

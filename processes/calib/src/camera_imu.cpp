@@ -34,8 +34,6 @@ class GyroRotations {
         std::unique(g_.begin(), g_.end(), [](const GyroSample& x, const GyroSample& y) { return x.utime == y.utime; }),
         g_.end());
   }
-  size_t size() const { return g_.size(); }
-  const std::vector<GyroSample>& samples() const { return g_; }
   bool covers(double a, double b) const { return g_.size() >= 2 && a >= g_.front().utime && b <= g_.back().utime; }
 
   Eigen::Matrix3d rotation(double a, double b, const Eigen::Vector3d& bias) const {
@@ -107,7 +105,8 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
     return out;
   }
   const GyroRotations gyro(gyro_in);
-  // Intervals the gyro covers however far the fit moves the delay (the coarse search range around the estimate).
+  // Intervals the gyro covers with two grid steps to spare around the coarse delay: the refinement moves the delay
+  // by a fraction of a step.
   const double margin = static_cast<double>(config.coarse.step_us) * 2;
   std::vector<Interval> intervals;
   for (const auto& d : deltas) {

@@ -228,6 +228,12 @@ std::string lensModelName(LensModel model) {
   return model == LensModel::kRadialTangential ? "radial-tangential" : "equidistant";
 }
 
+LensModel lensModelFromName(const std::string& name) {
+  for (LensModel model : {LensModel::kRadialTangential, LensModel::kFisheye})
+    if (name == lensModelName(model)) return model;
+  throw std::invalid_argument("unknown lens model '" + name + "' (radial-tangential or equidistant)");
+}
+
 bool detectChessboard(const cv::Mat& image, cv::Size inner_corners, std::vector<cv::Point2f>& corners) {
   cv::Mat gray;
   if (image.channels() == 3)
@@ -353,7 +359,8 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
 
   Fit best_fit;
   bool have = false;
-  for (LensModel model : {LensModel::kRadialTangential, LensModel::kFisheye}) {
+  if (options.lens_models.empty()) throw std::invalid_argument("no lens model to fit");
+  for (LensModel model : options.lens_models) {
     Fit fit;
     const ModelFigures m = scoreModel(model, used, result.image_size, fit);
     result.candidates.push_back(m);

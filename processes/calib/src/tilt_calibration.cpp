@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <stdexcept>
@@ -127,10 +128,12 @@ TiltCalibrationResult calibrateTilt(const std::vector<ChartView>& views_in, cons
     i = j + 1;
   }
   if (static_cast<int>(out.stations.size()) < config.min_stations) {
-    out.reason = std::to_string(out.stations.size()) +
-                 " static positions with the chart in view and tilt readings, need " +
-                 std::to_string(config.min_stations) + " (hold the head still for " +
-                 std::to_string(config.min_station_s) + " s at each)";
+    char reason[160];
+    std::snprintf(reason, sizeof reason,
+                  "%zu static positions with the chart in view and tilt readings, need %d (hold the head still for "
+                  "%g s at each)",
+                  out.stations.size(), config.min_stations, config.min_station_s);
+    out.reason = reason;
     return out;
   }
 

@@ -21,6 +21,11 @@ struct StereoImagePair {
   cv::Mat left, right;
 };
 
+enum class LensModel { kRadialTangential, kFisheye };
+std::string lensModelName(LensModel model);
+// "radial-tangential" or "equidistant" (lensModelName's words); std::invalid_argument otherwise.
+LensModel lensModelFromName(const std::string& name);
+
 struct CalibrationOptions {
   // A view whose RMS reprojection error exceeds this multiple of the median view's is dropped and the fit repeated:
   // a sub-pixel detection leaves every view within a small multiple of the median; a view several times worse has a
@@ -28,10 +33,10 @@ struct CalibrationOptions {
   double outlier_rms_factor = 3.0;
   // Views below this RMS are never outliers (detection noise of a sharp board is a few tenths of a pixel).
   double outlier_rms_floor_px = 1.0;
+  // The lens models fitted; the one with the lowest held-out epipolar error is chosen. One model when the lens is
+  // known (half the time: each model takes a leave-one-out fit per view).
+  std::vector<LensModel> lens_models{LensModel::kRadialTangential, LensModel::kFisheye};
 };
-
-enum class LensModel { kRadialTangential, kFisheye };
-std::string lensModelName(LensModel model);
 
 struct RejectedView {
   std::string name;
