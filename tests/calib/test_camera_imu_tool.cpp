@@ -11,19 +11,12 @@
 #include <string>
 
 #include "ips/calibration.hpp"
+#include "ips/test_support/command_output.hpp"
 #include "simulated_motion.hpp"
 
 namespace {
 
-std::string run(const std::string& command) {
-  std::string out;
-  FILE* p = popen(command.c_str(), "r");
-  if (!p) return out;
-  char buf[512];
-  while (fgets(buf, sizeof buf, p)) out += buf;
-  pclose(p);
-  return out;
-}
+using ips::test_support::commandOutput;
 
 template <class Msg>
 void write(lcm::LogFile& log, const std::string& channel, int64_t utime, const Msg& m) {
@@ -100,8 +93,8 @@ TEST(CameraImuTool, ReportsAndWritesTheRotationAndDelayOfARecordedLog) {
        << "]"
        << "}";
   });
-  const std::string out =
-      run(std::string(IPS_CAMERA_IMU_TOOL) + " --log " + path + " --calib " + calib_in + " --out " + calib_out);
+  const std::string out = commandOutput(std::string(IPS_CAMERA_IMU_TOOL) + " --log " + path + " --calib " + calib_in +
+                                        " --out " + calib_out);
   // The last line: the figures a script reads.
   const auto at = out.rfind("delay_us=");
   ASSERT_NE(at, std::string::npos) << out;
@@ -127,6 +120,6 @@ TEST(CameraImuTool, ReportsAndWritesTheRotationAndDelayOfARecordedLog) {
   std::remove(path.c_str());
   std::remove(calib_in.c_str());
   std::remove(calib_out.c_str());
-  EXPECT_NE(run(std::string(IPS_CAMERA_IMU_TOOL) + " --log /nonexistent.lcmlog 2>&1").find("cannot open"),
+  EXPECT_NE(commandOutput(std::string(IPS_CAMERA_IMU_TOOL) + " --log /nonexistent.lcmlog 2>&1").find("cannot open"),
             std::string::npos);
 }

@@ -12,18 +12,11 @@
 #include <string>
 
 #include "ips/calibration.hpp"
+#include "ips/test_support/command_output.hpp"
 
 namespace {
 
-std::string run(const std::string& command) {
-  std::string out;
-  FILE* p = popen(command.c_str(), "r");
-  if (!p) return out;
-  char buf[512];
-  while (fgets(buf, sizeof buf, p)) out += buf;
-  pclose(p);
-  return out;
-}
+using ips::test_support::commandOutput;
 
 }  // namespace
 
@@ -35,8 +28,9 @@ TEST(StereoCalibrationSim, ChartFromManyPosesGivesTheTrueHead) {
       std::system(
           (std::string(SIM_EXECUTABLE) + " --scenario " + scenario + " --out " + log + " --log-level warn").c_str()),
       0);
-  const std::string out = run(std::string(CALIBRATE_STEREO) + " --log " + log +
-                              " --board 9x6 --square 0.1 --lens-model radial-tangential --out " + estimated_path);
+  const std::string out =
+      commandOutput(std::string(CALIBRATE_STEREO) + " --log " + log +
+                    " --board 9x6 --square 0.1 --lens-model radial-tangential --out " + estimated_path);
   ASSERT_NE(out.find("rms_px="), std::string::npos) << out;
   EXPECT_NE(out.find("views taken (board still, one per pose) 28"), std::string::npos) << out;
   const ips::StereoCalibration truth = ips::loadCalibration(log + ".calib.yaml");

@@ -15,10 +15,13 @@
 #include "ips/calibration.hpp"
 #include "ips/sim/rig.hpp"
 #include "ips/sim/sensors.hpp"
+#include "ips/test_support/command_output.hpp"
 
 using namespace ips::calib;
 
 namespace {
+
+using ips::test_support::commandOutput;
 
 constexpr double kDeg = M_PI / 180;
 
@@ -43,16 +46,6 @@ Eigen::Matrix3d chartInWorld() {
   R.col(1) = -Eigen::Vector3d::UnitZ();
   R.col(2) = Eigen::Vector3d::UnitX();
   return R;
-}
-
-std::string run(const std::string& command) {
-  std::string out;
-  FILE* p = popen(command.c_str(), "r");
-  if (!p) return out;
-  char buf[512];
-  while (fgets(buf, sizeof buf, p)) out += buf;
-  pclose(p);
-  return out;
 }
 
 }  // namespace
@@ -160,8 +153,8 @@ TEST(TiltCalibrationSim, ChartAtStaticPositionsGivesTheSensorsAngles) {
   start.R_tilt_cam0 = ips::sim::SensorHead::design(scenario).R_tilt_cam0;
   const std::string start_path = ::testing::TempDir() + "tilt_calib_start.yaml";
   ips::saveCalibration(start_path, start);
-  const std::string out = run(std::string(CALIBRATE_TILT) + " --log " + log + " --calib " + start_path +
-                              " --board 9x6 --square 0.1 --out " + out_calib);
+  const std::string out = commandOutput(std::string(CALIBRATE_TILT) + " --log " + log + " --calib " + start_path +
+                                        " --board 9x6 --square 0.1 --out " + out_calib);
   std::printf("%s", out.c_str());
   ASSERT_NE(out.find("angle_x_deg="), std::string::npos) << out;
   EXPECT_NE(out.find("stations=8"), std::string::npos) << out;
