@@ -99,7 +99,9 @@ TEST(TiltCalibration, SyntheticStationsGiveTheTwoAngles) {
     EXPECT_NEAR(r.angles_deg.x(), turn_deg.x(), tolerance);
     EXPECT_NEAR(r.angles_deg.y(), turn_deg.y(), tolerance);
     EXPECT_NEAR(r.angles_deg.z(), turn_deg.z(), noise_deg == 0 ? 1e-6 : 5 * r.sigma_deg.z());
-    if (noise_deg == 0) EXPECT_LT(Eigen::AngleAxisd(r.R_tilt_cam0.transpose() * truth).angle() / kDeg, 1e-5);
+    if (noise_deg == 0) {
+      EXPECT_LT(Eigen::AngleAxisd(r.R_tilt_cam0.transpose() * truth).angle() / kDeg, 1e-5);
+    }
   }
   // Stations that are all level tell nothing about the turn about the vertical: it stays as designed, and the two
   // angles still come out.

@@ -144,6 +144,42 @@ TEST(FilterModels, DeltaJacobianMatchesNumeric) {
   EXPECT_LT((m.jacobian(x) - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+TEST(FilterModels, DeltaJacobianWithTheLeverArmEstimatedMatchesNumeric) {
+  std::mt19937 rng(9);
+  FullState x = randomFull(rng, 3);
+  x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
+  EXPECT_EQ(x.errorDim(), kCoreErrorDim + kLeverArmErrorDim + 3 * kCloneErrorDim);
+  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
+  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
+  T_imu_cam.translation() = Eigen::Vector3d(0.1, -0.05, 0.2);  // the calibration's: the state's replaces it
+  Eigen::Isometry3d T_state = T_imu_cam;
+  T_state.translation() = *x.lever_arm;
+  const Eigen::Isometry3d z = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_state);
+  const DeltaMeasurement m(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam);
+  EXPECT_LT(m.residual(x).norm(), 1e-12);
+  const Eigen::MatrixXd H = m.jacobian(x);
+  EXPECT_LT((H - numericH(m, x)).cwiseAbs().maxCoeff(), 1e-6);
+  // The lever arm moves the translation only, and does so (the clones' attitudes differ).
+  EXPECT_GT(H.middleCols(kCoreErrorDim, 3).topRows(3).norm(), 0.1);
+  EXPECT_EQ(H.middleCols(kCoreErrorDim, 3).bottomRows(3).norm(), 0.0);
+  // Equal attitudes of the two clones: the lever arm cancels (no turn, nothing to see).
+  x.clones[2].orientation = x.clones[0].orientation;
+  EXPECT_LT(m.jacobian(x).middleCols(kCoreErrorDim, 3).topRows(3).norm(), 1e-12);
+}
+
+TEST(FilterModels, BoxplusBoxminusRoundTripWithTheLeverArm) {
+  std::mt19937 rng(10);
+  FullState x = randomFull(rng, 2);
+  x.lever_arm = Eigen::Vector3d(0.1, 0.2, 0.3);
+  Eigen::VectorXd d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
+  const FullState y = boxplus(x, d);
+  EXPECT_LT((*y.lever_arm - *x.lever_arm - d.segment<3>(kCoreErrorDim)).norm(), 1e-15);
+  EXPECT_LT((boxminus(y, x) - d).norm(), 1e-12);
+  FullState without = x;
+  without.lever_arm.reset();
+  EXPECT_THROW(boxminus(x, without), std::invalid_argument);
+}
+
 TEST(FilterModels, ChiSquareQuantilesMatchTables) {
   EXPECT_NEAR(chiSquareQuantile(0.95, 1), 3.841, 1e-3);
   EXPECT_NEAR(chiSquareQuantile(0.95, 2), 5.991, 1e-3);
@@ -250,6 +286,35 @@ TEST(FilterKalman, ClonesCarryCorrelationsThroughPrediction) {
     EXPECT_NEAR(kf->covariance()(3, 21), 0.0, 1e-12);
     kf->removeClone(0);
     EXPECT_EQ(kf->covariance().rows(), 21);
+  }
+}
+
+TEST(FilterKalman, LeverArmStatesKeepTheirPlaceAndCorrelationsAsClonesComeAndGo) {
+  FilterParams params;
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    params.type = type;
+    auto kf = makeKalmanFilter(params);
+    FullState x0;
+    x0.nav.velocity = Eigen::Vector3d(1, 0, 0);
+    x0.lever_arm = Eigen::Vector3d(0.1, 0.0, -0.05);
+    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(24, 24) * 1e-2;
+    P(0, 21) = P(21, 0) = 5e-3;  // position error correlated with the lever arm's x
+    kf->reset(x0, P);
+    kf->addClone();
+    kf->addClone();
+    ASSERT_EQ(kf->covariance().rows(), 36);
+    // The clones come after the lever arm: their position error is the core's, correlated with the lever arm alike.
+    EXPECT_NEAR(kf->covariance()(24, 21), 5e-3, 1e-12);
+    EXPECT_NEAR(kf->covariance()(30, 21), 5e-3, 1e-12);
+    kf->predict(0.5);
+    // The process leaves the lever arm alone: its variance and its correlation with the clones are unchanged.
+    EXPECT_NEAR(kf->covariance()(21, 21), 1e-2, 1e-9);
+    EXPECT_NEAR(kf->covariance()(24, 21), 5e-3, 1e-9);
+    kf->removeClone(0);
+    ASSERT_EQ(kf->covariance().rows(), 30);
+    EXPECT_NEAR(kf->covariance()(21, 21), 1e-2, 1e-9);
+    EXPECT_NEAR(kf->covariance()(24, 21), 5e-3, 1e-9);
+    EXPECT_TRUE(kf->state().lever_arm.has_value());
   }
 }
 

@@ -565,7 +565,21 @@ int main(int argc, char** argv) {
          << "\", \"states\": " << run.states.size() << ", \"end_error_m\": " << jsonNumber(end_err)
          << ", \"end_error_pct\": " << jsonNumber(end_pct) << ", \"ate_rmse_m\": " << jsonNumber(ate)
          << ", \"nees_position_mean\": " << jsonNumber(err.nees_mean)
-         << ", \"nees_position_in_95_band_pct\": " << jsonNumber(err.nees_in_band_pct) << "}";
+         << ", \"nees_position_in_95_band_pct\": " << jsonNumber(err.nees_in_band_pct);
+      // The lever arm the filter estimated online (config lever_arm/estimate), at the end, beside the truth.
+      if (!run.states.empty() && run.states.back().lever_arm_estimated) {
+        const ips::filter_state_t& last = run.states.back();
+        const std::vector<double> lever(last.lever_arm, last.lever_arm + 3);
+        const std::vector<double> sigma(last.lever_arm_sigma, last.lever_arm_sigma + 3);
+        js << ", \"lever_arm_m\": " << ips::report::jsonArray(lever, 5)
+           << ", \"lever_arm_sigma_m\": " << ips::report::jsonArray(sigma, 5);
+        if (truth_calib) {
+          std::vector<double> error(3);
+          for (int k = 0; k < 3; ++k) error[k] = lever[k] - truth_calib->T_imu_cam0.translation()(k);
+          js << ", \"lever_arm_error_m\": " << ips::report::jsonArray(error, 5);
+        }
+      }
+      js << "}";
       if (!aligned.empty()) {
         const std::string label = (name == "ukf" ? "UKF (" : "EKF (") + run.channel + ")";
         trajectoryJson(label, name, aligned);

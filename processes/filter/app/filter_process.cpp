@@ -1,6 +1,8 @@
 #include "filter_process.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <ips/filter_state_t.hpp>
 #include <thread>
 
@@ -37,6 +39,11 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   m.covariance.assign(layout::kDim, std::vector<double>(layout::kDim));
   for (int r = 0; r < layout::kDim; ++r)
     for (int c = 0; c < layout::kDim; ++c) m.covariance[r][c] = out.covariance(r, c);
+  m.lever_arm_estimated = out.lever_arm_estimated;
+  for (int i = 0; i < 3; ++i) {
+    m.lever_arm[i] = out.lever_arm[i];
+    m.lever_arm_sigma[i] = std::sqrt(std::max(0.0, out.lever_arm_covariance(i, i)));
+  }
   for (const auto& sensor : out.sensors) {
     if (!sensor.name || !*sensor.name) continue;
     m.sensor_names.push_back(sensor.name);

@@ -50,7 +50,19 @@ Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
 void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
   FullState x;
   x.nav = state;
-  run_.kf->reset(x, covariance);
+  Eigen::MatrixXd P = covariance;
+  if (params_.estimate_lever_arm) {
+    // A restart keeps what the lever arm's states have learnt (it does not change with the navigation state).
+    const KalmanFilter& kf = *run_.kf;
+    const bool learnt = initialized_ && kf.state().lever_arm.has_value();
+    x.lever_arm = learnt ? *kf.state().lever_arm : Eigen::Vector3d(T_imu_cam0_.translation());
+    P.conservativeResizeLike(
+        Eigen::MatrixXd::Zero(kCoreErrorDim + kLeverArmErrorDim, kCoreErrorDim + kLeverArmErrorDim));
+    P.bottomRightCorner<kLeverArmErrorDim, kLeverArmErrorDim>() =
+        learnt ? Eigen::Matrix3d(kf.covariance().block<3, 3>(kf.state().leverArmOffset(), kf.state().leverArmOffset()))
+               : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * params_.lever_arm_sigma * params_.lever_arm_sigma);
+  }
+  run_.kf->reset(x, P);
   run_.last_imu_time = state.utime;
   run_.consecutive_rejects.fill(0);
   run_.in_gap = false;
@@ -449,6 +461,13 @@ FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const 
   FilterOutput o;
   o.state = kf.state().nav;
   o.covariance = kf.covariance().topLeftCorner<kCoreErrorDim, kCoreErrorDim>();
+  o.lever_arm_estimated = kf.state().lever_arm.has_value();
+  o.lever_arm = T_imu_cam0_.translation();
+  if (o.lever_arm_estimated) {
+    const int l = kf.state().leverArmOffset();
+    o.lever_arm = *kf.state().lever_arm;
+    o.lever_arm_covariance = kf.covariance().block<kLeverArmErrorDim, kLeverArmErrorDim>(l, l);
+  }
   o.type = kf.type();
   o.a_priori = a_priori;
   o.sensors = counters_;

@@ -42,7 +42,7 @@ void KalmanFilter::removeClone(int index) {
   if (index < 0 || index >= static_cast<int>(x_.clones.size()))
     throw std::out_of_range("KalmanFilter::removeClone: no such clone");
   const int n = x_.errorDim();
-  const int o = kCoreErrorDim + kCloneErrorDim * index;
+  const int o = x_.cloneOffset(index);
   const int tail = n - o - kCloneErrorDim;
   Eigen::MatrixXd P(n - kCloneErrorDim, n - kCloneErrorDim);
   P.topLeftCorner(o, o) = P_.topLeftCorner(o, o);
@@ -146,7 +146,8 @@ void UnscentedKalmanFilter::predict(double dt, const ProcessNoise& q) {
   const Weights w = weights(n);
   const Eigen::MatrixXd L = choleskyCoreColumns();
   // Only the first 21 Cholesky columns move the navigation state (L is lower triangular); the process does
-  // not change clones, so the sigma points of the other columns map exactly and need no evaluation.
+  // not change the lever arm or the clones, so the sigma points of the other columns map exactly and need no
+  // evaluation.
   const NavState ref = propagateNav(x_.nav, dt);
   Eigen::Matrix<double, kCoreErrorDim, 2 * kCoreErrorDim> E;
   for (int j = 0; j < kCoreErrorDim; ++j) {
@@ -162,7 +163,7 @@ void UnscentedKalmanFilter::predict(double dt, const ProcessNoise& q) {
   Pxx += processNoise(x_.nav, dt, q);
   P_.topLeftCorner<kCoreErrorDim, kCoreErrorDim>() = Pxx;
   if (nc > 0) {
-    // Clone deviations of the sigma points are +-spread * L(clone rows, j).
+    // Lever-arm and clone deviations of the sigma points are +-spread * L(their rows, j).
     Matrix21d Ediff;
     for (int j = 0; j < kCoreErrorDim; ++j) Ediff.col(j) = E.col(2 * j) - E.col(2 * j + 1);
     const Eigen::MatrixXd Pxc = (w.other * w.spread) * Ediff * L.bottomRows(nc).transpose();

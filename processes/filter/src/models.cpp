@@ -169,8 +169,17 @@ void setRotationRows(const FullState& x, int i0, int i1, const Eigen::Isometry3d
                      Eigen::MatrixXd& H) {
   const Eigen::Matrix3d A =
       T_imu_cam0.linear().transpose() * x.clones.at(i0).orientation.toRotationMatrix().transpose();
-  H.block<3, 3>(row, kCoreErrorDim + kCloneErrorDim * i1 + 3) = A;
-  H.block<3, 3>(row, kCoreErrorDim + kCloneErrorDim * i0 + 3) = -A;
+  H.block<3, 3>(row, x.cloneOffset(i1) + 3) = A;
+  H.block<3, 3>(row, x.cloneOffset(i0) + 3) = -A;
+}
+
+// The camera-to-IMU transformation a model uses: the calibration's rotation, and the state's lever arm when the
+// filter estimates it (the calibration's translation otherwise).
+Eigen::Isometry3d imuCamera(const FullState& x, const Eigen::Isometry3d& T_imu_cam0) {
+  if (!x.lever_arm) return T_imu_cam0;
+  Eigen::Isometry3d T = T_imu_cam0;
+  T.translation() = *x.lever_arm;
+  return T;
 }
 
 }  // namespace
@@ -190,7 +199,7 @@ Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone
 }
 
 MeasVector DeltaMeasurement::residual(const FullState& x) const {
-  const Eigen::Isometry3d T = predict(x.clones.at(i0_), x.clones.at(i1_), T_imu_cam0_);
+  const Eigen::Isometry3d T = predict(x.clones.at(i0_), x.clones.at(i1_), imuCamera(x, T_imu_cam0_));
   MeasVector r(6);
   r.head<3>() = z_.translation() - T.translation();
   r.tail<3>() = logSO3(z_.linear() * T.linear().transpose());
@@ -203,17 +212,20 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   const PoseClone& c1 = x.clones.at(i1_);
   const Eigen::Matrix3d R0 = c0.orientation.toRotationMatrix();
   const Eigen::Matrix3d R1 = c1.orientation.toRotationMatrix();
-  const Eigen::Matrix3d R_ci = T_imu_cam0_.linear().transpose();
-  const Eigen::Vector3d t_ic = T_imu_cam0_.translation();
+  const Eigen::Isometry3d T_imu_cam0 = imuCamera(x, T_imu_cam0_);
+  const Eigen::Matrix3d R_ci = T_imu_cam0.linear().transpose();
+  const Eigen::Vector3d t_ic = T_imu_cam0.translation();
   const Eigen::Matrix3d A = R_ci * R0.transpose();
   const Eigen::Vector3d d = c1.position + R1 * t_ic - c0.position;
-  const int o0 = kCoreErrorDim + kCloneErrorDim * i0_;
-  const int o1 = kCoreErrorDim + kCloneErrorDim * i1_;
+  const int o0 = x.cloneOffset(i0_);
+  const int o1 = x.cloneOffset(i1_);
   // t_pred = R_ci R0^T (p1 + R1 t_ic - p0) - R_ci t_ic
   H.block<3, 3>(0, o1) = A;
   H.block<3, 3>(0, o0) = -A;
   H.block<3, 3>(0, o1 + 3) = -A * skew(R1 * t_ic);
   H.block<3, 3>(0, o0 + 3) = A * skew(d);
+  // The lever arm shows only where the head turns between the two images: d t_pred / d t_ic = R_ci (R0^T R1 - I).
+  if (x.lever_arm) H.block<3, 3>(0, x.leverArmOffset()) = A * R1 - R_ci;
   setRotationRows(x, i0_, i1_, T_imu_cam0_, 3, H);
   return H;
 }

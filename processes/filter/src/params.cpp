@@ -72,6 +72,9 @@ FilterParams loadFilterParams(const Config& c) {
   nonNegative(c, "reorder_window_us", static_cast<double>(p.reorder_window_us));
   p.imu_silence_release_us = c.getInt("imu_silence_release_us", static_cast<int>(p.imu_silence_release_us));
   nonNegative(c, "imu_silence_release_us", static_cast<double>(p.imu_silence_release_us));
+  p.estimate_lever_arm = c.getBool("lever_arm/estimate", p.estimate_lever_arm);
+  p.lever_arm_sigma = c.getDouble("lever_arm/sigma", p.lever_arm_sigma);
+  if (!(p.lever_arm_sigma > 0)) throw ConfigError(c.path() + ": key 'lever_arm/sigma' must be positive");
   p.cloud = c.getBool("cloud/enabled", p.cloud);
   p.cloud_min_sigma_t = c.getDouble("cloud/min_sigma_t", p.cloud_min_sigma_t);
   p.cloud_min_sigma_r = c.getDouble("cloud/min_sigma_r", p.cloud_min_sigma_r);

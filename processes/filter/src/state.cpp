@@ -59,8 +59,10 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
   if (dx.size() != x.errorDim() || out.clones.size() != x.clones.size())
     throw std::invalid_argument("boxplus: error vector size does not match the state");
   out.nav = boxplus(x.nav, dx.head<kCoreErrorDim>());
+  out.lever_arm = x.lever_arm;
+  if (x.lever_arm) *out.lever_arm += dx.segment<kLeverArmErrorDim>(x.leverArmOffset());
   for (size_t i = 0; i < x.clones.size(); ++i) {
-    const int o = kCoreErrorDim + kCloneErrorDim * static_cast<int>(i);
+    const int o = x.cloneOffset(static_cast<int>(i));
     out.clones[i].utime = x.clones[i].utime;
     out.clones[i].position = x.clones[i].position + dx.segment<3>(o);
     out.clones[i].orientation = (expQuat(dx.segment<3>(o + 3)) * x.clones[i].orientation).normalized();
@@ -74,11 +76,13 @@ FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& d
 }
 
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
-  if (a.clones.size() != b.clones.size()) throw std::invalid_argument("boxminus: clone layouts differ");
+  if (a.clones.size() != b.clones.size() || a.lever_arm.has_value() != b.lever_arm.has_value())
+    throw std::invalid_argument("boxminus: state layouts differ");
   Eigen::VectorXd d(a.errorDim());
   d.head<kCoreErrorDim>() = boxminus(a.nav, b.nav);
+  if (a.lever_arm) d.segment<kLeverArmErrorDim>(a.leverArmOffset()) = *a.lever_arm - *b.lever_arm;
   for (size_t i = 0; i < a.clones.size(); ++i) {
-    const int o = kCoreErrorDim + kCloneErrorDim * static_cast<int>(i);
+    const int o = a.cloneOffset(static_cast<int>(i));
     d.segment<3>(o) = a.clones[i].position - b.clones[i].position;
     d.segment<3>(o + 3) = logQuat(a.clones[i].orientation * b.clones[i].orientation.conjugate());
   }

@@ -84,6 +84,8 @@ Verdict validate(const ips::filter_state_t& m) {
     return bad("nan", "filter state with NaN or inf");
   if (!finite(m.acceleration, 3) || !finite(m.accel_bias, 3) || !finite(m.gyro_bias, 3))
     return bad("nan", "filter state with a NaN or inf bias or acceleration");
+  if (!finite(m.lever_arm, 3) || !finite(m.lever_arm_sigma, 3))
+    return bad("nan", "filter state lever arm with NaN or inf");
   if (m.cov_dim < 0 || m.cov_dim > 64 || static_cast<int>(m.covariance.size()) != m.cov_dim)
     return bad("bad_size", "filter state covariance of size " + std::to_string(m.cov_dim));
   for (const auto& row : m.covariance) {

@@ -78,6 +78,11 @@ struct SensorCounters {
 struct FilterOutput {
   NavState state;
   Matrix21d covariance = Matrix21d::Zero();
+  // Camera 0's origin in the IMU frame [m]: the filter's estimate and its covariance when it estimates the lever arm
+  // (FilterParams::estimate_lever_arm), the calibration's with covariance zero otherwise.
+  bool lever_arm_estimated = false;
+  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d lever_arm_covariance = Eigen::Matrix3d::Zero();
   FilterType type = FilterType::Ekf;
   bool a_priori = false;
   std::array<SensorCounters, kNumSensors> sensors;
@@ -105,7 +110,8 @@ class Estimator {
   // Applies everything still buffered (end of a log).
   void flush();
 
-  // Starts the filter from a known state instead of the static initialisation (e.g. from ground truth).
+  // Starts the filter from a known state instead of the static initialisation (e.g. from ground truth). With the lever
+  // arm estimated, its states start from the calibration (or keep what they have learnt, on a restart).
   void initialize(const NavState& state, const Matrix21d& covariance);
   bool initialized() const { return initialized_; }
   // How often the filter started while the head was moving (InitParams::in_motion).

@@ -1,7 +1,7 @@
 #pragma once
 // The two filters behind one interface: an error-state Extended Kalman filter with analytic Jacobians and a
 // scaled Unscented Kalman filter (Julier 2002) that only evaluates the model functions. Both hold the same
-// mean (FullState: navigation state + pose clones) and the covariance of its error state.
+// mean (FullState: navigation state, the lever arm when estimated, pose clones) and the covariance of its error state.
 #include <Eigen/Core>
 #include <memory>
 

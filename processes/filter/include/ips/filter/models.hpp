@@ -86,6 +86,8 @@ class TiltMeasurement : public Measurement {
 
 // Relative pose of camera 0 between clone i0 (older) and clone i1: X_c0(t0) = R * X_c0(t1) + t. Residual
 // [t_meas - t_pred; Log(R_meas R_pred^T)] (rotation error in camera 0 at t0), covariance order [t, rotvec].
+// T_imu_cam0's rotation is the calibration's; its translation (the lever arm) the state's when the filter estimates
+// it, the calibration's otherwise.
 class DeltaMeasurement : public Measurement {
  public:
   DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,

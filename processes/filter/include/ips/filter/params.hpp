@@ -92,6 +92,15 @@ struct FilterParams {
   // so the newest three keyframes are kept and the alignment may span one skipped map.
   int max_keyframe_clones = 3;
 
+  // The lever arm (camera 0's origin in the IMU frame) as three further filter states, as the paper suggests for
+  // the translations between the sensors (section 3). Off: T_imu_cam0's translation from the calibration (measured
+  // mechanically) is taken as exact. On: the calibration's value is the start, with lever_arm_sigma per axis; the
+  // deltas of the tracker determine it where the head turns between two images (a turn of angle a about an axis
+  // shows a lever-arm error e as a camera translation of about a * e across that axis), so a walk's heading changes
+  // give the components across the vertical, and the vertical one follows only as the head nods and rolls.
+  bool estimate_lever_arm = false;
+  double lever_arm_sigma = 0.03;  // [m] per axis: a tape measure against centres hidden inside two housings
+
   // Latencies subtracted from message stamps [us] (zero when drivers already remove them).
   int64_t imu_latency_us = 0;
   int64_t tilt_latency_us = 0;

@@ -2,13 +2,15 @@
 // The navigation state of the IPS filter (paper section 4.2): position, velocity, acceleration, accelerometer
 // bias, angular rate, gyro bias (three each) and the attitude quaternion = 22 elements. The covariance is kept
 // over a 21-dimensional error state in which the attitude error is a 3-vector (rotation vector in world).
-// Stochastic clones of the body pose at image times extend the error state by 6 each (see FullState).
+// The lever arm (camera 0's origin in the IMU frame), when estimated online, extends it by 3, and stochastic clones
+// of the body pose at image times by 6 each (see FullState).
 //
 // Frames: world = local level, z up, gravity (0, 0, -g). Body = the IMU frame. The quaternion maps body to
 // world. This is one to one the content of lcmtypes/ips_filter_state_t.lcm.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 namespace ips::filter {
@@ -23,7 +25,8 @@ enum ErrorIndex : int {
   kErrBg = 15,  // gyro bias [rad/s], body
   kErrTh = 18,  // attitude error, rotation vector in world: R_true = Exp(dtheta) * R_est
   kCoreErrorDim = 21,
-  kCloneErrorDim = 6,  // per clone: position, attitude error (same conventions)
+  kCloneErrorDim = 6,     // per clone: position, attitude error (same conventions)
+  kLeverArmErrorDim = 3,  // the lever arm, when estimated: camera 0's origin in the IMU frame [m]
 };
 constexpr int kStateElements = 22;
 
@@ -55,12 +58,20 @@ struct PoseClone {
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
 };
 
-// Mean of the estimator: the navigation state followed by its clones (oldest first).
+// Mean of the estimator: the navigation state, the lever arm when it is estimated, then the clones (oldest first).
+// Error-state layout: [21 core | 3 lever arm, if any | 6 per clone].
 struct FullState {
   NavState nav;
+  // Camera 0's origin in the IMU frame (T_imu_cam0's translation) [m], when the filter estimates it; otherwise the
+  // measurement models take the calibration's.
+  std::optional<Eigen::Vector3d> lever_arm;
   std::vector<PoseClone> clones;
 
-  int errorDim() const { return kCoreErrorDim + kCloneErrorDim * static_cast<int>(clones.size()); }
+  int leverArmDim() const { return lever_arm ? kLeverArmErrorDim : 0; }
+  // Offset of the lever arm's error (valid only when it is estimated) and of clone i's.
+  int leverArmOffset() const { return kCoreErrorDim; }
+  int cloneOffset(int i) const { return kCoreErrorDim + leverArmDim() + kCloneErrorDim * i; }
+  int errorDim() const { return cloneOffset(static_cast<int>(clones.size())); }
   // Index of the clone taken at utime, or -1.
   int findClone(int64_t utime) const;
 };
@@ -73,7 +84,7 @@ Vector21d boxminus(const NavState& a, const NavState& b);
 FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx);
 // The same, written into `out`, which must already have x's clone layout (no allocation).
 void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx, FullState& out);
-// a (-) b: the error-state vector taking b to a (same clone layout required).
+// a (-) b: the error-state vector taking b to a (same layout required: lever arm and clones).
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b);
 
 // SO(3) helpers.
