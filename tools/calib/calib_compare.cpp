@@ -9,17 +9,7 @@
 
 #include "ips/args.hpp"
 #include "ips/calibration.hpp"
-
-namespace {
-
-constexpr double kDeg = M_PI / 180.0;
-
-Eigen::Vector3d rotationVectorDeg(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis() / kDeg;
-}
-
-}  // namespace
+#include "ips/rotation.hpp"
 
 int main(int argc, char** argv) {
   try {
@@ -40,16 +30,16 @@ int main(int argc, char** argv) {
       focal = std::max({focal, std::fabs(fx), std::fabs(fy)});
       principal = std::max({principal, std::fabs(cx), std::fabs(cy)});
     }
-    const Eigen::Vector3d stereo = rotationVectorDeg(a.R_cam1_cam0.transpose() * b.R_cam1_cam0);
+    const Eigen::Vector3d stereo = ips::rotationVectorDeg(a.R_cam1_cam0.transpose() * b.R_cam1_cam0);
     const double baseline = 100 * (b.baseline() / a.baseline() - 1);
     std::printf("relative orientation: %.4f deg (rotation vector %+.4f %+.4f %+.4f), baseline %+.4f %%\n",
                 stereo.norm(), stereo.x(), stereo.y(), stereo.z(), baseline);
-    const Eigen::Vector3d imu = rotationVectorDeg(a.T_imu_cam0.linear().transpose() * b.T_imu_cam0.linear());
+    const Eigen::Vector3d imu = ips::rotationVectorDeg(a.T_imu_cam0.linear().transpose() * b.T_imu_cam0.linear());
     const Eigen::Vector3d lever = b.T_imu_cam0.translation() - a.T_imu_cam0.translation();
     std::printf("camera to IMU: %.4f deg (in camera 0: %+.4f %+.4f %+.4f), lever arm %+.4f %+.4f %+.4f m\n", imu.norm(),
                 imu.x(), imu.y(), imu.z(), lever.x(), lever.y(), lever.z());
     // In the tilt sensor's frame: about its x and y the turn changes what it reads; about its vertical it does not.
-    const Eigen::Vector3d tilt = rotationVectorDeg(b.R_tilt_cam0 * a.R_tilt_cam0.transpose());
+    const Eigen::Vector3d tilt = ips::rotationVectorDeg(b.R_tilt_cam0 * a.R_tilt_cam0.transpose());
     std::printf("camera to tilt sensor: about its x %+.4f deg, y %+.4f deg (about its vertical %+.4f deg)\n", tilt.x(),
                 tilt.y(), tilt.z());
     std::printf(

@@ -13,15 +13,11 @@
 #include "ips/calib/camera_imu.hpp"
 #include "ips/calib/figures.hpp"
 #include "ips/calibration.hpp"
+#include "ips/rotation.hpp"
 
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-Eigen::Vector3d rotationVectorDeg(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis() / kDeg;
-}
 
 }  // namespace
 
@@ -88,7 +84,7 @@ int main(int argc, char** argv) {
       std::printf("no estimate: %s\n", est.reason.c_str());
       return 3;
     }
-    const Eigen::Vector3d rv = rotationVectorDeg(est.R_imu_cam);
+    const Eigen::Vector3d rv = ips::rotationVectorDeg(est.R_imu_cam);
     std::printf("R_imu_cam0 rotation vector [deg]: %.4f %.4f %.4f (sigma %.4f %.4f %.4f)\n", rv.x(), rv.y(), rv.z(),
                 est.rotation_sigma_deg.x(), est.rotation_sigma_deg.y(), est.rotation_sigma_deg.z());
     std::printf("gyro bias [deg/s]: %.4f %.4f %.4f\n", est.gyro_bias.x() / kDeg, est.gyro_bias.y() / kDeg,
@@ -96,7 +92,7 @@ int main(int argc, char** argv) {
     std::printf("intervals used %zu, left out as outliers %zu\n", est.intervals, est.rejected);
     if (args.has("--calib")) {
       ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
-      const Eigen::Vector3d change = rotationVectorDeg(calib.T_imu_cam0.linear().transpose() * est.R_imu_cam);
+      const Eigen::Vector3d change = ips::rotationVectorDeg(calib.T_imu_cam0.linear().transpose() * est.R_imu_cam);
       std::printf("change against %s: %.4f deg (rotation vector in camera 0: %.4f %.4f %.4f)\n",
                   args.get("--calib").c_str(), change.norm(), change.x(), change.y(), change.z());
       if (args.has("--out")) {

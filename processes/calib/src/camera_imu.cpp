@@ -7,21 +7,12 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "ips/rotation.hpp"
+
 namespace ips::calib {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-Eigen::Vector3d logRotation(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
-
-Eigen::Matrix3d expRotation(const Eigen::Vector3d& w) {
-  const double angle = w.norm();
-  if (angle < 1e-15) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-}
 
 // The gyro's rotation over [a, b] (microseconds, any real values inside the samples): body at b in body at a,
 // rates linear between samples, each piece between sample times by the mid-point rule (the rates are linear there,
@@ -47,7 +38,7 @@ class GyroRotations {
       const double end = i < g_.size() ? std::min(b, static_cast<double>(g_[i].utime)) : b;
       if (end > t) {
         const Eigen::Vector3d rate = rateAt(0.5 * (t + end)) - bias;
-        R = R * expRotation(rate * ((end - t) * 1e-6));
+        R = R * rotationFromVector(rate * ((end - t) * 1e-6));
       }
       t = end;
       ++i;
@@ -83,7 +74,7 @@ struct Fit {
 };
 
 Eigen::Vector3d residual(const Interval& v, const Eigen::Matrix3d& R_cam_imu, const Eigen::Matrix3d& G) {
-  return logRotation(v.R_tracker.transpose() * R_cam_imu * G * R_cam_imu.transpose());
+  return rotationVector(v.R_tracker.transpose() * R_cam_imu * G * R_cam_imu.transpose());
 }
 
 }  // namespace
@@ -126,7 +117,7 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   size_t turning = 0;
   for (const Interval& v : intervals) {
-    const Eigen::Vector3d a = logRotation(v.R_tracker), b = logRotation(gyroOf(v, fit.bias, fit.delay_us));
+    const Eigen::Vector3d a = rotationVector(v.R_tracker), b = rotationVector(gyroOf(v, fit.bias, fit.delay_us));
     if (a.norm() < config.min_rotation_deg * kDeg || b.norm() < config.min_rotation_deg * kDeg) continue;
     H += b * a.transpose();
     ++turning;
@@ -179,8 +170,8 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
       Eigen::Matrix<double, 3, kParams> J;
       for (int j = 0; j < 3; ++j) {
         const Eigen::Vector3d e = Eigen::Vector3d::Unit(j);
-        J.col(j) = (residual(v, fit.R_cam_imu * expRotation(h_rot * e), G) -
-                    residual(v, fit.R_cam_imu * expRotation(-h_rot * e), G)) /
+        J.col(j) = (residual(v, fit.R_cam_imu * rotationFromVector(h_rot * e), G) -
+                    residual(v, fit.R_cam_imu * rotationFromVector(-h_rot * e), G)) /
                    (2 * h_rot);
         J.col(3 + j) = (residual(v, fit.R_cam_imu, gyroOf(v, fit.bias + h_bias * e, fit.delay_us)) -
                         residual(v, fit.R_cam_imu, gyroOf(v, fit.bias - h_bias * e, fit.delay_us))) /
@@ -194,7 +185,7 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
     }
     const Eigen::Matrix<double, kParams, 1> step = -JtJ.ldlt().solve(Jtr);
     if (!step.allFinite()) break;
-    fit.R_cam_imu = fit.R_cam_imu * expRotation(step.head<3>());
+    fit.R_cam_imu = fit.R_cam_imu * rotationFromVector(step.head<3>());
     fit.bias += step.segment<3>(3);
     fit.delay_us += step(6);
     evaluate(fit);

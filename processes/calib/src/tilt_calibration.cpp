@@ -8,19 +8,12 @@
 #include <opencv2/core/eigen.hpp>
 #include <stdexcept>
 
+#include "ips/rotation.hpp"
+
 namespace ips::calib {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
-
-Eigen::Matrix3d tiltTurn(const Eigen::Vector3d& w) {
-  const double angle = w.norm();
-  return angle > 0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
-}
-
-double turnDeg(const Eigen::Matrix3d& A, const Eigen::Matrix3d& B) {
-  return Eigen::AngleAxisd(A.transpose() * B).angle() / kDeg;
-}
 
 }  // namespace
 
@@ -94,7 +87,7 @@ TiltCalibrationResult calibrateTilt(const std::vector<ChartView>& views_in, cons
   for (size_t i = 0; i < views.size();) {
     size_t j = i;
     while (j + 1 < views.size() &&
-           turnDeg(views[i].R_cam_chart, views[j + 1].R_cam_chart) <= config.station_max_turn_deg &&
+           rotationAngleDeg(views[i].R_cam_chart, views[j + 1].R_cam_chart) <= config.station_max_turn_deg &&
            (views[j + 1].centre_in_camera - views[i].centre_in_camera).norm() <= config.station_max_shift_m)
       ++j;
     if (views[j].utime - views[i].utime < min_span) {
@@ -142,7 +135,7 @@ TiltCalibrationResult calibrateTilt(const std::vector<ChartView>& views_in, cons
   const size_t n = out.stations.size();
   auto residuals = [&](const Eigen::Vector3d& q) {
     Eigen::VectorXd r(2 * n);
-    const Eigen::Matrix3d R = tiltTurn(q) * nominal;
+    const Eigen::Matrix3d R = rotationFromVector(q) * nominal;
     for (size_t k = 0; k < n; ++k)
       r.segment<2>(2 * k) = out.stations[k].measured_deg * kDeg - tiltAngles(R * out.stations[k].up_in_camera);
     return r;
@@ -181,7 +174,7 @@ TiltCalibrationResult calibrateTilt(const std::vector<ChartView>& views_in, cons
   out.residual_rms_deg = std::sqrt(r.squaredNorm() / static_cast<double>(r.size())) / kDeg;
   out.sigma_deg = best.covariance.diagonal().cwiseMax(0.0).cwiseSqrt() / kDeg;
   out.angles_deg = best.p / kDeg;
-  out.R_tilt_cam0 = tiltTurn(best.p) * nominal;
+  out.R_tilt_cam0 = rotationFromVector(best.p) * nominal;
   out.ok = best.p.allFinite() && best.covariance.allFinite();
   if (!out.ok) out.reason = "the fit did not converge: the stations' tilts are too alike";
   return out;
