@@ -7,6 +7,7 @@
 #include <opencv2/core/eigen.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <unordered_map>
 
 #include "ips/calib/figures.hpp"
 
@@ -255,20 +256,39 @@ bool detectChessboard(const cv::Mat& image, cv::Size inner_corners, std::vector<
 
 namespace {
 
-// Mean distance of corresponding corners; infinite when the sets differ in size (or one is empty).
-double meanShift(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b) {
-  if (a.empty() || a.size() != b.size()) return INFINITY;
+// Mean distance of the corners with the same id in both sets; infinite when they have none in common.
+double meanShift(const std::vector<int>& ids_a, const std::vector<cv::Point2f>& a, const std::vector<int>& ids_b,
+                 const std::vector<cv::Point2f>& b) {
+  std::unordered_map<int, cv::Point2f> by_id;
+  for (size_t i = 0; i < ids_b.size(); ++i) by_id.emplace(ids_b[i], b[i]);
   double sum = 0;
-  for (size_t i = 0; i < a.size(); ++i) sum += std::hypot(a[i].x - b[i].x, a[i].y - b[i].y);
-  return sum / static_cast<double>(a.size());
+  size_t n = 0;
+  for (size_t i = 0; i < ids_a.size(); ++i) {
+    const auto it = by_id.find(ids_a[i]);
+    if (it == by_id.end()) continue;
+    sum += std::hypot(a[i].x - it->second.x, a[i].y - it->second.y);
+    ++n;
+  }
+  return n == 0 ? INFINITY : sum / static_cast<double>(n);
 }
 
 }  // namespace
 
 bool StillViewPicker::offer(const std::vector<cv::Point2f>& corners) {
-  const bool still = meanShift(corners, previous_) < still_px_;
+  // A chessboard's corners are found all or none, in the same order: their index is their id.
+  std::vector<int> ids(corners.size());
+  for (size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<int>(i);
+  return offer(ids, corners);
+}
+
+bool StillViewPicker::offer(const std::vector<int>& ids, const std::vector<cv::Point2f>& corners) {
+  if (ids.size() != corners.size()) throw std::invalid_argument("StillViewPicker: ids and corners differ in number");
+  const bool still = meanShift(ids, corners, previous_ids_, previous_) < still_px_;
+  previous_ids_ = ids;
   previous_ = corners;
-  if (!still || !(last_taken_.empty() || meanShift(corners, last_taken_) >= distinct_px_)) return false;
+  if (!still || !(last_taken_.empty() || meanShift(ids, corners, last_taken_ids_, last_taken_) >= distinct_px_))
+    return false;
+  last_taken_ids_ = ids;
   last_taken_ = corners;
   return true;
 }
@@ -314,18 +334,32 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
                                                    std::vector<RejectedView> rejected) {
   if (board.inner_corners.width < 2 || board.inner_corners.height < 2 || !(board.square_m > 0))
     throw std::runtime_error("board needs at least 2x2 inner corners and a positive square size");
+  if (left.size() != names.size() || right.size() != names.size())
+    throw std::invalid_argument("calibrateStereoFromCorners: names, left and right corners differ in number");
+  // Every view carries the whole grid, row-major as findChessboardCorners orders the corners.
+  std::vector<cv::Point3d> object;
+  for (int y = 0; y < board.inner_corners.height; ++y)
+    for (int x = 0; x < board.inner_corners.width; ++x)
+      object.emplace_back(x * board.square_m, y * board.square_m, 0.0);
+  std::vector<StereoView> views;
+  for (size_t i = 0; i < names.size(); ++i) views.push_back({names[i], object, left[i], right[i]});
+  return calibrateStereoFromViews(views, image_size, options, std::move(rejected));
+}
+
+StereoCalibrationResult calibrateStereoFromViews(const std::vector<StereoView>& views, cv::Size image_size,
+                                                 const CalibrationOptions& options,
+                                                 std::vector<RejectedView> rejected) {
   StereoCalibrationResult result;
   result.image_size = image_size;
   result.rejected = std::move(rejected);
-  Points3 object;
-  for (int y = 0; y < board.inner_corners.height; ++y)
-    for (int x = 0; x < board.inner_corners.width; ++x) object.emplace_back(x * board.square_m, y * board.square_m, 0);
   Detections all;
-  for (size_t i = 0; i < names.size(); ++i) {
-    all.names.push_back(names[i]);
-    all.object.push_back(object);
-    all.left.emplace_back(left[i].begin(), left[i].end());
-    all.right.emplace_back(right[i].begin(), right[i].end());
+  for (const StereoView& v : views) {
+    if (v.object.size() != v.left.size() || v.object.size() != v.right.size())
+      throw std::invalid_argument("view " + v.name + ": board points, left and right corners differ in number");
+    all.names.push_back(v.name);
+    all.object.emplace_back(v.object.begin(), v.object.end());
+    all.left.emplace_back(v.left.begin(), v.left.end());
+    all.right.emplace_back(v.right.begin(), v.right.end());
   }
   if (all.size() < 3)
     throw std::runtime_error("the board was found in both images of only " + std::to_string(all.size()) +
@@ -380,6 +414,7 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
     v.rms_right_px = viewRms(best_fit, used.object[i], used.right[i], true);
     const auto e = epipolarSum(best_fit, used.left[i], used.right[i]);
     v.epipolar_px = e.first / e.second;
+    v.corners = used.object[i].size();
     result.views.push_back(v);
   }
   result.calib.cam0 = toIntrinsics(best_fit.K1, best_fit.D1, result.model, result.image_size);
@@ -390,6 +425,18 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
   result.calib.source = "estimated";
   return result;
 }
+
+namespace {
+
+// FileStorage escapes a single quote inside a double-quoted scalar as \', which YAML does not know (the project's
+// reader refuses the file); OpenCV's exception texts quote function names that way.
+std::string yamlQuotable(std::string text) {
+  std::replace(text.begin(), text.end(), '\'', '"');
+  while (!text.empty() && text.back() == '\n') text.pop_back();
+  return text;
+}
+
+}  // namespace
 
 void saveStereoCalibration(const std::string& path, const StereoCalibrationResult& result,
                            const std::string& previous) {
@@ -411,7 +458,7 @@ void saveStereoCalibration(const std::string& path, const StereoCalibrationResul
       if (c.ok)
         fs << "rms_px" << c.rms_px << "epipolar_px" << c.epipolar_px << "heldout_epipolar_px" << c.heldout_epipolar_px;
       else
-        fs << "failure" << c.failure;
+        fs << "failure" << yamlQuotable(c.failure);
       fs << "}";
     }
     fs << "]"
@@ -420,7 +467,7 @@ void saveStereoCalibration(const std::string& path, const StereoCalibrationResul
     for (const auto& v : result.views)
       fs << "{"
          << "name" << v.name << "rms_left_px" << v.rms_left_px << "rms_right_px" << v.rms_right_px << "epipolar_px"
-         << v.epipolar_px << "}";
+         << v.epipolar_px << "corners" << static_cast<int>(v.corners) << "}";
     fs << "]"
        << "rejected"
        << "[";

@@ -1,7 +1,7 @@
 #pragma once
-// Stereo calibration of a head from chessboard image pairs: both cameras' interior orientation and their
-// relative exterior orientation, for two lens models (OpenCV's radial-tangential k1 k2 p1 p2 k3, and the
-// equidistant fisheye model k1..k4), the model chosen by its epipolar error on views left out of the fit.
+// Stereo calibration of a head from chessboard (or ChArUco, ips/calib/charuco.hpp) image pairs: both cameras' interior
+// orientation and their relative exterior orientation, for two lens models (OpenCV's radial-tangential k1 k2 p1 p2 k3,
+// and the equidistant fisheye model k1..k4), the model chosen by its epipolar error on views left out of the fit.
 // No LCM: the tool and the tests hand it images.
 #include <opencv2/core.hpp>
 #include <string>
@@ -36,6 +36,13 @@ struct CalibrationOptions {
   // The lens models fitted; the one with the lowest held-out epipolar error is chosen. One model when the lens is
   // known (half the time: each model takes a leave-one-out fit per view).
   std::vector<LensModel> lens_models{LensModel::kRadialTangential, LensModel::kFisheye};
+  // ChArUco: a pair is used when both images see at least this many of the same corners. A planar view's pose has 6
+  // unknowns and a homography 8: 4 corners fix a homography exactly, with nothing left to notice a misplaced corner
+  // or to average the detection noise. 12 corners (24 equations per image, three times a homography's unknowns; a
+  // 3x4 block of corners, say) overdetermine the homography that starts each view's pose (calibrateCamera and
+  // fisheye::calibrate both initialise from one) and the pose itself, while still admitting the small pieces of the
+  // board near the image corners that are the reason for using ChArUco.
+  size_t min_common_corners = 12;
 };
 
 struct RejectedView {
@@ -47,6 +54,7 @@ struct ViewFigures {
   std::string name;
   double rms_left_px = 0, rms_right_px = 0;  // each camera's board pose fitted to the view, its corners reprojected
   double epipolar_px = 0;                    // as ModelFigures::epipolar_px, on this view
+  size_t corners = 0;                        // corners used (both images); fewer than the board's: a partial view
 };
 
 struct ModelFigures {
@@ -90,6 +98,21 @@ StereoCalibrationResult calibrateStereoFromCorners(const std::vector<std::string
                                                    const CalibrationOptions& options = {},
                                                    std::vector<RejectedView> rejected = {});
 
+// One view of a board in both images: the corners seen in both, each with its board coordinates (metres, z = 0) and
+// its position in the left and right image, in the same order in all three. A chessboard view holds the whole grid,
+// a ChArUco view the corners both images found.
+struct StereoView {
+  std::string name;
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2f> left, right;
+};
+
+// The same from views that carry their own board points (views of a ChArUco board seeing different parts of it).
+// Throws as calibrateStereo; std::invalid_argument when a view's three lists differ in length.
+StereoCalibrationResult calibrateStereoFromViews(const std::vector<StereoView>& views, cv::Size image_size,
+                                                 const CalibrationOptions& options = {},
+                                                 std::vector<RejectedView> rejected = {});
+
 // Picks calibration views from a recording (an LCM log of the head), one per pose: a view is taken when the board
 // stands still (its corners moved less than still_px on average since the previous image, so there is no motion
 // blur) and it has moved by at least distinct_px on average since the last view taken.
@@ -99,9 +122,13 @@ class StillViewPicker {
       : still_px_(still_px), distinct_px_(distinct_px) {}
   // Corners of the board in one image of the stream (empty: not found). True: take this view.
   bool offer(const std::vector<cv::Point2f>& corners);
+  // The same for a board whose corners carry ids (ChArUco): the shifts are averaged over the corners seen in both
+  // images compared (matched by id); none in common counts as moved.
+  bool offer(const std::vector<int>& ids, const std::vector<cv::Point2f>& corners);
 
  private:
   double still_px_, distinct_px_;
+  std::vector<int> previous_ids_, last_taken_ids_;
   std::vector<cv::Point2f> previous_, last_taken_;
 };
 
