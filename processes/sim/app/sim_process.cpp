@@ -39,16 +39,16 @@ struct Encoded {
 
 Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
   namespace ch = ips::channels;
-  const ips::sim::Scenario& sc = sim.scenario();
   switch (e.kind) {
     case SimEvent::kStereo: {
       const ips::sim::StereoFrame& f = *e.frame;
       ips::stereo_pair_t m =
           ips::fw::makeStereoPair(f.utime_stamp, f.seq, f.left, f.right, sim.head().calibration.cam0.serial,
                                   sim.head().calibration.cam1.serial);
-      m.exposure_us[0] = m.exposure_us[1] = static_cast<float>(sc.camera.exposure_us);
-      m.gain_db[0] = static_cast<float>(sc.camera.gain_left_db);
-      m.gain_db[1] = static_cast<float>(sc.camera.gain_right_db);
+      for (int c = 0; c < 2; ++c) {
+        m.exposure_us[c] = static_cast<float>(f.exposure_us[c]);
+        m.gain_db[c] = static_cast<float>(f.gain_db[c]);
+      }
       return {e.log_utime, ch::kStereo, encodeMessage(m)};
     }
     case SimEvent::kGtDisparity: {

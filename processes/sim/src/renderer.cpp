@@ -246,6 +246,21 @@ inline float fastLog2(float v) {
   return e + (-0.34484843f * m + 2.02466578f) * m - 0.67487759f;
 }
 
+// The sum of four 16-bit uniforms minus its mean (Irwin-Hall): a pixel's noise before scaling, from its row's stream.
+inline float irwinHallSum(uint64_t& state) {
+  state += 0x9e3779b97f4a7c15ULL;
+  const uint64_t r = mix64(state);
+  return static_cast<float>((r & 0xffff) + ((r >> 16) & 0xffff) + ((r >> 32) & 0xffff) + (r >> 48)) - 2.0f * 65535.0f;
+}
+
+// The streaks of motion blur are measured on every 16th pixel in each direction: the image motion varies smoothly
+// except at depth edges, and the longest streak sets the number of sub-images.
+constexpr int kBlurGridStep = 16;
+
+// The exposure loop measures every fourth pixel in each direction: a mean over 1/16 of the image is as good as over
+// all of it, at a sixteenth of the rendering.
+constexpr int kExposureMeterStep = 4;
+
 }  // namespace
 
 void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads, const Buffers& buf, int y, float gain,
@@ -302,10 +317,7 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
       out32[x] = value;
       continue;
     }
-    state += 0x9e3779b97f4a7c15ULL;
-    const uint64_t r = mix64(state);
-    const float sum =
-        static_cast<float>((r & 0xffff) + ((r >> 16) & 0xffff) + ((r >> 32) & 0xffff) + (r >> 48)) - 2.0f * 65535.0f;
+    const float sum = irwinHallSum(state);
     const float g = gain * value + noise_scale * sum + 0.5f;
     out8[x] = static_cast<uint8_t>(std::clamp(g, 0.0f, 255.0f));
   }
@@ -349,6 +361,131 @@ StereoRenderer::StereoRenderer(const Scenario& scenario, const World& world, con
   rect_view_ = View::pinhole(K_rect, rect_.size);
   gain_[0] = static_cast<float>(std::pow(10.0, scenario.camera.gain_left_db / 20.0));
   gain_[1] = static_cast<float>(std::pow(10.0, scenario.camera.gain_right_db / 20.0));
+  const CameraFigures& cf = scenario.camera;
+  effects_ = cf.motion_blur || cf.auto_exposure || cf.vignetting;
+  if (!effects_) return;
+  // Natural vignetting: the illumination of a pixel falls with cos^4 of its ray's angle to the optical axis,
+  // cos^2 = 1 / (1 + rx^2 + ry^2) for the ray (rx, ry, 1).
+  auto illumination = [&](float rx, float ry) {
+    const float d2 = 1.0f + rx * rx + ry * ry;
+    return cf.vignetting ? 1.0f / (d2 * d2) : 1.0f;
+  };
+  for (int c = 0; c < 2; ++c) {
+    const View& v = raw_[c];
+    vignette_[c].resize(v.rx.size());
+    for (size_t i = 0; i < v.rx.size(); ++i) vignette_[c][i] = illumination(v.rx[i], v.ry[i]);
+    const int step = kExposureMeterStep, w = v.width / step, h = v.height / step;
+    std::vector<float> rx(static_cast<size_t>(w) * h), ry(rx.size());
+    ae_vignette_[c].resize(rx.size());
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const size_t src = static_cast<size_t>(y * step + step / 2) * v.width + x * step + step / 2;
+        const size_t dst = static_cast<size_t>(y) * w + x;
+        rx[dst] = v.rx[src], ry[dst] = v.ry[src];
+        ae_vignette_[c][dst] = vignette_[c][src];
+      }
+    ae_view_[c] = View::fromRays(w, h, v.focal / step, std::move(rx), std::move(ry));
+  }
+}
+
+bool StereoRenderer::frameLost(int64_t k) const {
+  if (!(scenario_.camera.frame_loss > 0)) return false;
+  // The frame's own camera stream, after its stamp jitter's draw (which stays as it was without losses).
+  Rng rng(streamSeed(scenario_.seed, kStreamCamera, static_cast<uint64_t>(k)));
+  rng.normal();
+  return rng.uniform() < scenario_.camera.frame_loss;
+}
+
+Eigen::Isometry3d StereoRenderer::cameraInWorld(double t, int camera) const {
+  const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
+  return camera == 0 ? head_.cam0InWorld(T_world_imu) : head_.cam1InWorld(T_world_imu, t);
+}
+
+double StereoRenderer::meanGrey(double t, int camera) const {
+  const View& v = ae_view_[camera];
+  if (v.width == 0) throw std::logic_error("StereoRenderer::meanGrey: the camera effects are off");
+  const std::vector<SceneRenderer::CamQuad> quads = scene_.prepare(cameraInWorld(t, camera));
+  SceneRenderer::Buffers buf;
+  buf.z.assign(static_cast<size_t>(v.width) * v.height, std::numeric_limits<float>::infinity());
+  buf.id.assign(buf.z.size(), -1);
+  for (int ty = 0; ty < v.tiles_y; ++ty) scene_.raster(v, quads, buf, ty);
+  std::vector<float> row(v.width);
+  double sum = 0;
+  for (int y = 0; y < v.height; ++y) {
+    scene_.shadeRow(v, quads, buf, y, 1, 0, 0, nullptr, row.data());
+    for (int x = 0; x < v.width; ++x) sum += row[x] * ae_vignette_[camera][static_cast<size_t>(y) * v.width + x];
+  }
+  return sum / (static_cast<double>(v.width) * v.height);
+}
+
+Exposure StereoRenderer::exposureFor(int64_t k, int camera) const {
+  const CameraFigures& cf = scenario_.camera;
+  if (!cf.auto_exposure || k == 0) return {cf.exposure_us, 1.0};
+  // The loop saw image k-1 at grey g with exposure e and gain a; it sets e' a' = e a target / g. The grey is linear in
+  // exposure and gain, so e' a' follows from the scene's radiance at the reference exposure alone.
+  const double t_prev = (sampleUtime(scenario_.start_utime, k - 1, cf.rate_hz) - scenario_.start_utime) * 1e-6;
+  const double grey = meanGrey(t_prev, camera) * gain_[camera];
+  const double max_gain = std::pow(10.0, cf.ae_max_gain_db / 20.0);
+  const double needed = grey > 0 ? cf.exposure_us * cf.ae_target_grey / grey : cf.ae_max_exposure_us * max_gain;
+  Exposure e;
+  e.exposure_us = std::clamp(needed, cf.ae_min_exposure_us, cf.ae_max_exposure_us);
+  e.gain = std::clamp(needed / e.exposure_us, 1.0, max_gain);
+  return e;
+}
+
+void StereoRenderer::renderWithEffects(int64_t k, int c, double t, const Exposure& e, cv::Mat& out,
+                                       int* samples) const {
+  const CameraFigures& cf = scenario_.camera;
+  const View& v = raw_[c];
+  const size_t pixels = static_cast<size_t>(v.width) * v.height;
+  SceneRenderer::Buffers buf;
+  // Camera c's radiance at time tj added into acc (its depth buffer left in buf).
+  auto renderInto = [&](double tj, cv::Mat& acc) {
+    const std::vector<SceneRenderer::CamQuad> quads = scene_.prepare(cameraInWorld(tj, c));
+    buf.z.assign(pixels, std::numeric_limits<float>::infinity());
+    buf.id.assign(pixels, -1);
+    cv::parallel_for_(cv::Range(0, v.tiles_y), [&](const cv::Range& r) {
+      for (int ty = r.start; ty < r.end; ++ty) scene_.raster(v, quads, buf, ty);
+    });
+    cv::parallel_for_(cv::Range(0, v.height), [&](const cv::Range& r) {
+      std::vector<float> row(v.width);
+      for (int y = r.start; y < r.end; ++y) {
+        scene_.shadeRow(v, quads, buf, y, 1, 0, 0, nullptr, row.data());
+        float* a = acc.ptr<float>(y);
+        for (int x = 0; x < v.width; ++x) a[x] += row[x];
+      }
+    });
+  };
+  cv::Mat radiance = cv::Mat::zeros(v.height, v.width, CV_32F);
+  renderInto(t, radiance);  // the exposure's middle
+  int n = 1;
+  if (cf.motion_blur) {
+    const double exposure_s = e.exposure_us * 1e-6;
+    n = blurSamples(buf, c, cameraInWorld(t - 0.5 * exposure_s, c).inverse() * cameraInWorld(t, c),
+                    cameraInWorld(t + 0.5 * exposure_s, c).inverse() * cameraInWorld(t, c));
+    // The sub-images at the middles of n equal parts of the exposure; n is odd, so the middle one is rendered.
+    for (int j = 0; j < n; ++j)
+      if (2 * j + 1 != n) renderInto(t + exposure_s * ((j + 0.5) / n - 0.5), radiance);
+    if (n > 1) radiance /= n;
+  }
+  *samples = n;
+  // Grey = the fixed gain x the loop's gain x the exposure against the reference x the illumination x the mean
+  // radiance; the sensor's noise is amplified by the loop's gain as well.
+  const float scale = static_cast<float>(gain_[c] * e.gain * e.exposure_us / cf.exposure_us);
+  const float noise_scale = static_cast<float>(cf.noise_sigma * e.gain) * std::sqrt(3.0f) / 65536.0f;
+  out.create(v.height, v.width, CV_8UC1);
+  cv::parallel_for_(cv::Range(0, v.height), [&](const cv::Range& r) {
+    for (int y = r.start; y < r.end; ++y) {
+      uint64_t state = streamSeed(scenario_.seed, kStreamPixels, (static_cast<uint64_t>(k) * 2 + c) * v.height + y);
+      const size_t row = static_cast<size_t>(y) * v.width;
+      uint8_t* o = out.ptr<uint8_t>(y);
+      const float* in = radiance.ptr<float>(y);
+      for (int x = 0; x < v.width; ++x) {
+        const float g = scale * vignette_[c][row + x] * in[x] + noise_scale * irwinHallSum(state) + 0.5f;
+        o[x] = static_cast<uint8_t>(std::clamp(g, 0.0f, 255.0f));
+      }
+    }
+  });
 }
 
 StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
@@ -359,7 +496,23 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   frame.utime_stamp =
       frame.utime_true + std::llround(scenario_.camera.stamp_offset_us + scenario_.camera.jitter_us * rng.normal());
   frame.utime_arrival = frame.utime_true + std::llround(scenario_.camera.latency_us);
+  const CameraFigures& cf = scenario_.camera;
+  frame.lost = frameLost(k);
+  if (frame.lost) return frame;
   const double t = (frame.utime_true - scenario_.start_utime) * 1e-6;
+  if (effects_) {
+    for (int c = 0; c < 2; ++c) {
+      const Exposure e = exposureFor(k, c);
+      frame.exposure_us[c] = e.exposure_us;
+      frame.gain_db[c] = (c == 0 ? cf.gain_left_db : cf.gain_right_db) + 20.0 * std::log10(e.gain);
+      renderWithEffects(k, c, t, e, c == 0 ? frame.left : frame.right, &frame.blur_samples[c]);
+    }
+    if (with_gt_disparity) frame.gt_disparity = disparityFromDepth(rectifiedDepth(t, 0));
+    return frame;
+  }
+  frame.exposure_us[0] = frame.exposure_us[1] = cf.exposure_us;
+  frame.gain_db[0] = cf.gain_left_db;
+  frame.gain_db[1] = cf.gain_right_db;
   const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
   const std::vector<SceneRenderer::CamQuad> quads[2] = {scene_.prepare(head_.cam0InWorld(T_world_imu)),
                                                         scene_.prepare(head_.cam1InWorld(T_world_imu, t))};
@@ -386,6 +539,41 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   });
   if (with_gt_disparity) frame.gt_disparity = disparityFromDepth(rectifiedDepth(t, 0));
   return frame;
+}
+
+int StereoRenderer::blurSamples(const SceneRenderer::Buffers& buf, int c, const Eigen::Isometry3d& T_a_mid,
+                                const Eigen::Isometry3d& T_b_mid) const {
+  // The longest streak: where the points seen on a grid of pixels at the exposure's middle are at its start and end.
+  const CameraFigures& cf = scenario_.camera;
+  const View& v = raw_[c];
+  const ips::CameraIntrinsics& cam = c == 0 ? head_.calibration.cam0 : head_.calibration.cam1;
+  std::vector<cv::Point3d> points;
+  for (int y = kBlurGridStep / 2; y < v.height; y += kBlurGridStep)
+    for (int x = kBlurGridStep / 2; x < v.width; x += kBlurGridStep) {
+      const size_t i = static_cast<size_t>(y) * v.width + x;
+      if (buf.id[i] < 0) continue;
+      points.emplace_back(v.rx[i] * buf.z[i], v.ry[i] * buf.z[i], buf.z[i]);
+    }
+  if (points.empty()) return 1;
+  auto project = [&](const Eigen::Isometry3d& T) {
+    cv::Mat R(3, 3, CV_64F), rvec;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) R.at<double>(i, j) = T.linear()(i, j);
+    cv::Rodrigues(R, rvec);
+    const cv::Mat tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
+    std::vector<cv::Point2d> px;
+    if (cam.model == ips::DistortionModel::kEquidistant)
+      cv::fisheye::projectPoints(points, px, rvec, tvec, cam.cvK(), cam.cvDistortion());
+    else
+      cv::projectPoints(points, rvec, tvec, cam.cvK(), cam.cvDistortion(), px);
+    return px;
+  };
+  const std::vector<cv::Point2d> pa = project(T_a_mid), pb = project(T_b_mid);
+  double longest = 0;
+  for (size_t i = 0; i < pa.size(); ++i) longest = std::max(longest, cv::norm(pb[i] - pa[i]));
+  int n = std::clamp(static_cast<int>(std::ceil(longest / cf.blur_step_px)), 1, cf.max_blur_samples);
+  if (n % 2 == 0) n = n + 1 <= cf.max_blur_samples ? n + 1 : n - 1;
+  return n;
 }
 
 cv::Mat StereoRenderer::rectifiedDepth(double t, int camera) const {

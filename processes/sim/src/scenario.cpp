@@ -109,6 +109,16 @@ Scenario loadOver(const std::string& path, int depth) {
   get(c, "camera/gain_left_db", cam.gain_left_db);
   get(c, "camera/gain_right_db", cam.gain_right_db);
   get(c, "camera/exposure_us", cam.exposure_us);
+  get(c, "camera/motion_blur", cam.motion_blur);
+  get(c, "camera/blur_step_px", cam.blur_step_px);
+  get(c, "camera/max_blur_samples", cam.max_blur_samples);
+  get(c, "camera/auto_exposure", cam.auto_exposure);
+  get(c, "camera/ae_target_grey", cam.ae_target_grey);
+  get(c, "camera/ae_min_exposure_us", cam.ae_min_exposure_us);
+  get(c, "camera/ae_max_exposure_us", cam.ae_max_exposure_us);
+  get(c, "camera/ae_max_gain_db", cam.ae_max_gain_db);
+  get(c, "camera/vignetting", cam.vignetting);
+  get(c, "camera/frame_loss", cam.frame_loss);
   get(c, "camera/latency_us", cam.latency_us);
   get(c, "camera/stamp_offset_us", cam.stamp_offset_us);
   get(c, "camera/jitter_us", cam.jitter_us);
@@ -239,6 +249,16 @@ void Scenario::validate() const {
   require(camera.noise_sigma >= 0, "camera/noise_sigma must not be negative");
   require(camera.latency_us >= 0 && imu.latency_us >= 0 && tilt.latency_us >= 0, "latency_us must not be negative");
   require(camera.near_m > 0, "camera/near_m must be positive");
+  require(camera.exposure_us > 0 && camera.exposure_us < 1e6 / camera.rate_hz,
+          "camera/exposure_us must be positive and shorter than the frame interval");
+  require(camera.blur_step_px > 0 && camera.max_blur_samples >= 1 && camera.max_blur_samples <= 63 &&
+              camera.max_blur_samples % 2 == 1,
+          "camera/blur_step_px must be positive, max_blur_samples odd in 1..63");
+  require(camera.ae_target_grey > 0 && camera.ae_target_grey < 255 && camera.ae_min_exposure_us > 0 &&
+              camera.ae_min_exposure_us <= camera.ae_max_exposure_us &&
+              camera.ae_max_exposure_us < 1e6 / camera.rate_hz && camera.ae_max_gain_db >= 0,
+          "camera/ae_*: target grey in (0, 255), 0 < min <= max exposure < the frame interval, max gain >= 0 dB");
+  require(camera.frame_loss >= 0 && camera.frame_loss < 1, "camera/frame_loss must be in [0, 1)");
   require(camera.relative_rotation_step_deg.norm() < 5 && camera.relative_rotation_drift_deg_per_min.norm() < 5 &&
               camera.relative_rotation_step_s >= 0,
           "camera/relative_rotation_step_deg and _drift_deg_per_min must be below 5 deg, the step time not negative");

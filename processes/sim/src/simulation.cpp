@@ -83,17 +83,20 @@ bool Simulation::next(std::vector<SimEvent>& out) {
   if (!last) {
     const bool gt = options_.gt_disparity_every > 0 && next_frame_ % options_.gt_disparity_every == 0;
     auto frame = std::make_shared<const StereoFrame>(rig_.renderer.render(next_frame_, gt));
-    SimEvent e;
-    e.kind = SimEvent::kStereo;
-    e.log_utime = frame->utime_arrival;
-    e.seq = frame->seq;
-    e.frame = frame;
-    push(e);
-    if (gt) {
-      e.kind = SimEvent::kGtDisparity;
+    // A lost pair (camera/frame_loss) is not published: its sequence number is skipped, as a camera driver's would be.
+    if (!frame->lost) {
+      SimEvent e;
+      e.kind = SimEvent::kStereo;
+      e.log_utime = frame->utime_arrival;
+      e.seq = frame->seq;
+      e.frame = frame;
       push(e);
+      if (gt) {
+        e.kind = SimEvent::kGtDisparity;
+        push(e);
+      }
+      addTruth(frame->utime_true);
     }
-    addTruth(frame->utime_true);
     ++next_frame_;
   }
   // Later samples have later true times, and arrival >= true time: what arrives up to the horizon is final.

@@ -80,11 +80,21 @@ struct SceneRenderer::CamQuad {
 
 struct StereoFrame {
   int64_t seq = 0;
-  int64_t utime_true = 0;     // exposure mid-time
-  int64_t utime_stamp = 0;    // with the camera's stamp offset and jitter
-  int64_t utime_arrival = 0;  // delivered after the camera's latency
-  cv::Mat left, right;        // raw CV_8UC1, as the cameras deliver them
-  cv::Mat gt_disparity;       // CV_32F of the rectified left image, when asked for; 0 = nothing seen
+  int64_t utime_true = 0;          // exposure mid-time
+  int64_t utime_stamp = 0;         // with the camera's stamp offset and jitter
+  int64_t utime_arrival = 0;       // delivered after the camera's latency
+  cv::Mat left, right;             // raw CV_8UC1, as the cameras deliver them
+  cv::Mat gt_disparity;            // CV_32F of the rectified left image, when asked for; 0 = nothing seen
+  bool lost = false;               // dropped on the way (camera/frame_loss): no images
+  double exposure_us[2] = {0, 0};  // left, right: the exposure each camera used
+  double gain_db[2] = {0, 0};      // and its gain (the fixed one plus the auto exposure's)
+  int blur_samples[2] = {1, 1};    // sub-images integrated over the exposure (1: no motion blur)
+};
+
+// What a camera's exposure loop chose for one image.
+struct Exposure {
+  double exposure_us = 0;
+  double gain = 1;  // linear, on top of the camera's fixed gain
 };
 
 class StereoRenderer {
@@ -100,8 +110,27 @@ class StereoRenderer {
 
   const StereoRectification& rectification() const { return rect_; }
   float gain(int camera) const { return camera == 0 ? gain_[0] : gain_[1]; }
+  // Whether frame k is lost on the way (camera/frame_loss; independent per frame, from the frame's seed).
+  bool frameLost(int64_t k) const;
+  // The exposure camera 0 or 1 uses for frame k: the configured one, or with auto exposure the one that brings the
+  // camera's image k-1 to the target grey (a function of k alone, so frames still render in any order).
+  Exposure exposureFor(int64_t k, int camera) const;
+  // Mean grey level camera 0 or 1 would see at time t [s] (relative to the scenario start) with the reference
+  // exposure and no gain (vignetting included), from every fourth pixel's ray.
+  double meanGrey(double t, int camera) const;
 
  private:
+  // The camera's pose in world at time t [s].
+  Eigen::Isometry3d cameraInWorld(double t, int camera) const;
+  // Renders camera c's image of frame k with the effects on: radiance integrated over the exposure, vignetting,
+  // exposure and gain, then noise, into out (CV_8UC1).
+  void renderWithEffects(int64_t k, int c, double t, const Exposure& e, cv::Mat& out, int* samples) const;
+  // The sub-images motion blur needs for camera c: the longest image motion over the exposure of the points seen in
+  // buf (the depth buffer at the exposure's middle) in steps of blur_step_px, odd, at most max_blur_samples. T_a_mid:
+  // the camera at the exposure's middle in the camera at its start; T_b_mid: at its end.
+  int blurSamples(const SceneRenderer::Buffers& buf, int c, const Eigen::Isometry3d& T_a_mid,
+                  const Eigen::Isometry3d& T_b_mid) const;
+
   const Scenario& scenario_;
   const SensorHead& head_;
   const Trajectory& trajectory_;
@@ -110,6 +139,9 @@ class StereoRenderer {
   StereoRectification rect_;
   View rect_view_;
   float gain_[2];
+  bool effects_ = false;  // any of motion blur, auto exposure, vignetting
+  View ae_view_[2];       // every fourth pixel of each camera: what the exposure loop measures
+  std::vector<float> vignette_[2], ae_vignette_[2];  // per pixel illumination factor (1 without vignetting)
 };
 
 }  // namespace ips::sim

@@ -35,7 +35,28 @@ struct CameraFigures {
   double noise_sigma = 1.5;  // [grey levels] sensor noise of each pixel
   double gain_left_db = 0.0;
   double gain_right_db = 0.4;  // gain difference of the right camera
+  // [us] the exposure time; with auto_exposure the reference at which the world's radiance gives its grey levels
+  // (a surface's grey scales with the exposure time and the gain).
   double exposure_us = 4000.0;
+  // Effects of a real camera, each off by default (the easy walk; config/sim_hard.yaml switches them on).
+  // Motion blur: every image integrates the scene over its exposure, rendered at sub-times close enough that
+  // neighbouring sub-images lie at most blur_step_px apart where the image moves most, at most max_blur_samples.
+  bool motion_blur = false;
+  double blur_step_px = 1.0;
+  int max_blur_samples = 15;
+  // Auto exposure per camera: the exposure that brings the camera's previous image (its mean grey) to
+  // ae_target_grey, as a camera's exposure loop acts on the last image; within [ae_min_exposure_us,
+  // ae_max_exposure_us], beyond that the gain rises, up to ae_max_gain_db. Bright and dark views then differ in
+  // exposure (blur) and gain (noise), and the two cameras expose differently.
+  bool auto_exposure = false;
+  double ae_target_grey = 100.0;
+  double ae_min_exposure_us = 100.0;
+  double ae_max_exposure_us = 15000.0;  // indoors 5-15 ms
+  double ae_max_gain_db = 12.0;
+  // Natural vignetting of the lens: illumination falls with cos^4 of the ray's angle to the optical axis.
+  bool vignetting = false;
+  // Each image lost (a GigE frame dropped) with this probability, independently.
+  double frame_loss = 0.0;
   // Timing of every sensor: latency = delivery delay after the true sample time (the order in which messages
   // arrive, e.g. image transfer); the stamp = true time + stamp_offset + N(0, jitter) (clock errors).
   double latency_us = 30000.0;
