@@ -243,8 +243,9 @@ TEST(SimTilt, StatisticsAndResponseToAcceleration) {
 }
 
 TEST(SimScenario, ConfigFilesLoadAndBadValuesAreNamed) {
-  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml", "sim_still.yaml", "sim_imu_calib.yaml",
-                           "sim_imu_calib_askew.yaml", "sim_tilt_calib.yaml", "sim_stereo_calib.yaml"}) {
+  for (const char* name :
+       {"sim_walk.yaml", "sim_vehicle.yaml", "sim_still.yaml", "sim_imu_calib.yaml", "sim_imu_calib_askew.yaml",
+        "sim_tilt_calib.yaml", "sim_stereo_calib.yaml", "sim_hard.yaml"}) {
     const Scenario sc = Scenario::load(std::string(IPS_CONFIG_DIR) + "/" + name);
     const Trajectory traj(sc.trajectory, sc.gravity);
     EXPECT_GT(traj.duration(), 10) << name;
@@ -401,4 +402,16 @@ TEST(SimHead, CalibrationForProcessesCarriesTheConfiguredErrors) {
   EXPECT_EQ(loaded.source, "perturbed");
   EXPECT_NEAR((loaded.cam0.K - a.cam0.K).norm(), 0, 1e-9);
   EXPECT_NEAR((loaded.R_tilt_cam0 - a.R_tilt_cam0).norm(), 0, 1e-9);
+}
+
+TEST(SimScenario, EffectsAreNamedForTheReport) {
+  EXPECT_TRUE(simEffects(Scenario::defaults()).empty());
+  EXPECT_TRUE(simEffects(Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_walk.yaml")).empty());
+  const Scenario hard = Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_hard.yaml");
+  EXPECT_EQ(simEffects(hard), (std::vector<std::string>{"motion_blur", "auto_exposure", "vignetting", "frame_loss",
+                                                        "stamp_offsets", "perturbed_calibration"}));
+  EXPECT_EQ(simEffects(Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_knock.yaml")),
+            std::vector<std::string>{"camera_knock"});
+  EXPECT_EQ(simEffects(Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_weak.yaml")),
+            std::vector<std::string>{"weak_texture"});
 }

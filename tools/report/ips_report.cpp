@@ -326,8 +326,10 @@ int main(int argc, char** argv) {
         .option("--map-gt-poses", "FILE", "the same maps placed with the ground truth's poses (scored beside it)")
         .option("--map-poses", "filter|tracker",
                 "what placed the --map: the filter's states or the tracker's increments", "filter")
-        .option("--world-seed", "N",
-                "the simulated world the run saw (the sim's --seed): the maps' points are scored against its surfaces")
+        .option(
+            "--world-seed", "N",
+            "the simulated world the run saw (the sim's --seed): the maps' points are scored against its surfaces,\n"
+            "and sim_effects lists what its scenario switched on")
         .option("--world-scenario", "FILE", "its scenario file (default: the built-in walk)")
         .option("--map-up", "X,Y,Z|truth",
                 "the map's up direction, for the top view, in a world not levelled by an IMU: e.g. 0,-1,0 for a "
@@ -877,6 +879,16 @@ int main(int argc, char** argv) {
     js << "\n  },\n";
     js << "  \"bad_messages\": " << bad_messages << ",\n";
     js << "  \"calibration_source\": " << ips::report::jsonString(calibration_source) << ",\n";
+    // On the simulator: what made its scenario harder than the built-in walk (ips::sim::simEffects).
+    if (args.has("--world-seed")) {
+      const ips::sim::Scenario sc = args.has("--world-scenario")
+                                        ? ips::sim::Scenario::load(args.get("--world-scenario"))
+                                        : ips::sim::Scenario::defaults();
+      std::string list;
+      for (const std::string& name : ips::sim::simEffects(sc))
+        list += (list.empty() ? "" : ", ") + ips::report::jsonString(name);
+      js << "  \"sim_effects\": [" << list << "],\n";
+    }
     js << "  \"calibration_figures\": "
        << calibrationFiguresJson(args.has("--process-calib") ? args.get("--process-calib") : args.get("--calib"))
        << ",\n";

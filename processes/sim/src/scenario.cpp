@@ -314,4 +314,23 @@ void Scenario::validate() const {
           "world/poster_spacing_m, object_spacing_m must be positive");
 }
 
+std::vector<std::string> simEffects(const Scenario& sc) {
+  const Scenario walk = Scenario::defaults();
+  const CameraFigures& c = sc.camera;
+  std::vector<std::string> on;
+  auto add = [&](bool is_on, const char* name) {
+    if (is_on) on.push_back(name);
+  };
+  add(c.motion_blur, "motion_blur");
+  add(c.auto_exposure, "auto_exposure");
+  add(c.vignetting, "vignetting");
+  add(c.frame_loss > 0, "frame_loss");
+  add(c.stamp_offset_us != 0 || sc.imu.stamp_offset_us != 0 || sc.tilt.stamp_offset_us != 0, "stamp_offsets");
+  add(sc.calibration_errors.any(), "perturbed_calibration");
+  add(c.relative_rotation_step_deg.norm() > 0, "camera_knock");
+  add(c.relative_rotation_drift_deg_per_min.norm() > 0, "camera_drift");
+  add(sc.world.weak_texture_share > walk.world.weak_texture_share, "weak_texture");
+  return on;
+}
+
 }  // namespace ips::sim

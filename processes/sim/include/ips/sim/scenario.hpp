@@ -211,4 +211,10 @@ struct Scenario {
   void validate() const;  // throws std::invalid_argument on impossible figures
 };
 
+// What makes a scenario harder than the built-in walk, by name, for reports ("sim_effects"): "motion_blur",
+// "auto_exposure", "vignetting", "frame_loss", "stamp_offsets" (any sensor's stamps offset), "perturbed_calibration"
+// (calibration_errors), "camera_knock" and "camera_drift" (relative_rotation_step / drift), "weak_texture" (more
+// plain walls than the walk's), in this order; empty for the walk.
+std::vector<std::string> simEffects(const Scenario& scenario);
+
 }  // namespace ips::sim
