@@ -7,7 +7,8 @@
 # file instead of the built-in walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
 # replaces filter_sim.yaml), IPS_REPLAY_SPEED (default 1), IPS_CONFIG (the config folder; default config/),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), IPS_CALIB (a calibration file the
-# processes run on instead of the log's; the log's is then the truth the report compares with), LCM_DEFAULT_URL.
+# processes run on instead of the log's; the log's is then the truth the report compares with), IPS_SEEDS (the
+# job once per seed 1..N, summarised by ips_seeds), LCM_DEFAULT_URL.
 # IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder or KITTI odometry folder, told
 # apart by layout): dataset_to_lcm writes it as the head's log, the tracker runs with the head's config
 # (config/euroc.yaml, config/kitti.yaml), the filters when it has IMU, and the report adds the recording figures
@@ -18,6 +19,22 @@ cd "$(dirname "$0")/.."
 ROOT=$PWD
 BIN=$ROOT/build/bin
 export PATH="$BIN:$PATH"
+# IPS_SEEDS=N: the job once per seed 1..N (each its own out/<run>), then ips_seeds summarises them into
+# out/<time>-seeds/seeds.json (end error mean, worst and spread per filter, NEES averaged over the seeds).
+if [ "${IPS_SEEDS:-1}" -gt 1 ]; then
+  seeds_dir=$ROOT/out/$(date -u +%Y%m%dT%H%M%SZ)-seeds
+  mkdir -p "$seeds_dir"
+  runs=()
+  for seed in $(seq 1 "$IPS_SEEDS"); do
+    echo "[main job] seed $seed of $IPS_SEEDS"
+    IPS_SEEDS=1 IPS_SEED=$seed "$ROOT/tools/main_job.sh" "$@" || echo "[main job] seed $seed: the job failed (its report says why)"
+    runs+=("$(readlink -f "$ROOT/out/latest")")
+    ln -sfn "${runs[-1]}" "$seeds_dir/seed_$seed"
+  done
+  ips_seeds --runs "$(IFS=,; echo "${runs[*]}")" --out "$seeds_dir/seeds.json" | tee "$seeds_dir/seeds.txt"
+  ln -sfn "$(basename "$seeds_dir")" "$ROOT/out/latest"
+  exit "${PIPESTATUS[0]}"
+fi
 run=$ROOT/out/$(date -u +%Y%m%dT%H%M%SZ)
 mkdir -p "$run"
 ln -sfn "$(basename "$run")" "$ROOT/out/latest"

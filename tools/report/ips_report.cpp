@@ -563,6 +563,13 @@ int main(int argc, char** argv) {
       }
       if (first_run) first_end_err = end_err, first_end_pct = end_pct, first_ate = ate;
       const ErrorSeries err = errorSeries(run, est, aligned, gt, t0, kMaxPageErrorSamples);
+      {
+        // The NEES over time for a Monte Carlo over seeds (ips_seeds, IPS_SEEDS in the main job).
+        std::ofstream nees_file(out + "/nees_" + run.channel + ".tsv");
+        nees_file << "# t [s since the run's first state] and the position NEES (3 dof) of " << run.channel << "\n";
+        for (size_t i = 0; i < err.t.size(); ++i)
+          nees_file << err.t[i] << " " << (std::isfinite(err.nees[i]) ? std::to_string(err.nees[i]) : "nan") << "\n";
+      }
       js << (first_run ? "" : ",\n") << "    {\"channel\": \"" << run.channel << "\", \"filter\": \"" << name
          << "\", \"states\": " << run.states.size() << ", \"end_error_m\": " << jsonNumber(end_err)
          << ", \"end_error_pct\": " << jsonNumber(end_pct) << ", \"ate_rmse_m\": " << jsonNumber(ate)
