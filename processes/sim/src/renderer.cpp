@@ -404,17 +404,12 @@ Eigen::Isometry3d StereoRenderer::cameraInWorld(double t, int camera) const {
 double StereoRenderer::meanGrey(double t, int camera) const {
   const View& v = ae_view_[camera];
   if (v.width == 0) throw std::logic_error("StereoRenderer::meanGrey: the camera effects are off");
-  const std::vector<SceneRenderer::CamQuad> quads = scene_.prepare(cameraInWorld(t, camera));
-  SceneRenderer::Buffers buf;
-  buf.z.assign(static_cast<size_t>(v.width) * v.height, std::numeric_limits<float>::infinity());
-  buf.id.assign(buf.z.size(), -1);
-  for (int ty = 0; ty < v.tiles_y; ++ty) scene_.raster(v, quads, buf, ty);
-  std::vector<float> row(v.width);
+  cv::Mat radiance;
+  scene_.render(v, cameraInWorld(t, camera), &radiance, nullptr);
   double sum = 0;
-  for (int y = 0; y < v.height; ++y) {
-    scene_.shadeRow(v, quads, buf, y, 1, 0, 0, nullptr, row.data());
-    for (int x = 0; x < v.width; ++x) sum += row[x] * ae_vignette_[camera][static_cast<size_t>(y) * v.width + x];
-  }
+  for (int y = 0; y < v.height; ++y)
+    for (int x = 0; x < v.width; ++x)
+      sum += radiance.at<float>(y, x) * ae_vignette_[camera][static_cast<size_t>(y) * v.width + x];
   return sum / (static_cast<double>(v.width) * v.height);
 }
 
@@ -437,35 +432,21 @@ void StereoRenderer::renderWithEffects(int64_t k, int c, double t, const Exposur
                                        int* samples) const {
   const CameraFigures& cf = scenario_.camera;
   const View& v = raw_[c];
-  const size_t pixels = static_cast<size_t>(v.width) * v.height;
-  SceneRenderer::Buffers buf;
-  // Camera c's radiance at time tj added into acc (its depth buffer left in buf).
-  auto renderInto = [&](double tj, cv::Mat& acc) {
-    const std::vector<SceneRenderer::CamQuad> quads = scene_.prepare(cameraInWorld(tj, c));
-    buf.z.assign(pixels, std::numeric_limits<float>::infinity());
-    buf.id.assign(pixels, -1);
-    cv::parallel_for_(cv::Range(0, v.tiles_y), [&](const cv::Range& r) {
-      for (int ty = r.start; ty < r.end; ++ty) scene_.raster(v, quads, buf, ty);
-    });
-    cv::parallel_for_(cv::Range(0, v.height), [&](const cv::Range& r) {
-      std::vector<float> row(v.width);
-      for (int y = r.start; y < r.end; ++y) {
-        scene_.shadeRow(v, quads, buf, y, 1, 0, 0, nullptr, row.data());
-        float* a = acc.ptr<float>(y);
-        for (int x = 0; x < v.width; ++x) a[x] += row[x];
-      }
-    });
-  };
-  cv::Mat radiance = cv::Mat::zeros(v.height, v.width, CV_32F);
-  renderInto(t, radiance);  // the exposure's middle
+  // The exposure's middle, with its depth for the streaks.
+  const Eigen::Isometry3d T_world_mid = cameraInWorld(t, c);
+  cv::Mat radiance, depth, sub;
+  scene_.render(v, T_world_mid, &radiance, &depth);
   int n = 1;
   if (cf.motion_blur) {
     const double exposure_s = e.exposure_us * 1e-6;
-    n = blurSamples(buf, c, cameraInWorld(t - 0.5 * exposure_s, c).inverse() * cameraInWorld(t, c),
-                    cameraInWorld(t + 0.5 * exposure_s, c).inverse() * cameraInWorld(t, c));
+    n = blurSamples(depth, c, cameraInWorld(t - 0.5 * exposure_s, c).inverse() * T_world_mid,
+                    cameraInWorld(t + 0.5 * exposure_s, c).inverse() * T_world_mid);
     // The sub-images at the middles of n equal parts of the exposure; n is odd, so the middle one is rendered.
-    for (int j = 0; j < n; ++j)
-      if (2 * j + 1 != n) renderInto(t + exposure_s * ((j + 0.5) / n - 0.5), radiance);
+    for (int j = 0; j < n; ++j) {
+      if (2 * j + 1 == n) continue;
+      scene_.render(v, cameraInWorld(t + exposure_s * ((j + 0.5) / n - 0.5), c), &sub, nullptr);
+      radiance += sub;
+    }
     if (n > 1) radiance /= n;
   }
   *samples = n;
@@ -541,7 +522,7 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   return frame;
 }
 
-int StereoRenderer::blurSamples(const SceneRenderer::Buffers& buf, int c, const Eigen::Isometry3d& T_a_mid,
+int StereoRenderer::blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_a_mid,
                                 const Eigen::Isometry3d& T_b_mid) const {
   // The longest streak: where the points seen on a grid of pixels at the exposure's middle are at its start and end.
   const CameraFigures& cf = scenario_.camera;
@@ -551,8 +532,9 @@ int StereoRenderer::blurSamples(const SceneRenderer::Buffers& buf, int c, const 
   for (int y = kBlurGridStep / 2; y < v.height; y += kBlurGridStep)
     for (int x = kBlurGridStep / 2; x < v.width; x += kBlurGridStep) {
       const size_t i = static_cast<size_t>(y) * v.width + x;
-      if (buf.id[i] < 0) continue;
-      points.emplace_back(v.rx[i] * buf.z[i], v.ry[i] * buf.z[i], buf.z[i]);
+      const double z = depth.at<float>(y, x);
+      if (!(z > 0)) continue;
+      points.emplace_back(v.rx[i] * z, v.ry[i] * z, z);
     }
   if (points.empty()) return 1;
   auto project = [&](const Eigen::Isometry3d& T) {
@@ -577,13 +559,10 @@ int StereoRenderer::blurSamples(const SceneRenderer::Buffers& buf, int c, const 
 }
 
 cv::Mat StereoRenderer::rectifiedDepth(double t, int camera) const {
-  const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
   Eigen::Isometry3d T_cam_rect = Eigen::Isometry3d::Identity();
   T_cam_rect.linear() = (camera == 0 ? rect_.R_rect0_cam0 : rect_.R_rect1_cam1).transpose();
-  const Eigen::Isometry3d T_world_cam =
-      camera == 0 ? head_.cam0InWorld(T_world_imu) : head_.cam1InWorld(T_world_imu, t);
   cv::Mat depth;
-  scene_.render(rect_view_, T_world_cam * T_cam_rect, nullptr, &depth);
+  scene_.render(rect_view_, cameraInWorld(t, camera) * T_cam_rect, nullptr, &depth);
   return depth;
 }
 

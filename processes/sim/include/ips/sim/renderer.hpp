@@ -126,9 +126,9 @@ class StereoRenderer {
   // exposure and gain, then noise, into out (CV_8UC1).
   void renderWithEffects(int64_t k, int c, double t, const Exposure& e, cv::Mat& out, int* samples) const;
   // The sub-images motion blur needs for camera c: the longest image motion over the exposure of the points seen in
-  // buf (the depth buffer at the exposure's middle) in steps of blur_step_px, odd, at most max_blur_samples. T_a_mid:
-  // the camera at the exposure's middle in the camera at its start; T_b_mid: at its end.
-  int blurSamples(const SceneRenderer::Buffers& buf, int c, const Eigen::Isometry3d& T_a_mid,
+  // depth (z [m] at the exposure's middle, 0 where nothing is seen) in steps of blur_step_px, odd, at most
+  // max_blur_samples. T_a_mid: the camera at the exposure's middle in the camera at its start; T_b_mid: at its end.
+  int blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_a_mid,
                   const Eigen::Isometry3d& T_b_mid) const;
 
   const Scenario& scenario_;
