@@ -349,6 +349,13 @@ int main(int argc, char** argv) {
     std::error_code mkdir_error;
     std::filesystem::create_directories(out, mkdir_error);
     if (mkdir_error) throw std::runtime_error("cannot create the output folder " + out + ": " + mkdir_error.message());
+    // The simulated world's scenario (--world-seed), read once: its effects and its surfaces for the map.
+    std::optional<ips::sim::Scenario> world_scenario;
+    if (args.has("--world-seed")) {
+      world_scenario = args.has("--world-scenario") ? ips::sim::Scenario::load(args.get("--world-scenario"))
+                                                    : ips::sim::Scenario::defaults();
+      world_scenario->seed = static_cast<uint64_t>(args.getInt("--world-seed"));
+    }
     // Both calibrations read once, before any log: a bad file ends the report at once, naming itself.
     std::optional<ips::StereoCalibration> truth_calib;
     if (args.has("--calib")) truth_calib = ips::loadCalibration(args.get("--calib"));
@@ -732,12 +739,7 @@ int main(int argc, char** argv) {
       const std::vector<Eigen::Vector3d> map = ips::mapper::VoxelMap::load(args.get("--map"), &grey);
       js << "  \"map_points\": " << map.size() << ",\n";
       std::optional<ips::sim::World> world;
-      if (args.has("--world-seed")) {
-        ips::sim::Scenario sc = args.has("--world-scenario") ? ips::sim::Scenario::load(args.get("--world-scenario"))
-                                                             : ips::sim::Scenario::defaults();
-        sc.seed = static_cast<uint64_t>(args.getInt("--world-seed"));
-        world = ips::sim::World::build(sc.world, sc.seed);
-      }
+      if (world_scenario) world = ips::sim::World::build(world_scenario->world, world_scenario->seed);
       Eigen::Isometry3d T_truth_map = Eigen::Isometry3d::Identity();
       if (!runs.empty() && !runs.front().states.empty()) {
         Trajectory est;
@@ -887,12 +889,9 @@ int main(int argc, char** argv) {
     js << "  \"bad_messages\": " << bad_messages << ",\n";
     js << "  \"calibration_source\": " << ips::report::jsonString(calibration_source) << ",\n";
     // On the simulator: what made its scenario harder than the built-in walk (ips::sim::simEffects).
-    if (args.has("--world-seed")) {
-      const ips::sim::Scenario sc = args.has("--world-scenario")
-                                        ? ips::sim::Scenario::load(args.get("--world-scenario"))
-                                        : ips::sim::Scenario::defaults();
+    if (world_scenario) {
       std::string list;
-      for (const std::string& name : ips::sim::simEffects(sc))
+      for (const std::string& name : ips::sim::simEffects(*world_scenario))
         list += (list.empty() ? "" : ", ") + ips::report::jsonString(name);
       js << "  \"sim_effects\": [" << list << "],\n";
     }
