@@ -19,6 +19,10 @@ PACKAGES=(
   libcpp-httplib-dev nlohmann-json3-dev libjs-three libjs-chart.js
   chromium chromium-driver python3-selenium fonts-dejavu-core
   libopen3d-dev
+  # OpenCV's LAPACK (the calibrations' Levenberg-Marquardt and SVDs) on OpenBLAS instead of the reference BLAS:
+  # the same results, a stereo calibration of 28 views in a third of the time. Serial: the processes parallelise
+  # themselves, and a threaded BLAS inside them would compete with their own threads.
+  libopenblas0-serial
 )
 
 SUDO=""
