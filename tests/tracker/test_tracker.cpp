@@ -188,6 +188,44 @@ TEST(TrackerPlane, FilterPriorPlacesSmallWindows) {
   }
 }
 
+TEST(TrackerPlane, FilterGoneAstrayIsOverruledByTheTrackersOwnMotion) {
+  IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
+  // A filter that has lost its velocity (IMU messages lost on a starved host) predicts the next pair 1.5 m and
+  // 5 deg away, confidently: even the widest windows (200 px) around that prediction hold no true match (the
+  // plane is 3 m away at f = 500 px: about 300 px off). The tracker, which has measured the steady motion itself,
+  // searches around its own last motion instead and finds the true one.
+  const PlaneSequence seq;
+  const TrackerParams params;
+  StereoTracker tracker(seq.calib, params);
+  cv::Mat l, r;
+  for (int k = 0; k <= 2; ++k) {
+    seq.render(k, l, r);
+    tracker.process(1000 + k * 100000, l, r);
+  }
+  seq.render(3, l, r);
+  const Eigen::Isometry3d truth = seq.pose(2).inverse() * seq.pose(3);
+  Matrix6d cov = Matrix6d::Zero();
+  cov.diagonal() << 2.5e-5, 2.5e-5, 2.5e-5, 2.5e-7, 2.5e-7, 2.5e-7;  // 5 mm, 0.5 mrad: sure of itself
+  const Eigen::Matrix3d astray_R = truth.linear() * expSO3(Eigen::Vector3d(0, 5 * M_PI / 180, 0));
+  const MotionPrior astray = MotionPrior::fromFilter(astray_R, truth.translation() + Eigen::Vector3d(1.5, 0, 0), cov);
+  const TrackResult res = tracker.process(1000 + 3 * 100000, l, r, &astray);
+  EXPECT_TRUE(res.wide_retry);
+  EXPECT_TRUE(res.retry_around_own_motion);
+  EXPECT_FALSE(res.prior_ok);
+  expectDelta(res, truth, 0.1, 0.003);
+
+  // The same prior to a tracker with no motion of its own yet: the wide windows sit around the filter's
+  // prediction, find nothing true, and the tracker says so rather than report a motion.
+  StereoTracker fresh(seq.calib, params);
+  seq.render(2, l, r);
+  fresh.process(1000 + 2 * 100000, l, r);
+  seq.render(3, l, r);
+  const TrackResult blind = fresh.process(1000 + 3 * 100000, l, r, &astray);
+  EXPECT_TRUE(blind.wide_retry);
+  EXPECT_FALSE(blind.retry_around_own_motion);
+  EXPECT_FALSE(blind.valid);
+}
+
 TEST(TrackerPlane, ImuPriorPredictsRotation) {
   IPS_REQUIRE_SHARED_DATA("stereo/teddy/left.png");
   const PlaneSequence seq;

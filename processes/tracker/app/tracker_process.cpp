@@ -198,6 +198,7 @@ void TrackerProcess::processOldest() {
   if (r.utime_prev == 0) return;  // the first pair only becomes the reference
   if (r.far_valid) node_.health().count("far_rotation");
   if (!r.valid) node_.health().count("invalid_delta");
+  if (r.retry_around_own_motion) node_.health().count("prior_overruled_by_own_motion");
   const auto& st = tracker_.predictionStats();
   node_.health().set("prediction_ok_permille",
                      st.frames_with_prior ? 1000 * st.frames_prior_ok / st.frames_with_prior : 0);

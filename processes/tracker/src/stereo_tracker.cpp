@@ -250,20 +250,19 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   res.utime_prev = ref_->utime;
   const double dt_s = double(utime - ref_->utime) * 1e-6;
 
-  // The prior, in the rectified frame.
-  MotionPrior used;
-  if (prior) {
-    used = *prior;
-  } else if (have_velocity_ && dt_s <= params_.prior.max_interval_s && last_dt_s_ > 0) {
+  // The prior, in the rectified frame: the one given (the filter's, the gyro's), else the tracker's own last motion.
+  MotionPrior own_motion;
+  if (have_velocity_ && dt_s <= params_.prior.max_interval_s && last_dt_s_ > 0) {
     const double scale = dt_s / last_dt_s_;
-    used.source = MotionPrior::Source::ConstantVelocity;
-    used.R = expSO3(scale * logSO3(last_delta_.R));
-    used.t = scale * last_delta_.t;
-    used.covariance.setZero();
+    own_motion.source = MotionPrior::Source::ConstantVelocity;
+    own_motion.R = expSO3(scale * logSO3(last_delta_.R));
+    own_motion.t = scale * last_delta_.t;
+    own_motion.covariance.setZero();
     const double st = params_.prior.cv_translation_sigma_per_s * dt_s;
     const double sr = params_.prior.cv_rotation_sigma_per_s * dt_s;
-    used.covariance.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
+    own_motion.covariance.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
   }
+  const MotionPrior used = prior ? *prior : own_motion;
   const bool have_prior = used.source != MotionPrior::Source::None;
   res.prior_source = used.source;
   const Eigen::Matrix3d& Rr = rect_.R_rect0_cam0;
@@ -286,11 +285,18 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   res.times.motion = msSince(t0);
 
   // A prior that was confidently wrong (a filter gone astray, a jolt the IMU rates did not foresee) leaves
-  // the small windows empty: search again as if there were no prior, around the same prediction.
+  // the small windows empty: search again with the widest windows. Around the tracker's own last motion when the
+  // prior came from outside: a filter that has lost its velocity (IMU messages lost on a starved host) predicts
+  // where nothing is, and its next prior would be as wrong; without the images' own evidence the filter never
+  // gets a delta to recover from.
   const std::vector<Prediction> pred_prior = pred;
   if (!est.valid && have_prior) {
     t0 = Clock::now();
-    pred = predict(prior_rect, cov_rect, false);
+    const bool around_own_motion = prior && own_motion.source == MotionPrior::Source::ConstantVelocity;
+    const RigidMotion retry_rect =
+        around_own_motion ? RigidMotion{Rr * own_motion.R * Rr.transpose(), Rr * own_motion.t} : prior_rect;
+    pred = predict(retry_rect, cov_rect, false);
+    res.retry_around_own_motion = around_own_motion;
     matches = matchBetweenTimes(ref_->features, cur_->features, pred, cur_->left, cur_->right, params_.matcher);
     res.times.inter += msSince(t0);
     t0 = Clock::now();

@@ -57,13 +57,14 @@ struct TrackResult {
   MotionPrior::Source prior_source = MotionPrior::Source::None;
   bool prior_ok = false;
 
-  double residual_rms_px = 0;      // stereo reprojection rms of the inliers
-  int num_predictions_ok = 0;      // inliers found within prior_ok_px of where the prior predicted them
-  double prediction_ok_ratio = 0;  // ... as a share of the inliers; prior_ok = ratio >= prior_ok_fraction
-  bool wide_retry = false;         // the prior's windows failed; matched again with the widest windows
-  bool guided_pass = false;        // a second matching pass around the first estimate was run
-  bool intra_guided = false;       // intra-matching took E3D's disparity map of this pair
-  GuidedIntraCounts guided_intra;  // ... and what it did with the corners
+  double residual_rms_px = 0;            // stereo reprojection rms of the inliers
+  int num_predictions_ok = 0;            // inliers found within prior_ok_px of where the prior predicted them
+  double prediction_ok_ratio = 0;        // ... as a share of the inliers; prior_ok = ratio >= prior_ok_fraction
+  bool wide_retry = false;               // the prior's windows failed; matched again with the widest windows
+  bool retry_around_own_motion = false;  // ... placed by the tracker's own last motion, not the given prior
+  bool guided_pass = false;              // a second matching pass around the first estimate was run
+  bool intra_guided = false;             // intra-matching took E3D's disparity map of this pair
+  GuidedIntraCounts guided_intra;        // ... and what it did with the corners
   StageTimes times;
 
   // Rotation from far points alone (FarRotationParams), in the semantic and frame of `rotation`; independent of
