@@ -104,13 +104,15 @@ SceneRenderer::SceneRenderer(const World& world, double near_m) : world_(world),
   }
 }
 
-std::vector<SceneRenderer::CamQuad> SceneRenderer::prepare(const Eigen::Isometry3d& T_world_cam) const {
+std::vector<SceneRenderer::CamQuad> SceneRenderer::prepare(const Eigen::Isometry3d& T_world_cam,
+                                                           const std::vector<Quad>* moving) const {
   const Eigen::Isometry3d T_cam_world = T_world_cam.inverse();
   const Eigen::Matrix3d R = T_cam_world.linear();
+  const size_t n_static = world_.quads.size(), n_moving = moving ? moving->size() : 0;
   std::vector<CamQuad> out;
-  out.reserve(world_.quads.size());
-  for (size_t qi = 0; qi < world_.quads.size(); ++qi) {
-    const Quad& q = world_.quads[qi];
+  out.reserve(n_static + n_moving);
+  for (size_t qi = 0; qi < n_static + n_moving; ++qi) {
+    const Quad& q = qi < n_static ? world_.quads[qi] : (*moving)[qi - n_static];
     const Eigen::Vector3d p0 = T_cam_world * q.origin;
     const Eigen::Vector3d e = R * q.axis_s, f = R * q.axis_t, n = R * q.normal();
     const double c = n.dot(p0);
@@ -150,7 +152,7 @@ std::vector<SceneRenderer::CamQuad> SceneRenderer::prepare(const Eigen::Isometry
     cq.size_s = static_cast<float>(q.size_s);
     cq.size_t = static_cast<float>(q.size_t);
     std::copy(b, b + 4, cq.bounds);
-    cq.index = static_cast<int>(qi);
+    cq.quad = &q;
     cq.min_z = static_cast<float>(min_z);
     out.push_back(cq);
   }
@@ -274,13 +276,17 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
   const TexLevel* levels = nullptr;
   const Texture* tex = nullptr;
   float inv_texel_s = 0, inv_texel_t = 0, off_u = 0, off_v = 0, brightness = 0, lod_bias = 0, max_level = 0;
+  // Where the lighting varies over the quad (WorldConfig::lighting_zones), each pixel's point of the floor plan,
+  // origin + s axis_s + t axis_t, takes its own factor.
+  bool lit_per_pixel = false;
+  float plan_x0 = 0, plan_y0 = 0, plan_xs = 0, plan_ys = 0, plan_xt = 0, plan_yt = 0;
   for (int x = 0; x < view.width; ++x) {
     const int32_t id = buf.id[row + x];
     float value = 0;
     if (id >= 0) {
       const CamQuad& q = quads[id];
       if (id != cached) {
-        const Quad& wq = world_.quads[q.index];
+        const Quad& wq = *q.quad;
         tex = &world_.textures[wq.texture];
         levels = levels_[wq.texture].data();
         inv_texel_s = static_cast<float>(1.0 / wq.texel_s);
@@ -290,6 +296,13 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
         brightness = wq.brightness;
         lod_bias = static_cast<float>(-std::log2(view.focal * std::min(wq.texel_s, wq.texel_t)));
         max_level = static_cast<float>(tex->levels.size() - 1);
+        lit_per_pixel = !world_.lighting.uniformOver(wq);
+        plan_x0 = static_cast<float>(wq.origin.x());
+        plan_y0 = static_cast<float>(wq.origin.y());
+        plan_xs = static_cast<float>(wq.axis_s.x());
+        plan_ys = static_cast<float>(wq.axis_s.y());
+        plan_xt = static_cast<float>(wq.axis_t.x());
+        plan_yt = static_cast<float>(wq.axis_t.y());
         cached = id;
       }
       const float dx = view.rx[row + x], dy = view.ry[row + x];
@@ -312,6 +325,8 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
       const float a = frac < 1.0f ? bilinearWrap(levels[l0], u * sc0 - 0.5f, v * sc0 - 0.5f) : 0.0f;
       const float b = frac > 0.0f ? bilinearWrap(levels[l1], u * sc1 - 0.5f, v * sc1 - 0.5f) : a;
       value = brightness * (a + frac * (b - a));
+      if (lit_per_pixel)
+        value *= world_.lighting.at(plan_x0 + s * plan_xs + t * plan_xt, plan_y0 + s * plan_ys + t * plan_yt);
     }
     if (out32) {
       out32[x] = value;
@@ -323,9 +338,19 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
   }
 }
 
+void SceneRenderer::render(const View& view, const Eigen::Isometry3d& T_world_cam, double t, cv::Mat* radiance,
+                           cv::Mat* depth) const {
+  const std::vector<Quad> people = world_.peopleAt(t);
+  renderQuads(view, prepare(T_world_cam, &people), radiance, depth);
+}
+
 void SceneRenderer::render(const View& view, const Eigen::Isometry3d& T_world_cam, cv::Mat* radiance,
                            cv::Mat* depth) const {
-  const std::vector<CamQuad> quads = prepare(T_world_cam);
+  renderQuads(view, prepare(T_world_cam), radiance, depth);
+}
+
+void SceneRenderer::renderQuads(const View& view, const std::vector<CamQuad>& quads, cv::Mat* radiance,
+                                cv::Mat* depth) const {
   Buffers buf;
   buf.z.assign(static_cast<size_t>(view.width) * view.height, std::numeric_limits<float>::infinity());
   buf.id.assign(buf.z.size(), -1);
@@ -352,7 +377,7 @@ void SceneRenderer::render(const View& view, const Eigen::Isometry3d& T_world_ca
 
 StereoRenderer::StereoRenderer(const Scenario& scenario, const World& world, const SensorHead& head,
                                const Trajectory& trajectory)
-    : scenario_(scenario), head_(head), trajectory_(trajectory), scene_(world, scenario.camera.near_m) {
+    : scenario_(scenario), world_(world), head_(head), trajectory_(trajectory), scene_(world, scenario.camera.near_m) {
   raw_[0] = View::distorted(head.calibration.cam0);
   raw_[1] = View::distorted(head.calibration.cam1);
   rect_ = computeRectification(head.calibration);
@@ -405,7 +430,7 @@ double StereoRenderer::meanGrey(double t, int camera) const {
   const View& v = ae_view_[camera];
   if (v.width == 0) throw std::logic_error("StereoRenderer::meanGrey: the camera effects are off");
   cv::Mat radiance;
-  scene_.render(v, cameraInWorld(t, camera), &radiance, nullptr);
+  scene_.render(v, cameraInWorld(t, camera), t, &radiance, nullptr);
   double sum = 0;
   for (int y = 0; y < v.height; ++y)
     for (int x = 0; x < v.width; ++x)
@@ -435,16 +460,16 @@ void StereoRenderer::renderWithEffects(int64_t k, int c, double t, const Exposur
   // The exposure's middle, with its depth for the streaks.
   const Eigen::Isometry3d T_world_mid = cameraInWorld(t, c);
   cv::Mat radiance, depth, sub;
-  scene_.render(v, T_world_mid, &radiance, &depth);
+  scene_.render(v, T_world_mid, t, &radiance, &depth);
   int n = 1;
   if (cf.motion_blur) {
-    const double exposure_s = e.exposure_us * 1e-6;
-    n = blurSamples(depth, c, cameraInWorld(t - 0.5 * exposure_s, c).inverse() * T_world_mid,
-                    cameraInWorld(t + 0.5 * exposure_s, c).inverse() * T_world_mid);
+    const double exposure_s = e.exposure_us * 1e-6, t_a = t - 0.5 * exposure_s, t_b = t + 0.5 * exposure_s;
+    n = blurSamples(depth, c, cameraInWorld(t_a, c), T_world_mid, cameraInWorld(t_b, c), t_a, t_b);
     // The sub-images at the middles of n equal parts of the exposure; n is odd, so the middle one is rendered.
     for (int j = 0; j < n; ++j) {
       if (2 * j + 1 == n) continue;
-      scene_.render(v, cameraInWorld(t + exposure_s * ((j + 0.5) / n - 0.5), c), &sub, nullptr);
+      const double t_sub = t + exposure_s * ((j + 0.5) / n - 0.5);
+      scene_.render(v, cameraInWorld(t_sub, c), t_sub, &sub, nullptr);
       radiance += sub;
     }
     if (n > 1) radiance /= n;
@@ -495,8 +520,9 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   frame.gain_db[0] = cf.gain_left_db;
   frame.gain_db[1] = cf.gain_right_db;
   const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
-  const std::vector<SceneRenderer::CamQuad> quads[2] = {scene_.prepare(head_.cam0InWorld(T_world_imu)),
-                                                        scene_.prepare(head_.cam1InWorld(T_world_imu, t))};
+  const std::vector<Quad> people = world_.peopleAt(t);
+  const std::vector<SceneRenderer::CamQuad> quads[2] = {scene_.prepare(head_.cam0InWorld(T_world_imu), &people),
+                                                        scene_.prepare(head_.cam1InWorld(T_world_imu, t), &people)};
   SceneRenderer::Buffers buf[2];
   for (int c = 0; c < 2; ++c) {
     buf[c].z.assign(static_cast<size_t>(raw_[c].width) * raw_[c].height, std::numeric_limits<float>::infinity());
@@ -522,8 +548,10 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   return frame;
 }
 
-int StereoRenderer::blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_a_mid,
-                                const Eigen::Isometry3d& T_b_mid) const {
+int StereoRenderer::blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_world_a,
+                                const Eigen::Isometry3d& T_world_mid, const Eigen::Isometry3d& T_world_b, double t_a,
+                                double t_b) const {
+  const Eigen::Isometry3d T_a_mid = T_world_a.inverse() * T_world_mid, T_b_mid = T_world_b.inverse() * T_world_mid;
   // The longest streak: where the points seen on a grid of pixels at the exposure's middle are at its start and end.
   const CameraFigures& cf = scenario_.camera;
   const View& v = raw_[c];
@@ -536,8 +564,8 @@ int StereoRenderer::blurSamples(const cv::Mat& depth, int c, const Eigen::Isomet
       if (!(z > 0)) continue;
       points.emplace_back(v.rx[i] * z, v.ry[i] * z, z);
     }
-  if (points.empty()) return 1;
-  auto project = [&](const Eigen::Isometry3d& T) {
+  auto project = [&](const std::vector<cv::Point3d>& pts, const Eigen::Isometry3d& T) {
+    if (pts.empty()) return std::vector<cv::Point2d>();
     cv::Mat R(3, 3, CV_64F), rvec;
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) R.at<double>(i, j) = T.linear()(i, j);
@@ -545,14 +573,37 @@ int StereoRenderer::blurSamples(const cv::Mat& depth, int c, const Eigen::Isomet
     const cv::Mat tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
     std::vector<cv::Point2d> px;
     if (cam.model == ips::DistortionModel::kEquidistant)
-      cv::fisheye::projectPoints(points, px, rvec, tvec, cam.cvK(), cam.cvDistortion());
+      cv::fisheye::projectPoints(pts, px, rvec, tvec, cam.cvK(), cam.cvDistortion());
     else
-      cv::projectPoints(points, rvec, tvec, cam.cvK(), cam.cvDistortion(), px);
+      cv::projectPoints(pts, rvec, tvec, cam.cvK(), cam.cvDistortion(), px);
     return px;
   };
-  const std::vector<cv::Point2d> pa = project(T_a_mid), pb = project(T_b_mid);
+  const std::vector<cv::Point2d> pa = project(points, T_a_mid), pb = project(points, T_b_mid);
   double longest = 0;
   for (size_t i = 0; i < pa.size(); ++i) longest = std::max(longest, cv::norm(pb[i] - pa[i]));
+  // The people move on their own: the corners of their boxes where they are at the exposure's start and end, each in
+  // the camera of that time, where both lie in front of it and one of them in the image.
+  if (!world_.people.empty()) {
+    const std::vector<Quad> at_a = world_.peopleAt(t_a), at_b = world_.peopleAt(t_b);
+    const Eigen::Isometry3d T_a_world = T_world_a.inverse(), T_b_world = T_world_b.inverse();
+    std::vector<cv::Point3d> corners_a, corners_b;
+    for (size_t i = 0; i < at_a.size(); ++i)
+      for (const Eigen::Vector2d& st :
+           {Eigen::Vector2d(0, 0), Eigen::Vector2d(0, 1), Eigen::Vector2d(1, 0), Eigen::Vector2d(1, 1)}) {
+        auto corner = [&](const Quad& q, const Eigen::Isometry3d& T) {
+          return Eigen::Vector3d(T * (q.origin + st.x() * q.size_s * q.axis_s + st.y() * q.size_t * q.axis_t));
+        };
+        const Eigen::Vector3d a = corner(at_a[i], T_a_world), b = corner(at_b[i], T_b_world);
+        if (a.z() < scenario_.camera.near_m || b.z() < scenario_.camera.near_m) continue;
+        corners_a.emplace_back(a.x(), a.y(), a.z());
+        corners_b.emplace_back(b.x(), b.y(), b.z());
+      }
+    const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+    const std::vector<cv::Point2d> qa = project(corners_a, identity), qb = project(corners_b, identity);
+    const cv::Rect2d image(0, 0, v.width, v.height);
+    for (size_t i = 0; i < qa.size(); ++i)
+      if (image.contains(qa[i]) || image.contains(qb[i])) longest = std::max(longest, cv::norm(qb[i] - qa[i]));
+  }
   int n = std::clamp(static_cast<int>(std::ceil(longest / cf.blur_step_px)), 1, cf.max_blur_samples);
   if (n % 2 == 0) n = n + 1 <= cf.max_blur_samples ? n + 1 : n - 1;
   return n;
@@ -562,7 +613,7 @@ cv::Mat StereoRenderer::rectifiedDepth(double t, int camera) const {
   Eigen::Isometry3d T_cam_rect = Eigen::Isometry3d::Identity();
   T_cam_rect.linear() = (camera == 0 ? rect_.R_rect0_cam0 : rect_.R_rect1_cam1).transpose();
   cv::Mat depth;
-  scene_.render(rect_view_, cameraInWorld(t, camera) * T_cam_rect, nullptr, &depth);
+  scene_.render(rect_view_, cameraInWorld(t, camera) * T_cam_rect, t, nullptr, &depth);
   return depth;
 }
 

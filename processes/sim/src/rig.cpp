@@ -12,9 +12,9 @@ Scenario validated(const Scenario& scenario) {
 
 Rig::Rig(const Scenario& s)
     : scenario(validated(s)),
-      world(World::build(scenario.world, scenario.seed)),
-      head(SensorHead::make(scenario)),
       trajectory(scenario.trajectory, scenario.gravity),
+      world(World::build(scenario.world, scenario.seed, &trajectory)),
+      head(SensorHead::make(scenario)),
       renderer(scenario, world, head, trajectory) {}
 
 }  // namespace ips::sim

@@ -223,7 +223,47 @@ Scenario loadOver(const std::string& path, int depth) {
   get(c, "world/far_distance_m", w.far_distance_m);
   get(c, "world/far_height_m", w.far_height_m);
   get(c, "world/sky_distance_m", w.sky_distance_m);
+  if (c.has("world/people")) {
+    cv::Mat lanes = c.getMat("world/people");
+    constexpr int kPerLane = 6;
+    if (lanes.total() % kPerLane != 0)
+      throw ConfigError(path + ": key 'world/people' must be a flat list x0, y0, x1, y1, speed_mps, dwell_s, ...");
+    lanes = lanes.reshape(1, 1);
+    w.people.clear();
+    for (int i = 0; i + kPerLane - 1 < static_cast<int>(lanes.total()); i += kPerLane) {
+      PersonLane lane;
+      lane.from = {lanes.at<double>(0, i), lanes.at<double>(0, i + 1)};
+      lane.to = {lanes.at<double>(0, i + 2), lanes.at<double>(0, i + 3)};
+      lane.speed_mps = lanes.at<double>(0, i + 4);
+      lane.dwell_s = lanes.at<double>(0, i + 5);
+      w.people.push_back(lane);
+    }
+  }
+  get(c, "world/person_size_m", w.person_size_m);
+  get(c, "world/person_clearance_m", w.person_clearance_m);
+  if (c.has("world/lighting_zones")) {
+    cv::Mat zones = c.getMat("world/lighting_zones");
+    constexpr int kPerZone = 5;
+    if (zones.total() % kPerZone != 0)
+      throw ConfigError(path + ": key 'world/lighting_zones' must be a flat list x0, y0, x1, y1, ratio, ...");
+    zones = zones.reshape(1, 1);
+    w.lighting_zones.clear();
+    for (int i = 0; i + kPerZone - 1 < static_cast<int>(zones.total()); i += kPerZone)
+      w.lighting_zones.push_back({{zones.at<double>(0, i), zones.at<double>(0, i + 1)},
+                                  {zones.at<double>(0, i + 2), zones.at<double>(0, i + 3)},
+                                  zones.at<double>(0, i + 4)});
+  }
+  get(c, "world/lighting_transition_m", w.lighting_transition_m);
+  get(c, "world/ramp_start_m", w.ramp.start_m);
+  get(c, "world/ramp_heading_deg", w.ramp.heading_deg);
+  get(c, "world/ramp_width_m", w.ramp.width_m);
+  get(c, "world/ramp_rise_m", w.ramp.rise_m);
+  get(c, "world/ramp_slope", w.ramp.slope);
+  get(c, "world/ramp_plateau_m", w.ramp.plateau_m);
+  get(c, "world/ramp_blend_m", w.ramp.blend_m);
+  get(c, "world/weak_stretch_m", w.weak_stretch_m);
   if (w.type == "street") w.route = tr.waypoints;
+  tr.floor_ramp = w.ramp;  // the walker walks on the world's floor
 
   try {
     s.validate();
@@ -312,6 +352,26 @@ void Scenario::validate() const {
   }
   require(world.poster_spacing_m > 0 && world.object_spacing_m > 0,
           "world/poster_spacing_m, object_spacing_m must be positive");
+  for (const PersonLane& lane : world.people)
+    require((lane.to - lane.from).norm() > 0.1 && lane.speed_mps > 0 && lane.speed_mps < 5 && lane.dwell_s >= 0,
+            "world/people: each lane longer than 0.1 m, speed in (0, 5) m/s, dwell not negative");
+  require(world.person_size_m.minCoeff() > 0.05 && world.person_size_m.maxCoeff() < 3 && world.person_clearance_m >= 0,
+          "world/person_size_m must be in (0.05, 3) m, person_clearance_m not negative");
+  for (const LightingZone& zone : world.lighting_zones)
+    require(zone.high.x() > zone.low.x() && zone.high.y() > zone.low.y() && zone.ratio >= 0 && zone.ratio <= 100,
+            "world/lighting_zones: each x0 < x1, y0 < y1, ratio in [0, 100]");
+  require(world.lighting_transition_m > 0, "world/lighting_transition_m must be positive");
+  const Ramp& ramp = world.ramp;
+  require(
+      ramp.rise_m >= 0 && ramp.slope > 0 && ramp.slope < 1 && ramp.width_m > 0 && ramp.plateau_m >= 0 &&
+          ramp.blend_m > 0 && (!ramp.any() || (ramp.blend_m <= ramp.run() && ramp.blend_m <= ramp.plateau_m)),
+      "world/ramp_*: rise not negative, slope in (0, 1), width positive, blend positive and at most the slope's run "
+      "and the plateau");
+  require(trajectory.floor_ramp == world.ramp,
+          "trajectory/floor_ramp must be world/ramp (the walker walks on the world's floor; Scenario::load copies it)");
+  const Eigen::Matrix<double, 4, 1>& weak = world.weak_stretch_m;
+  require(weak.isZero() || (weak[2] > weak[0] && weak[3] > weak[1]),
+          "world/weak_stretch_m must be 0 0 0 0 or x0, y0, x1, y1 with x0 < x1, y0 < y1");
 }
 
 std::vector<std::string> simEffects(const Scenario& sc) {
@@ -330,6 +390,12 @@ std::vector<std::string> simEffects(const Scenario& sc) {
   add(c.relative_rotation_step_deg.norm() > 0, "camera_knock");
   add(c.relative_rotation_drift_deg_per_min.norm() > 0, "camera_drift");
   add(sc.world.weak_texture_share > walk.world.weak_texture_share, "weak_texture");
+  add(!sc.world.people.empty(), "people");
+  bool lighting = false;
+  for (const LightingZone& zone : sc.world.lighting_zones) lighting |= zone.ratio != 1.0;
+  add(lighting, "lighting_zones");
+  add(sc.world.ramp.any(), "ramp");
+  add(!sc.world.weak_stretch_m.isZero(), "weak_stretch");
   return on;
 }
 

@@ -153,7 +153,8 @@ TrajectoryState Trajectory::state(double t_scenario) const {
   const Jet2 lateral = cfg_.sway_m * e * sin(0.5 * w * T);
   x = x - lateral * sin(yaw_path);
   y = y + lateral * cos(yaw_path);
-  const Jet2 z = Jet2(cfg_.height_m) + cfg_.bounce_m * e * sin(w * T);
+  Jet2 z = Jet2(cfg_.height_m) + cfg_.bounce_m * e * sin(w * T);
+  if (cfg_.floor_ramp.any()) z = z + cfg_.floor_ramp.walkerFloor(x, y);  // up and down the ramp with the floor
   Jet2 psi = yaw_path + cfg_.yaw_sway_deg * kDeg * e * sin(0.5 * w * T + 1.0);
   Jet2 theta = Jet2(cfg_.pitch_down_deg * kDeg) + cfg_.nod_deg * kDeg * e * sin(w * T + 0.5);
   Jet2 phi = Jet2(cfg_.roll_deg * kDeg) + cfg_.roll_sway_deg * kDeg * e * sin(0.5 * w * T + 0.3);

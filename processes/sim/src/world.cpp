@@ -7,6 +7,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
+#include <stdexcept>
+#include <string>
 
 #include "ips/data_dir.hpp"
 #include "ips/log.hpp"
@@ -15,6 +17,9 @@
 namespace ips::sim {
 
 namespace {
+
+// Side of a person's clothing texture: the texture spans the person's height (6.8 mm texels on 1.75 m).
+constexpr int kClothingTexels = 256;
 
 int floorPow2(int v) {
   int p = 1;
@@ -89,13 +94,52 @@ struct Builder {
 
   int wallMaterial() { return rng.uniform() < cfg.weak_texture_share ? weak : (rng.uniform() < 0.5 ? rough : tiles); }
 
+  bool hasWeakStretch() const { return !cfg.weak_stretch_m.isZero(); }
+  bool inWeakStretch(const Eigen::Vector2d& p, double margin = 0) const {
+    const Eigen::Matrix<double, 4, 1>& r = cfg.weak_stretch_m;
+    return hasWeakStretch() && p.x() > r[0] - margin && p.x() < r[2] + margin && p.y() > r[1] - margin &&
+           p.y() < r[3] + margin;
+  }
+  // The part [u0, u1] of the wall from a to b (as distances from a) inside the weak stretch; empty when u0 >= u1.
+  std::pair<double, double> weakSpan(const Eigen::Vector2d& a, const Eigen::Vector2d& b) const {
+    if (!hasWeakStretch()) return {0, 0};
+    const Eigen::Matrix<double, 4, 1>& r = cfg.weak_stretch_m;
+    const double len = (b - a).norm();
+    const Eigen::Vector2d dir = (b - a) / len;
+    double u0 = 0, u1 = len;
+    // Clip the wall's line to the rectangle, slab by slab.
+    for (int axis = 0; axis < 2; ++axis) {
+      const double lo = r[axis], hi = r[axis + 2];
+      if (std::abs(dir[axis]) < 1e-12) {
+        if (a[axis] <= lo || a[axis] >= hi) return {0, 0};
+        continue;
+      }
+      const double ua = (lo - a[axis]) / dir[axis], ub = (hi - a[axis]) / dir[axis];
+      u0 = std::max(u0, std::min(ua, ub));
+      u1 = std::min(u1, std::max(ua, ub));
+    }
+    return {u0, u1};
+  }
+
+  // Wall from o along sd over [c0, c1], in pieces of at most ~5 m, each with its own material, or all weak plaster.
+  void wallPieces(const Eigen::Vector3d& o, const Eigen::Vector3d& sd, double c0, double c1, bool plain) {
+    const Eigen::Vector3d up(0, 0, 1);
+    const int pieces = std::max(1, static_cast<int>(std::ceil((c1 - c0) / 5.0)));
+    const double pl = (c1 - c0) / pieces;
+    for (int k = 0; k < pieces; ++k) {
+      const int mat = plain ? weak : wallMaterial();
+      add(o + (c0 + k * pl) * sd, sd, up, pl, cfg.wall_height_m, mat, cfg.texel_m);
+    }
+  }
+
   // A vertical wall from a to b (floor plan), with door openings given as [from, to] along the wall, split into
-  // pieces of at most ~5 m, each with its own material.
+  // pieces of at most ~5 m, each with its own material; where it runs through the weak stretch, weak plaster.
   void wall(const Eigen::Vector2d& a, const Eigen::Vector2d& b, std::vector<std::pair<double, double>> doors = {}) {
     const double H = cfg.wall_height_m, door_h = std::min(2.1, H - 0.2);
     const double len = (b - a).norm();
     const Eigen::Vector3d s(b.x() - a.x(), b.y() - a.y(), 0), up(0, 0, 1);
     const Eigen::Vector3d o(a.x(), a.y(), 0);
+    const auto [weak0, weak1] = weakSpan(a, b);
     std::vector<double> cuts{0};
     for (auto [d0, d1] : doors) {
       cuts.push_back(d0);
@@ -108,15 +152,20 @@ struct Builder {
       const bool is_door = i % 2 == 1;
       const Eigen::Vector3d sd = s.normalized();
       if (is_door) {  // lintel above the opening
-        add(o + c0 * sd + Eigen::Vector3d(0, 0, door_h), sd, up, c1 - c0, H - door_h, tiles, cfg.texel_m);
+        const bool plain = weak0 < weak1 && c1 > weak0 && c0 < weak1;
+        add(o + c0 * sd + Eigen::Vector3d(0, 0, door_h), sd, up, c1 - c0, H - door_h, plain ? weak : tiles,
+            cfg.texel_m);
         continue;
       }
-      const int pieces = std::max(1, static_cast<int>(std::ceil((c1 - c0) / 5.0)));
-      const double pl = (c1 - c0) / pieces;
-      for (int k = 0; k < pieces; ++k) {
-        const int mat = wallMaterial();
-        add(o + (c0 + k * pl) * sd, sd, up, pl, H, mat, cfg.texel_m);
+      if (!(weak0 < weak1) || c1 <= weak0 || c0 >= weak1) {
+        wallPieces(o, sd, c0, c1, false);
+        continue;
       }
+      // Through the weak stretch: the part before it, the plain part, the part after it.
+      const double p0 = std::max(c0, weak0), p1 = std::min(c1, weak1);
+      if (p0 - c0 > 1e-6) wallPieces(o, sd, c0, p0, false);
+      wallPieces(o, sd, p0, p1, true);
+      if (c1 - p1 > 1e-6) wallPieces(o, sd, p1, c1, false);
     }
     posters(a, b, doors);
   }
@@ -134,6 +183,8 @@ struct Builder {
       const cv::Mat& img = world.textures[tex].levels[0];
       const double w = 0.8 + 0.5 * rng.uniform();
       const double h = w * img.rows / img.cols;
+      const auto [weak0, weak1] = weakSpan(a, b);
+      if (weak0 < weak1 && pos + w > weak0 && pos < weak1) continue;  // the weak stretch stays plain
       // Posters hang 5 mm in front of the side left of a->b. Seen from there, the viewer's right is -dir and
       // image rows run down, so the texture's s axis is -dir from the top-left corner (the far end along dir).
       const Eigen::Vector3d n(-dir.y(), dir.x(), 0), d3(dir.x(), dir.y(), 0);
@@ -151,6 +202,38 @@ struct Builder {
       add({x0, y0, z}, {1, 0, 0}, {0, 1, 0}, x1 - x0, y1 - y0, tex, cfg.texel_m * 1.5);
     else
       add({x0, y1, z}, {1, 0, 0}, {0, -1, 0}, x1 - x0, y1 - y0, tex, cfg.texel_m * 2);
+  }
+
+  // A floor or ceiling: the rectangle as horizontal() draws it, except where it meets the weak stretch, which is cut
+  // out of it (up to four pieces round it) and drawn in weak plaster.
+  void floorOrCeiling(double x0, double y0, double x1, double y1, double z, int tex, bool up) {
+    const Eigen::Matrix<double, 4, 1>& r = cfg.weak_stretch_m;
+    const double wx0 = std::max(x0, r[0]), wy0 = std::max(y0, r[1]), wx1 = std::min(x1, r[2]), wy1 = std::min(y1, r[3]);
+    if (!hasWeakStretch() || wx0 >= wx1 || wy0 >= wy1) {
+      horizontal(x0, y0, x1, y1, z, tex, up);
+      return;
+    }
+    if (wy0 > y0) horizontal(x0, y0, x1, wy0, z, tex, up);  // the strips below and above the stretch ...
+    if (wy1 < y1) horizontal(x0, wy1, x1, y1, z, tex, up);
+    if (wx0 > x0) horizontal(x0, wy0, wx0, wy1, z, tex, up);  // ... and beside it
+    if (wx1 < x1) horizontal(wx1, wy0, x1, wy1, z, tex, up);
+    horizontal(wx0, wy0, wx1, wy1, z, weak, up);
+  }
+
+  // The ramp's surfaces (WorldConfig::ramp): the up slope, the level top and the down slope, wall to wall.
+  void ramp(const Ramp& r) {
+    if (!r.any()) return;
+    const double heading = r.heading_deg * M_PI / 180;
+    const Eigen::Vector3d along(std::cos(heading), std::sin(heading), 0), left(-along.y(), along.x(), 0);
+    const Eigen::Vector3d foot = Eigen::Vector3d(r.start_m.x(), r.start_m.y(), 0) - 0.5 * r.width_m * left;
+    const Eigen::Vector3d rising = along + Eigen::Vector3d(0, 0, r.slope),
+                          falling = along - Eigen::Vector3d(0, 0, r.slope);
+    const double slope_length = r.run() * std::sqrt(1 + r.slope * r.slope), texel = cfg.texel_m * 1.5;
+    const Eigen::Vector3d top(0, 0, r.rise_m);
+    // axis_s x axis_t points up on every piece (the side the walker sees).
+    add(foot, rising, left, slope_length, r.width_m, floor, texel);
+    add(foot + r.run() * along + top, along, left, r.plateau_m, r.width_m, floor, texel);
+    add(foot + (r.run() + r.plateau_m) * along + top, falling, left, slope_length, r.width_m, floor, texel);
   }
 
   // A closed box standing on the floor (one-sided faces pointing out).
@@ -217,6 +300,41 @@ cv::Mat makeSpeckleTexture(int size, uint64_t seed) {
     cv::circle(acc, p, static_cast<int>(r), cv::Scalar(rng.uniform() * 3 - 1.5), cv::FILLED);
   }
   return toGrey8(acc, 110, 40);
+}
+
+cv::Mat makeClothingTexture(int size, uint64_t seed) {
+  Rng rng(seed);
+  // Heights as shares of the person, from the feet: shoes, trousers up to the waist, the shirt up to the neck, then
+  // the face and the hair.
+  constexpr double kShoes = 0.05, kWaist = 0.48, kNeck = 0.84, kHairline = 0.95;
+  const double trousers = 40 + 50 * rng.uniform(), shirt = 80 + 120 * rng.uniform();
+  const double stripe_contrast = 15 + 45 * rng.uniform();
+  // Stripes (across, along the body) or checks, of a period that divides the side so that they wrap round the body.
+  const int pattern = static_cast<int>(rng.uniform() * 3);
+  const int period = size / (8 << static_cast<int>(rng.uniform() * 3));
+  cv::Mat fabric = tiledNoise(size, size / 8, rng), out(size, size, CV_8UC1);
+  for (int row = 0; row < size; ++row) {
+    const double h = (row + 0.5) / size;
+    for (int col = 0; col < size; ++col) {
+      const double weave = 12 * (fabric.at<float>(row, col) - 0.5);  // the cloth's own texture
+      double grey;
+      if (h < kShoes) {
+        grey = 25;
+      } else if (h < kWaist) {
+        grey = trousers + weave;
+      } else if (h < kNeck) {
+        const bool across = (row / (period / 2)) % 2 == 0, along = (col / (period / 2)) % 2 == 0;
+        const bool dark = pattern == 0 ? across : pattern == 1 ? along : across != along;
+        grey = shirt + (dark ? -0.5 : 0.5) * stripe_contrast + weave;
+      } else if (h < kHairline) {
+        grey = 160 + weave;  // the face (and the neck, seen from behind too: a box has no face)
+      } else {
+        grey = 45 + weave;
+      }
+      out.at<uint8_t>(row, col) = cv::saturate_cast<uint8_t>(grey);
+    }
+  }
+  return out;
 }
 
 namespace {
@@ -347,9 +465,115 @@ void addChart(World& world, const WorldConfig& cfg) {
   world.quads.push_back(q);
 }
 
+// Draws of a person's phase before its lane is declared unable to keep clear of the walker.
+constexpr int kMaxPhaseDraws = 1000;
+// The walker's path is checked against the people every so often (a person at 1.5 m/s moves 7.5 cm in between).
+constexpr double kClearanceStep_s = 0.05;
+// The people's random streams: after the world's (index 0) and its textures' (1).
+constexpr uint64_t kPeopleStreamIndex = 1000;
+
+// Distance from p to the person's box on the floor plan at time t.
+double distanceToPerson(const Person& person, double t, const Eigen::Vector2d& p) {
+  const Eigen::Vector2d f = person.forward(), d = p - person.centre(t);
+  const double along = std::max(0.0, std::abs(d.dot(f)) - 0.5 * person.size_m.y());
+  const double across = std::max(0.0, std::abs(f.x() * d.y() - f.y() * d.x()) - 0.5 * person.size_m.x());
+  return std::hypot(along, across);
+}
+
+// The people of cfg.people, each with its clothing, at a phase that keeps it clear of the walker (World::build).
+// Added after everything else from their own streams, so that a world without people is unchanged.
+void addPeople(World& world, const WorldConfig& cfg, uint64_t seed, const Trajectory* walker) {
+  std::vector<Eigen::Vector2d> walk;
+  std::vector<double> times;
+  if (walker && !cfg.people.empty())
+    for (double t = 0; t <= walker->duration(); t += kClearanceStep_s) {
+      times.push_back(t);
+      walk.push_back(walker->state(t).position.head<2>());
+    }
+  for (size_t k = 0; k < cfg.people.size(); ++k) {
+    Rng rng(streamSeed(seed, kStreamWorld, kPeopleStreamIndex + k));
+    Person person;
+    person.lane = cfg.people[k];
+    person.size_m = cfg.person_size_m;
+    person.texture = world.addTexture("clothing", makeClothingTexture(kClothingTexels, rng.next()));
+    bool clear = false;
+    for (int draw = 0; draw < kMaxPhaseDraws && !clear; ++draw) {
+      person.phase_s = rng.uniform() * person.cycle();
+      clear = true;
+      for (size_t i = 0; i < walk.size() && clear; ++i)
+        clear = distanceToPerson(person, times[i], walk[i]) >= cfg.person_clearance_m;
+    }
+    if (!clear)
+      throw std::invalid_argument("world/people: person " + std::to_string(k + 1) +
+                                  " crosses the walk where no phase keeps it world/person_clearance_m from the head; "
+                                  "give its lane a dwell at the ends or move it");
+    world.people.push_back(person);
+  }
+}
+
 }  // namespace
 
-World World::build(const WorldConfig& cfg, uint64_t seed) {
+double Person::cycle() const { return 2 * ((lane.to - lane.from).norm() / lane.speed_mps + lane.dwell_s); }
+
+Eigen::Vector2d Person::forward() const { return (lane.to - lane.from).normalized(); }
+
+Eigen::Vector2d Person::centre(double t) const {
+  const double length = (lane.to - lane.from).norm(), walk_s = length / lane.speed_mps, dwell = lane.dwell_s;
+  const double period = cycle();
+  double tau = std::fmod(t + phase_s, period);
+  if (tau < 0) tau += period;
+  // Standing at `from`, walking to `to`, standing there, walking back.
+  double along = 0;
+  if (tau < dwell)
+    along = 0;
+  else if (tau < dwell + walk_s)
+    along = lane.speed_mps * (tau - dwell);
+  else if (tau < 2 * dwell + walk_s)
+    along = length;
+  else
+    along = length - lane.speed_mps * (tau - 2 * dwell - walk_s);
+  return lane.from + along * forward();
+}
+
+void Person::addQuads(double t, double floor_z, std::vector<Quad>& out) const {
+  const Eigen::Vector2d c = centre(t), f2 = forward();
+  const Eigen::Vector3d f(f2.x(), f2.y(), 0), l(-f2.y(), f2.x(), 0), up(0, 0, 1);
+  const Eigen::Vector3d base(c.x(), c.y(), floor_z);
+  const double half_w = 0.5 * size_m.x(), half_d = 0.5 * size_m.y(), height = size_m.z();
+  // The texture spans the person's height once; its columns run round the body.
+  const double texel = height / kClothingTexels;
+  Quad q;
+  q.texture = texture;
+  q.texel_s = q.texel_t = texel;
+  q.one_sided = true;
+  q.brightness = 1.0f;
+  q.axis_t = up;
+  // Round the body from the front's right corner: front, left side, back, right side. axis_s = up x normal.
+  const Eigen::Vector3d corners[4] = {base + half_d * f - half_w * l, base + half_d * f + half_w * l,
+                                      base - half_d * f + half_w * l, base - half_d * f - half_w * l};
+  const Eigen::Vector3d sides[4] = {l, -f, -l, f};
+  const double widths[4] = {size_m.x(), size_m.y(), size_m.x(), size_m.y()};
+  double round = 0;
+  for (int i = 0; i < 4; ++i) {
+    q.origin = corners[i];
+    q.axis_s = sides[i];
+    q.size_s = widths[i];
+    q.size_t = height;
+    q.texture_offset = {round / texel, 0};
+    round += widths[i];
+    out.push_back(q);
+  }
+  // The top (hair), normal up: f x l.
+  q.origin = corners[3] + height * up;
+  q.axis_s = f;
+  q.axis_t = l;
+  q.size_s = size_m.y();
+  q.size_t = size_m.x();
+  q.texture_offset = {0, kClothingTexels - 1.0};  // the top rows: hair
+  out.push_back(q);
+}
+
+World World::build(const WorldConfig& cfg, uint64_t seed, const Trajectory* walker) {
   World world;
   if (cfg.type == "street") {
     buildStreet(world, cfg, seed);
@@ -398,11 +622,28 @@ World World::build(const WorldConfig& cfg, uint64_t seed) {
   b.wall({rx0, -room_d}, {rx0 + room_w, -room_d});
   b.wall({rx0 + room_w, -room_d}, {rx0 + room_w, 0});
   // Door reveal (the wall's thickness is not modelled: the opening is a hole in a thin wall).
-  b.horizontal(0, 0, X, Y, 0, b.floor, true);
-  b.horizontal(0, 0, X, Y, H, b.ceiling, false);
-  b.horizontal(rx0, -room_d, rx0 + room_w, 0, 0, b.floor, true);
-  b.horizontal(rx0, -room_d, rx0 + room_w, 0, H, b.ceiling, false);
+  b.floorOrCeiling(0, 0, X, Y, 0, b.floor, true);
+  b.floorOrCeiling(0, 0, X, Y, H, b.ceiling, false);
+  b.floorOrCeiling(rx0, -room_d, rx0 + room_w, 0, 0, b.floor, true);
+  b.floorOrCeiling(rx0, -room_d, rx0 + room_w, 0, H, b.ceiling, false);
+  b.ramp(cfg.ramp);
 
+  // Whether an object of this radius at c keeps off the weak stretch, the ramp (it would stand in its slope) and the
+  // people's lanes (they would walk through it).
+  auto keepsClear = [&](const Eigen::Vector2d& c, double radius) {
+    if (b.inWeakStretch(c, radius)) return false;
+    if (cfg.ramp.any()) {
+      const Eigen::Vector2d q = cfg.ramp.local(c);
+      if (q.x() > -radius && q.x() < cfg.ramp.length() + radius && std::abs(q.y()) < 0.5 * cfg.ramp.width_m + radius)
+        return false;
+    }
+    for (const PersonLane& lane : cfg.people) {
+      const Eigen::Vector2d ab = lane.to - lane.from;
+      const double u = std::clamp((c - lane.from).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
+      if ((c - (lane.from + u * ab)).norm() < radius + 0.5 * cfg.person_size_m.head<2>().norm()) return false;
+    }
+    return true;
+  };
   // Cabinets and boxes along the outer walls, away from the corners and the door.
   auto furnish = [&](const Eigen::Vector2d& a, const Eigen::Vector2d& c, const Eigen::Vector2d& inward) {
     const double len = (c - a).norm();
@@ -414,6 +655,7 @@ World World::build(const WorldConfig& cfg, uint64_t seed) {
       const double width = 0.6 + 0.6 * b.rng.uniform(), depth = 0.3 + 0.15 * b.rng.uniform();
       const double height = 0.7 + 1.2 * b.rng.uniform();
       const Eigen::Vector2d centre = p + inward * (depth / 2 + 0.02);
+      if (!keepsClear(centre, 0.5 * std::max(width, depth))) continue;
       const bool along_x = std::abs(dir.x()) > 0.5;
       b.box(centre, along_x ? width : depth, along_x ? depth : width, height, b.rng.uniform() < 0.5 ? b.wood : b.tiles);
     }
@@ -426,7 +668,33 @@ World World::build(const WorldConfig& cfg, uint64_t seed) {
   b.box({rx0 + 2.9, -3.5}, 0.9, 0.6, 0.75, b.wood);
   b.box({rx0 + room_w / 2, -room_d + 0.25}, 2.0, 0.4, 1.8, b.wood);
   addChart(world, cfg);
+  world.lighting.zones = cfg.lighting_zones;
+  world.lighting.transition_m = cfg.lighting_transition_m;
+  world.ramp = cfg.ramp;
+  addPeople(world, cfg, seed, walker);
   return world;
+}
+
+std::vector<Quad> World::peopleAt(double t) const {
+  std::vector<Quad> out;
+  for (const Person& person : people) person.addQuads(t, ramp.floorHeight(person.centre(t)), out);
+  return out;
+}
+
+bool Lighting::uniformOver(const Quad& q) const {
+  if (zones.empty()) return true;
+  const Eigen::Vector3d corners[4] = {q.origin, q.origin + q.size_s * q.axis_s, q.origin + q.size_t * q.axis_t,
+                                      q.origin + q.size_s * q.axis_s + q.size_t * q.axis_t};
+  Eigen::Vector2d lo = corners[0].head<2>(), hi = lo;
+  for (const Eigen::Vector3d& c : corners) {
+    lo = lo.cwiseMin(c.head<2>());
+    hi = hi.cwiseMax(c.head<2>());
+  }
+  for (const LightingZone& z : zones) {
+    const Eigen::Vector2d margin = Eigen::Vector2d::Constant(0.5 * transition_m);
+    if ((hi.array() > (z.low - margin).array()).all() && (lo.array() < (z.high + margin).array()).all()) return false;
+  }
+  return true;
 }
 
 double World::distanceToSurface(const Eigen::Vector3d& p) const {

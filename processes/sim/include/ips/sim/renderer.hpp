@@ -40,8 +40,12 @@ class SceneRenderer {
  public:
   // The world must outlive the renderer and not change (textures are referenced).
   explicit SceneRenderer(const World& world, double near_m = 0.05);
-  // Any of radiance (CV_32F, grey levels before gain and noise) and depth (CV_32F, z [m] in the camera frame,
-  // 0 where nothing was hit) may be null. T_world_cam: camera pose (OpenCV camera frame).
+  // The scene at scenario time t [s]: the world's static surfaces and its people where they are at t. Any of radiance
+  // (CV_32F, grey levels before gain and noise) and depth (CV_32F, z [m] in the camera frame, 0 where nothing was hit)
+  // may be null. T_world_cam: camera pose (OpenCV camera frame).
+  void render(const View& view, const Eigen::Isometry3d& T_world_cam, double t, cv::Mat* radiance,
+              cv::Mat* depth) const;
+  // The static world alone (no people): what does not depend on time.
   void render(const View& view, const Eigen::Isometry3d& T_world_cam, cv::Mat* radiance, cv::Mat* depth) const;
 
   struct Buffers {  // per view: depth and index of the visible quad
@@ -55,7 +59,10 @@ class SceneRenderer {
     int wmask, hmask;  // sides are powers of two
     float scale;       // 2^-level
   };
-  std::vector<CamQuad> prepare(const Eigen::Isometry3d& T_world_cam) const;
+  // The world's static quads and `moving` ones (the people at some time; they must outlive the result, which points
+  // at them) as the camera sees them, nearest first.
+  std::vector<CamQuad> prepare(const Eigen::Isometry3d& T_world_cam, const std::vector<Quad>* moving = nullptr) const;
+  const World& world() const { return world_; }
   void raster(const View& view, const std::vector<CamQuad>& quads, Buffers& buf, int tile_row) const;
   // Shades one row into `out` (grey levels): gain * radiance + noise (Irwin-Hall, per-row stream), rounded to
   // 8 bit if out8 is set, else float radiance into out32.
@@ -63,6 +70,8 @@ class SceneRenderer {
                 float noise_sigma, uint64_t noise_seed, uint8_t* out8, float* out32) const;
 
  private:
+  void renderQuads(const View& view, const std::vector<CamQuad>& quads, cv::Mat* radiance, cv::Mat* depth) const;
+
   const World& world_;
   double near_;
   std::vector<std::vector<TexLevel>> levels_;  // per texture
@@ -73,9 +82,9 @@ struct SceneRenderer::CamQuad {
   float e[3], s0;  // s = X . e - s0
   float f[3], t0;  // t = X . f - t0
   float size_s, size_t;
-  float bounds[4];  // min x, max x, min y, max y of the clipped projection (normalised coordinates)
-  float min_z;      // nearest depth of the clipped rectangle (quads are drawn front to back)
-  int index;        // into World::quads
+  float bounds[4];   // min x, max x, min y, max y of the clipped projection (normalised coordinates)
+  float min_z;       // nearest depth of the clipped rectangle (quads are drawn front to back)
+  const Quad* quad;  // in World::quads or among the moving quads given to prepare()
 };
 
 struct StereoFrame {
@@ -116,7 +125,7 @@ class StereoRenderer {
   // camera's image k-1 to the target grey (a function of k alone, so frames still render in any order).
   Exposure exposureFor(int64_t k, int camera) const;
   // Mean grey level camera 0 or 1 would see at time t [s] (relative to the scenario start) with the reference
-  // exposure and no gain (vignetting included), from every fourth pixel's ray.
+  // exposure and no gain (vignetting and the lighting zones included), from every fourth pixel's ray.
   double meanGrey(double t, int camera) const;
 
  private:
@@ -127,11 +136,13 @@ class StereoRenderer {
   void renderWithEffects(int64_t k, int c, double t, const Exposure& e, cv::Mat& out, int* samples) const;
   // The sub-images motion blur needs for camera c: the longest image motion over the exposure of the points seen in
   // depth (z [m] at the exposure's middle, 0 where nothing is seen) in steps of blur_step_px, odd, at most
-  // max_blur_samples. T_a_mid: the camera at the exposure's middle in the camera at its start; T_b_mid: at its end.
-  int blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_a_mid,
-                  const Eigen::Isometry3d& T_b_mid) const;
+  // max_blur_samples. The cameras at the exposure's start (time t_a), middle and end (t_b) in world; the people's own
+  // motion counts too (their boxes' corners at t_a and t_b).
+  int blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_world_a, const Eigen::Isometry3d& T_world_mid,
+                  const Eigen::Isometry3d& T_world_b, double t_a, double t_b) const;
 
   const Scenario& scenario_;
+  const World& world_;
   const SensorHead& head_;
   const Trajectory& trajectory_;
   SceneRenderer scene_;

@@ -18,9 +18,9 @@ struct Rig {
   Rig& operator=(const Rig&) = delete;
 
   Scenario scenario;
+  Trajectory trajectory;  // before the world: its people keep clear of the walker
   World world;
   SensorHead head;
-  Trajectory trajectory;
   StereoRenderer renderer;
 };
 

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "ips/sim/jet.hpp"
+
 namespace ips::sim {
 
 struct CameraFigures {
@@ -101,6 +103,51 @@ struct TiltFigures {
   static TiltFigures ideal();
 };
 
+// A person walking to and fro along a lane of the floor plan (from -> to -> from ...), standing dwell_s at each end.
+struct PersonLane {
+  Eigen::Vector2d from{0, 0}, to{0, 0};  // [m]
+  double speed_mps = 1.2;
+  double dwell_s = 0.0;
+};
+
+// A stretch of corridor lit brighter or dimmer than the rest: the rectangle [low, high] of the floor plan (walls,
+// floor, ceiling and whatever stands in it) gets `ratio` times the building's light, blended over the zone's edges
+// (WorldConfig::lighting_transition_m).
+struct LightingZone {
+  Eigen::Vector2d low{0, 0}, high{0, 0};  // [m]
+  double ratio = 1.0;
+};
+
+// A hump in a corridor's floor as a wheelchair ramp builds it: from `start_m` (the foot of the up slope, on the
+// corridor's centre line) along heading_deg the floor rises with `slope` to rise_m, stays level for plateau_m and falls
+// again with the same slope; width_m across. The ramp spans the corridor wall to wall, so that the corridor's walls are
+// its sides. rise_m 0: no ramp.
+struct Ramp {
+  Eigen::Vector2d start_m{0, 0};
+  double heading_deg = 0.0;
+  double width_m = 2.4;
+  double rise_m = 0.0;
+  double slope = 1.0 / 12;
+  double plateau_m = 4.0;
+  // A walker's body does not follow the floor's kinks: its height rounds each of them over this length (C2, so that
+  // the IMU's specific force stays finite), which puts it at most 0.078 slope blend_m off the floor at a kink.
+  double blend_m = 1.0;
+
+  bool any() const { return rise_m > 0; }
+  double run() const { return rise_m / slope; }  // length of one slope along the floor plan
+  double length() const { return 2 * run() + plateau_m; }
+  // Where p is on the ramp: along (from the foot of the up slope) and across (from the centre line, to the left).
+  Eigen::Vector2d local(const Eigen::Vector2d& p) const;
+  // The floor's height at p: the ramp's surface on it, 0 elsewhere.
+  double floorHeight(const Eigen::Vector2d& p) const;
+  // The height of the floor under a walker at (x, y), kinks rounded over blend_m, with its time derivatives.
+  Jet2 walkerFloor(const Jet2& x, const Jet2& y) const;
+  bool operator==(const Ramp& o) const {
+    return start_m == o.start_m && heading_deg == o.heading_deg && width_m == o.width_m && rise_m == o.rise_m &&
+           slope == o.slope && plateau_m == o.plateau_m && blend_m == o.blend_m;
+  }
+};
+
 struct TrajectoryConfig {
   // walk | vehicle | still | wave | stations. still: holds the first waypoint. wave: holds it too, turned about all
   // three axes for still_duration_s as a user waves a head to calibrate its IMU against the cameras (wave_*).
@@ -138,6 +185,9 @@ struct TrajectoryConfig {
   std::vector<Station> stations;
   double station_hold_s = 4.0;
   double station_move_s = 2.0;
+  // The floor the walker walks on (walk, vehicle, still, wave): the head's height is height_m above it. The world's
+  // ramp (WorldConfig::ramp; Scenario::load copies it, validate() checks that the two agree).
+  Ramp floor_ramp;
 
   static std::vector<Eigen::Vector2d> defaultWaypoints();
 };
@@ -189,6 +239,20 @@ struct WorldConfig {
   Eigen::Vector2d far_distance_m{50.0, 500.0};
   Eigen::Vector2d far_height_m{15.0, 60.0};
   double sky_distance_m = 5000.0;  // the sky: weakly textured clouds, "at infinity" for any baseline
+
+  // building: what makes a real walk harder, each absent by default (config/sim_hard.yaml has all of them).
+  // People walking through the view: person-sized boxes in clothing-like texture on these lanes, each at a phase drawn
+  // from the seed such that it keeps person_clearance_m from the walker (no one walks into the head).
+  std::vector<PersonLane> people;
+  Eigen::Vector3d person_size_m{0.45, 0.3, 1.75};  // across the lane (shoulders), along it, height
+  double person_clearance_m = 0.4;                 // from the head's (IMU's) position to a person's box
+  // Dim and bright stretches: the light of the building scaled per zone, with smooth edges this long.
+  std::vector<LightingZone> lighting_zones;
+  double lighting_transition_m = 1.5;
+  Ramp ramp;  // a hump in the floor (Scenario::load copies it to the trajectory, which follows the floor)
+  // A contiguous plain stretch: inside the floor plan's rectangle x0, y0, x1, y1 every wall piece, the floor and the
+  // ceiling have the weak plaster texture, and no posters or objects; all zero: none.
+  Eigen::Matrix<double, 4, 1> weak_stretch_m{0, 0, 0, 0};
 };
 
 struct Scenario {
@@ -214,7 +278,8 @@ struct Scenario {
 // What makes a scenario harder than the built-in walk, by name, for reports ("sim_effects"): "motion_blur",
 // "auto_exposure", "vignetting", "frame_loss", "stamp_offsets" (any sensor's stamps offset), "perturbed_calibration"
 // (calibration_errors), "camera_knock" and "camera_drift" (relative_rotation_step / drift), "weak_texture" (more
-// plain walls than the walk's), in this order; empty for the walk.
+// plain walls than the walk's), "people", "lighting_zones", "ramp", "weak_stretch" (the world's keys of the same
+// names), in this order; empty for the walk.
 std::vector<std::string> simEffects(const Scenario& scenario);
 
 }  // namespace ips::sim
