@@ -408,8 +408,9 @@ TEST(SimScenario, EffectsAreNamedForTheReport) {
   EXPECT_TRUE(simEffects(Scenario::defaults()).empty());
   EXPECT_TRUE(simEffects(Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_walk.yaml")).empty());
   const Scenario hard = Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_hard.yaml");
-  EXPECT_EQ(simEffects(hard), (std::vector<std::string>{"motion_blur", "auto_exposure", "vignetting", "frame_loss",
-                                                        "stamp_offsets", "perturbed_calibration"}));
+  EXPECT_EQ(simEffects(hard),
+            (std::vector<std::string>{"motion_blur", "auto_exposure", "vignetting", "frame_loss", "stamp_offsets",
+                                      "perturbed_calibration", "people", "lighting_zones", "ramp", "weak_stretch"}));
   EXPECT_EQ(simEffects(Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_knock.yaml")),
             std::vector<std::string>{"camera_knock"});
   EXPECT_EQ(simEffects(Scenario::load(std::string(IPS_CONFIG_DIR) + "/sim_weak.yaml")),
