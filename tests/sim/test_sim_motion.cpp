@@ -297,7 +297,7 @@ TEST(SimScenario, ConfigFilesLoadAndBadValuesAreNamed) {
 // The walk and the vehicle stay clear of every surface of the building (walls, door frame, cabinets): the head
 // never enters an object, and the cameras always see the building from inside.
 TEST(SimTrajectory, RoutesStayClearOfTheBuilding) {
-  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml"}) {
+  for (const char* name : {"sim_walk.yaml", "sim_vehicle.yaml", "sim_hard.yaml"}) {  // the hard one over its ramp
     const Scenario sc = Scenario::load(std::string(IPS_CONFIG_DIR) + "/" + name);
     const World world = World::build(sc.world, sc.seed);
     const Trajectory traj(sc.trajectory, sc.gravity);

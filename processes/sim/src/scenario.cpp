@@ -228,7 +228,7 @@ Scenario loadOver(const std::string& path, int depth) {
     constexpr int kPerLane = 6;
     if (lanes.total() % kPerLane != 0)
       throw ConfigError(path + ": key 'world/people' must be a flat list x0, y0, x1, y1, speed_mps, dwell_s, ...");
-    lanes = lanes.reshape(1, 1);
+    if (!lanes.empty()) lanes = lanes.reshape(1, 1);  // [] : no one
     w.people.clear();
     for (int i = 0; i + kPerLane - 1 < static_cast<int>(lanes.total()); i += kPerLane) {
       PersonLane lane;
@@ -246,7 +246,7 @@ Scenario loadOver(const std::string& path, int depth) {
     constexpr int kPerZone = 5;
     if (zones.total() % kPerZone != 0)
       throw ConfigError(path + ": key 'world/lighting_zones' must be a flat list x0, y0, x1, y1, ratio, ...");
-    zones = zones.reshape(1, 1);
+    if (!zones.empty()) zones = zones.reshape(1, 1);  // [] : the building's light everywhere
     w.lighting_zones.clear();
     for (int i = 0; i + kPerZone - 1 < static_cast<int>(zones.total()); i += kPerZone)
       w.lighting_zones.push_back({{zones.at<double>(0, i), zones.at<double>(0, i + 1)},

@@ -1,7 +1,8 @@
 #pragma once
 // The simulated building: textured planar rectangles (walls with door openings, floors, ceilings, posters,
-// cabinets and boxes). Textures are procedural (rough plaster, tiles, terrazzo, weak plaster) and real
-// photographs read at run time from the evaluation data (falls back to procedural with a warning).
+// cabinets and boxes, a ramp), its lighting zones and the people walking through it (boxes that move). Textures are
+// procedural (rough plaster, tiles, terrazzo, weak plaster, clothing) and real photographs read at run time from the
+// evaluation data (falls back to procedural with a warning).
 #include <Eigen/Core>
 #include <algorithm>
 #include <opencv2/core.hpp>
