@@ -3,6 +3,8 @@
 // a-priori state at the new image time (FILTER_PRIOR) when a filter runs, else the gyro (IMU), else constant
 // velocity. When a filter has been seen, a pair waits for its prior (the filter publishes one for every image
 // time), else for the IMU to cover its time, so that a replayed log gives the same deltas as the live run.
+// A tracker behind the camera (a starved host) reads what has piled up in its socket first and skips the pairs it
+// cannot catch up with (health: dropped, stale_pair), so that its deltas still reach the filter's image clones.
 // With process/intra_from_disparity, a pair E3D matches (seq % disparity_every_nth == 0) also waits for its
 // DISPARITY map and takes its intra-matches from it: live until disparity_wait_pairs newer pairs are pending,
 // with --queue-disparity (replay) until the map or a later one arrives, so that the replay repeats itself.
@@ -33,7 +35,7 @@ int main(int argc, char** argv) {
     ips::tracker_app::TrackerProcess process(node, calib, params, cfg,
                                              ips::tracker::loadDisparityWait(cfg, args.getFlag("--queue-disparity")));
     IPS_INFO("tracking " << calib.cam0.width << "x" << calib.cam0.height << " pairs");
-    const int rc = node.run();
+    const int rc = node.run([&process]() { process.drain(); });
     process.flush();
     return rc;
   });

@@ -122,6 +122,30 @@ TEST(PairScheduler, MapsOfTrackedPairsAndBeyondTheBoundAreNotKept) {
   EXPECT_FALSE(s.addMap(pair(6).utime, 6, guide(1.0)));
 }
 
+TEST(PairScheduler, LiveABacklogBeyondMaxBacklogIsDroppedReplayKeepsIt) {
+  // A tracker that read a burst of twelve pairs (1.5 s at 8 Hz: it was behind the camera) keeps those within
+  // max_backlog_us (1 s) of the newest: the 9 newest, the oldest of which goes on first as always.
+  DisparityWait no_maps;
+  no_maps.max_backlog_us = 1'000'000;
+  PairScheduler live{no_maps};
+  for (int64_t seq = 0; seq < 12; ++seq) live.addPair(pair(seq));
+  EXPECT_EQ(live.dropStale(), 3);
+  ASSERT_EQ(live.size(), 9u);
+  EXPECT_EQ(live.oldestUtime(), pair(3).utime);
+  EXPECT_EQ(live.dropStale(), 0);
+  // A backlog within the bound is worked through as it is (a replay on a busy machine repeats itself).
+  PairScheduler short_backlog{no_maps};
+  for (int64_t seq = 0; seq < 5; ++seq) short_backlog.addPair(pair(seq));
+  EXPECT_EQ(short_backlog.dropStale(), 0);
+  // Replay waits for every map and drops nothing.
+  DisparityWait replay_wait = maps(2, 2, true);
+  replay_wait.max_backlog_us = 1'000'000;
+  PairScheduler replay{replay_wait};
+  for (int64_t seq = 0; seq < 12; ++seq) replay.addPair(pair(seq));
+  EXPECT_EQ(replay.dropStale(), 0);
+  EXPECT_EQ(replay.size(), 12u);
+}
+
 TEST(PairScheduler, APairOfTheSameStampIsKeptOnce) {
   PairScheduler s{DisparityWait{}};
   s.addPair(pair(0));
@@ -156,13 +180,17 @@ std::string writeTemp(const std::string& name, const std::string& text) {
 
 TEST(LoadDisparityWait, ReadsTheProcessKeysAndRefusesValuesOutOfRange) {
   const DisparityWait w = ips::tracker::loadDisparityWait(
-      ips::Config(writeTemp("wait.yaml", "process:\n  intra_from_disparity: 1\n  disparity_every_nth: 3\n")), true);
+      ips::Config(writeTemp("wait.yaml",
+                            "process:\n  intra_from_disparity: 1\n  disparity_every_nth: 3\n  max_backlog_s: 0.5\n")),
+      true);
   EXPECT_TRUE(w.enabled);
   EXPECT_EQ(w.every_nth, 3);
   EXPECT_EQ(w.wait_pairs, 2);
   EXPECT_EQ(w.max_pending, 64);
+  EXPECT_EQ(w.max_backlog_us, 500'000);
   EXPECT_TRUE(w.queue);
-  for (const char* bad : {"disparity_every_nth: 0", "disparity_wait_pairs: -1", "disparity_max_pending: 1"})
+  for (const char* bad :
+       {"disparity_every_nth: 0", "disparity_wait_pairs: -1", "disparity_max_pending: 1", "max_backlog_s: 0"})
     EXPECT_THROW(ips::tracker::loadDisparityWait(
                      ips::Config(writeTemp("wait_bad.yaml", std::string("process:\n  ") + bad + "\n")), false),
                  ips::ConfigError)

@@ -1,5 +1,6 @@
 #include "ips/framework/node.hpp"
 
+#include <poll.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -88,6 +89,11 @@ bool Node::RecentMessages::seenBefore(const void* data, size_t size) {
 }
 
 bool Node::handleOnce(int timeout_ms) { return lcm_->handleTimeout(timeout_ms) >= 0; }
+
+bool Node::inputWaiting() {
+  pollfd fd{lcm_->getFileno(), POLLIN, 0};
+  return ::poll(&fd, 1, 0) > 0 && (fd.revents & POLLIN) != 0;
+}
 
 void Node::publishHealth(double interval_s) {
   if (fill_health_) fill_health_(health_);

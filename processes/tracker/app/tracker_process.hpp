@@ -25,13 +25,14 @@ class TrackerProcess {
 
   // End of input: whatever still waits for a prior is tracked with the fallback.
   void flush();
+  // Goes on with the pending pairs once the socket holds nothing more (called after every handled message).
+  void drain();
 
  private:
   void onStereo(const stereo_pair_t& m);
   void onPrior(const filter_state_t& m);
   void onDisparity(const disparity_map_t& m);
   void onImu(const imu_sample_t& m);
-  void drain();
   void processOldest();
   void checkIntegrity(const tracker::PendingPair& p);
 

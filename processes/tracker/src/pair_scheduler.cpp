@@ -10,11 +10,13 @@ DisparityWait loadDisparityWait(const Config& cfg, bool queue) {
   w.every_nth = cfg.getInt("process/disparity_every_nth", w.every_nth);
   w.wait_pairs = cfg.getInt("process/disparity_wait_pairs", w.wait_pairs);
   w.max_pending = cfg.getInt("process/disparity_max_pending", w.max_pending);
+  const double max_backlog_s = cfg.getDouble("process/max_backlog_s", w.max_backlog_us * 1e-6);
+  w.max_backlog_us = static_cast<int64_t>(max_backlog_s * 1e6);
   w.queue = queue;
-  if (w.every_nth < 1 || w.wait_pairs < 0 || w.max_pending < 2)
+  if (w.every_nth < 1 || w.wait_pairs < 0 || w.max_pending < 2 || !(max_backlog_s > 0))
     throw ConfigError(cfg.path() +
-                      ": process/ disparity keys out of range (disparity_every_nth >= 1, disparity_wait_pairs >= 0, "
-                      "disparity_max_pending >= 2)");
+                      ": process/ scheduling keys out of range (disparity_every_nth >= 1, disparity_wait_pairs >= 0, "
+                      "disparity_max_pending >= 2, max_backlog_s > 0)");
   return w;
 }
 
@@ -47,6 +49,17 @@ bool PairScheduler::oldestGoesOn(bool prior_ready) const {
   const bool map_wait = waitsForMap(pending_.begin()->second);
   const size_t hold = !map_wait ? 1 : wait_.queue ? wait_.max_pending : 1 + wait_.wait_pairs;
   return (prior_ready && !map_wait) || pending_.size() > hold;
+}
+
+int PairScheduler::dropStale() {
+  if (wait_.queue || pending_.empty()) return 0;
+  const int64_t oldest_kept = pending_.rbegin()->first - wait_.max_backlog_us;
+  int dropped = 0;
+  while (pending_.begin()->first < oldest_kept) {
+    pending_.erase(pending_.begin());
+    ++dropped;
+  }
+  return dropped;
 }
 
 PendingPair PairScheduler::takeOldest() {

@@ -62,6 +62,9 @@ class Node {
 
   // Handles whatever is pending for up to timeout_ms; for tests and custom loops. Returns false on an LCM error.
   bool handleOnce(int timeout_ms);
+  // Whether more input already waits in the socket: a process that does heavy work per message reads what has
+  // piled up first (a backlog in the kernel's buffer is invisible to it otherwise) and then decides what to do.
+  bool inputWaiting();
   void publishHealth(double interval_s);
   // Called just before each health message is made, to set figures the process keeps elsewhere (an estimator's
   // counters) once per report instead of at every message.

@@ -21,10 +21,12 @@ struct DisparityWait {
   int wait_pairs = 2;    // live: newer pairs pending before a pair goes on without its map
   bool queue = false;    // replay: wait until the map (or a later one) arrives
   int max_pending = 64;  // the bound on pairs held in either mode (two images each)
+  // Live: a pending pair this much older than the newest pending one is dropped unseen (the tracker fell behind).
+  int64_t max_backlog_us = 1'000'000;
 };
 
-// process/intra_from_disparity, disparity_every_nth, disparity_wait_pairs, disparity_max_pending; queue from the
-// command line. Throws ConfigError on a value out of range.
+// process/intra_from_disparity, disparity_every_nth, disparity_wait_pairs, disparity_max_pending, max_backlog_s;
+// queue from the command line. Throws ConfigError on a value out of range.
 DisparityWait loadDisparityWait(const Config& cfg, bool queue);
 
 // With a filter on the bus, its prior of this image time; else, with an IMU, gyro samples up to the image time (a
@@ -59,6 +61,10 @@ class PairScheduler {
   // too many pairs are held behind it (one at most, unless it waits for a map).
   bool oldestGoesOn(bool prior_ready) const;
   PendingPair takeOldest();
+  // Live (not queue): pending pairs more than max_backlog_us older than the newest pending one are dropped, so
+  // that a tracker that fell behind catches up while its deltas can still reach the filter's image clones.
+  // Returns how many. Replay (queue) drops none.
+  int dropStale();
   // E3D's map of this pair (same stamp and seq), or nullptr.
   const DisparityGuide* mapFor(const PendingPair& p) const;
   // The pair with this stamp is tracked: its map and older ones are of no further use.
