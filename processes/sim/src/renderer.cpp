@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numeric>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 #include <stdexcept>
@@ -581,28 +582,59 @@ int StereoRenderer::blurSamples(const cv::Mat& depth, int c, const Eigen::Isomet
   const std::vector<cv::Point2d> pa = project(points, T_a_mid), pb = project(points, T_b_mid);
   double longest = 0;
   for (size_t i = 0; i < pa.size(); ++i) longest = std::max(longest, cv::norm(pb[i] - pa[i]));
-  // The people move on their own: the corners of their boxes where they are at the exposure's start and end, each in
-  // the camera of that time, where both lie in front of it and one of them in the image.
+  // The people move on their own: the corners of the boxes of those seen at the exposure's middle, where they are at
+  // its start and end, each in the camera of that time.
   if (!world_.people.empty()) {
-    const std::vector<Quad> at_a = world_.peopleAt(t_a), at_b = world_.peopleAt(t_b);
-    const Eigen::Isometry3d T_a_world = T_world_a.inverse(), T_b_world = T_world_b.inverse();
+    // The lens's field of view in normalised coordinates: beyond it the distortion polynomial folds points back into
+    // the image, with streaks that mean nothing.
+    float fov[4] = {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(),
+                    std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
+    for (const cv::Vec4f& b : v.tile_bounds) {
+      fov[0] = std::min(fov[0], b[0]);
+      fov[1] = std::max(fov[1], b[1]);
+      fov[2] = std::min(fov[2], b[2]);
+      fov[3] = std::max(fov[3], b[3]);
+    }
+    auto inView = [&](const Eigen::Vector3d& p) {
+      return p.z() > cf.near_m && p.x() > fov[0] * p.z() && p.x() < fov[1] * p.z() && p.y() > fov[2] * p.z() &&
+             p.y() < fov[3] * p.z();
+    };
+    auto toCv = [](const Eigen::Vector3d& p) { return cv::Point3d(p.x(), p.y(), p.z()); };
+    const Eigen::Isometry3d T_a_world = T_world_a.inverse(), T_mid_world = T_world_mid.inverse(),
+                            T_b_world = T_world_b.inverse(), identity = Eigen::Isometry3d::Identity();
+    const double t_mid = 0.5 * (t_a + t_b);
     std::vector<cv::Point3d> corners_a, corners_b;
-    for (size_t i = 0; i < at_a.size(); ++i)
-      for (const Eigen::Vector2d& st :
-           {Eigen::Vector2d(0, 0), Eigen::Vector2d(0, 1), Eigen::Vector2d(1, 0), Eigen::Vector2d(1, 1)}) {
-        auto corner = [&](const Quad& q, const Eigen::Isometry3d& T) {
-          return Eigen::Vector3d(T * (q.origin + st.x() * q.size_s * q.axis_s + st.y() * q.size_t * q.axis_t));
-        };
-        const Eigen::Vector3d a = corner(at_a[i], T_a_world), b = corner(at_b[i], T_b_world);
-        if (a.z() < scenario_.camera.near_m || b.z() < scenario_.camera.near_m) continue;
-        corners_a.emplace_back(a.x(), a.y(), a.z());
-        corners_b.emplace_back(b.x(), b.y(), b.z());
+    for (const Person& person : world_.people) {
+      auto cornersAt = [&](double time) { return person.corners(time, world_.ramp.floorHeight(person.centre(time))); };
+      // Seen: a corner drawn a tenth into the box lies in view with nothing nearer in the depth buffer (the box's own
+      // surface is within a few centimetres of it).
+      constexpr double kInset = 0.9, kSurfaceTolerance_m = 0.05;
+      const std::array<Eigen::Vector3d, 8> mid = cornersAt(t_mid);
+      const Eigen::Vector3d centre = 0.125 * std::accumulate(mid.begin(), mid.end(), Eigen::Vector3d::Zero().eval());
+      std::vector<cv::Point3d> probes;
+      for (const Eigen::Vector3d& corner : mid) {
+        const Eigen::Vector3d p = T_mid_world * (centre + kInset * (corner - centre));
+        if (inView(p)) probes.push_back(toCv(p));
       }
-    const Eigen::Isometry3d identity = Eigen::Isometry3d::Identity();
+      bool seen = false;
+      const std::vector<cv::Point2d> px = project(probes, identity);
+      for (size_t i = 0; i < px.size() && !seen; ++i) {
+        const int x = static_cast<int>(std::lround(px[i].x)), y = static_cast<int>(std::lround(px[i].y));
+        if (x < 0 || y < 0 || x >= v.width || y >= v.height) continue;
+        const float z = depth.at<float>(y, x);
+        seen = z > 0 && z > probes[i].z - kSurfaceTolerance_m;
+      }
+      if (!seen) continue;
+      const std::array<Eigen::Vector3d, 8> at_a = cornersAt(t_a), at_b = cornersAt(t_b);
+      for (int i = 0; i < 8; ++i) {
+        const Eigen::Vector3d a = T_a_world * at_a[i], b = T_b_world * at_b[i];
+        if (!inView(a) || !inView(b)) continue;
+        corners_a.push_back(toCv(a));
+        corners_b.push_back(toCv(b));
+      }
+    }
     const std::vector<cv::Point2d> qa = project(corners_a, identity), qb = project(corners_b, identity);
-    const cv::Rect2d image(0, 0, v.width, v.height);
-    for (size_t i = 0; i < qa.size(); ++i)
-      if (image.contains(qa[i]) || image.contains(qb[i])) longest = std::max(longest, cv::norm(qb[i] - qa[i]));
+    for (size_t i = 0; i < qa.size(); ++i) longest = std::max(longest, cv::norm(qb[i] - qa[i]));
   }
   int n = std::clamp(static_cast<int>(std::ceil(longest / cf.blur_step_px)), 1, cf.max_blur_samples);
   if (n % 2 == 0) n = n + 1 <= cf.max_blur_samples ? n + 1 : n - 1;

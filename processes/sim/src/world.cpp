@@ -535,6 +535,17 @@ Eigen::Vector2d Person::centre(double t) const {
   return lane.from + along * forward();
 }
 
+std::array<Eigen::Vector3d, 8> Person::corners(double t, double floor_z) const {
+  const Eigen::Vector2d c = centre(t), f = forward();
+  const Eigen::Vector3d along = 0.5 * size_m.y() * Eigen::Vector3d(f.x(), f.y(), 0),
+                        across = 0.5 * size_m.x() * Eigen::Vector3d(-f.y(), f.x(), 0), up(0, 0, size_m.z());
+  std::array<Eigen::Vector3d, 8> out;
+  for (int i = 0; i < 8; ++i)
+    out[i] = Eigen::Vector3d(c.x(), c.y(), floor_z) + (i & 1 ? along : -along) + (i & 2 ? across : -across) +
+             (i & 4 ? up : Eigen::Vector3d::Zero());
+  return out;
+}
+
 void Person::addQuads(double t, double floor_z, std::vector<Quad>& out) const {
   const Eigen::Vector2d c = centre(t), f2 = forward();
   const Eigen::Vector3d f(f2.x(), f2.y(), 0), l(-f2.y(), f2.x(), 0), up(0, 0, 1);

@@ -5,6 +5,7 @@
 // evaluation data (falls back to procedural with a warning).
 #include <Eigen/Core>
 #include <algorithm>
+#include <array>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
@@ -45,6 +46,8 @@ struct Person {
   double cycle() const;                    // [s] there and back, with the dwells
   Eigen::Vector2d forward() const;         // unit, from lane.from to lane.to (the box keeps facing it)
   Eigen::Vector2d centre(double t) const;  // [m] on the floor plan at scenario time t [s]
+  // The eight corners of its box at time t standing on the floor at height floor_z.
+  std::array<Eigen::Vector3d, 8> corners(double t, double floor_z) const;
   // Its box at time t standing on the floor at height floor_z: four sides (round the body, the texture's columns
   // running on from one to the next, its rows from the feet up) and the top, one-sided, facing out.
   void addQuads(double t, double floor_z, std::vector<Quad>& out) const;
