@@ -139,6 +139,7 @@ cv::Mat Config::getMat(const std::string& key) const {
       v.push_back(static_cast<double>(e));
       if (!std::isfinite(v.back())) fail(key, "must hold finite numbers only");
     }
+    if (v.empty()) return cv::Mat(1, 0, CV_64F);  // [] : a row of no numbers
     return cv::Mat(v, true).reshape(1, 1);
   }
   try {
