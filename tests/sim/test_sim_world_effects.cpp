@@ -241,6 +241,47 @@ TEST(SimPeople, SeenAtTwoTimesTheyMoveBySpeedTimesInterval) {
   EXPECT_NEAR(hi1 - lo1, crossing.size_m.y(), 0.01);
 }
 
+// Motion blur sees the people's own motion: with the head still, a person walking across the view takes several
+// sub-images (one standing takes one), and the blurred image is the mean of renderings over the exposure.
+TEST(SimPeople, MotionBlurFollowsTheirMotion) {
+  Scenario sc = standingBeforePeople();
+  sc.world.people.resize(1);  // the crossing one alone
+  sc.camera.motion_blur = true;
+  sc.camera.exposure_us = 12000;
+  const Rig rig(sc);
+  const Person& crossing = rig.world.people[0];
+  const double frame_s = 1.0 / sc.camera.rate_hz;
+  auto frameAt = [&](double t) { return static_cast<int64_t>(std::ceil(t / frame_s)); };
+  const int64_t walking = frameAt(walkingTime(crossing, 0.0, 30.0, 2 * frame_s));
+  int64_t standing = walking;
+  // A frame at which it stands at one end of its lane.
+  while ((crossing.centre(standing * frame_s + 0.01) - crossing.centre(standing * frame_s - 0.01)).norm() > 0)
+    ++standing;
+  const StereoFrame moving = rig.renderer.render(walking), still = rig.renderer.render(standing);
+  const double t = (moving.utime_true - sc.start_utime) * 1e-6, exposure_s = sc.camera.exposure_us * 1e-6;
+  const int n = moving.blur_samples[0];
+  // The streak: 1.2 m/s x 12 ms at 3 m is 3.6 px; in steps of blur_step_px 1 px, 5 sub-images.
+  EXPECT_GE(n, 3);
+  EXPECT_EQ(still.blur_samples[0], 1);
+  const SceneRenderer scene(rig.world, sc.camera.near_m);
+  const View view = View::distorted(rig.head.calibration.cam0);
+  cv::Mat reference = cv::Mat::zeros(view.height, view.width, CV_32F), radiance;
+  for (int j = 0; j < n; ++j) {
+    const double t_sub = t + exposure_s * ((j + 0.5) / n - 0.5);
+    scene.render(view, rig.head.cam0InWorld(rig.trajectory.pose(t_sub)), t_sub, &radiance, nullptr);
+    reference += radiance * rig.renderer.gain(0) / n;
+  }
+  reference = cv::min(reference, 255.0);
+  cv::Mat blurred;
+  moving.left.convertTo(blurred, CV_32F);
+  const double error = cv::mean(cv::abs(blurred - reference))[0];
+  std::printf(
+      "[ PEOPLE   ] a person crossing at frame %ld: %d sub-images (standing at frame %ld: %d); against the mean "
+      "of renderings over the exposure %.3f grey levels\n",
+      static_cast<long>(walking), n, static_cast<long>(standing), still.blur_samples[0], error);
+  EXPECT_LT(error, 0.27);  // the 8-bit rounding alone
+}
+
 // No one walks into the head: a lane across the walk gets a phase that keeps its person clear of the walker; a lane
 // across the walk without a pause at its ends has none and is refused.
 TEST(SimPeople, KeepClearOfTheWalkerOrAreRefused) {
