@@ -62,6 +62,17 @@ void get(const Config& c, const std::string& key, Eigen::Matrix<double, N, 1>& v
   if (c.has(key)) v = c.getMatrix(key, N, 1);
 }
 
+// A key holding a flat list of records of `fields` numbers each ([] : none), one row per record; false when the
+// key is absent (the default stays). `layout` names the fields for the error message.
+bool getRecords(const Config& c, const std::string& key, int fields, const std::string& layout, cv::Mat& records) {
+  if (!c.has(key)) return false;
+  cv::Mat flat = c.getMat(key);
+  if (flat.total() % fields != 0)
+    throw ConfigError(c.path() + ": key '" + key + "' must be a flat list " + layout + ", ...");
+  records = flat.empty() ? cv::Mat(0, fields, CV_64F) : flat.reshape(1, static_cast<int>(flat.total()) / fields);
+  return true;
+}
+
 // The keys of the file at `path` over `s`. A file may name another scenario as its `base` (a path relative to its
 // own folder): that one is read first, so a variant says only what differs (the head of the walk, waved instead of
 // walked). Bases nest up to kMaxBaseDepth deep (a loop of bases is an error).
@@ -223,35 +234,24 @@ Scenario loadOver(const std::string& path, int depth) {
   get(c, "world/far_distance_m", w.far_distance_m);
   get(c, "world/far_height_m", w.far_height_m);
   get(c, "world/sky_distance_m", w.sky_distance_m);
-  if (c.has("world/people")) {
-    cv::Mat lanes = c.getMat("world/people");
-    constexpr int kPerLane = 6;
-    if (lanes.total() % kPerLane != 0)
-      throw ConfigError(path + ": key 'world/people' must be a flat list x0, y0, x1, y1, speed_mps, dwell_s, ...");
-    if (!lanes.empty()) lanes = lanes.reshape(1, 1);  // [] : no one
+  cv::Mat lanes;
+  if (getRecords(c, "world/people", 6, "x0, y0, x1, y1, speed_mps, dwell_s", lanes)) {
     w.people.clear();
-    for (int i = 0; i + kPerLane - 1 < static_cast<int>(lanes.total()); i += kPerLane) {
-      PersonLane lane;
-      lane.from = {lanes.at<double>(0, i), lanes.at<double>(0, i + 1)};
-      lane.to = {lanes.at<double>(0, i + 2), lanes.at<double>(0, i + 3)};
-      lane.speed_mps = lanes.at<double>(0, i + 4);
-      lane.dwell_s = lanes.at<double>(0, i + 5);
-      w.people.push_back(lane);
-    }
+    for (int i = 0; i < lanes.rows; ++i)
+      w.people.push_back({{lanes.at<double>(i, 0), lanes.at<double>(i, 1)},
+                          {lanes.at<double>(i, 2), lanes.at<double>(i, 3)},
+                          lanes.at<double>(i, 4),
+                          lanes.at<double>(i, 5)});
   }
   get(c, "world/person_size_m", w.person_size_m);
   get(c, "world/person_clearance_m", w.person_clearance_m);
-  if (c.has("world/lighting_zones")) {
-    cv::Mat zones = c.getMat("world/lighting_zones");
-    constexpr int kPerZone = 5;
-    if (zones.total() % kPerZone != 0)
-      throw ConfigError(path + ": key 'world/lighting_zones' must be a flat list x0, y0, x1, y1, ratio, ...");
-    if (!zones.empty()) zones = zones.reshape(1, 1);  // [] : the building's light everywhere
+  cv::Mat zones;
+  if (getRecords(c, "world/lighting_zones", 5, "x0, y0, x1, y1, ratio", zones)) {
     w.lighting_zones.clear();
-    for (int i = 0; i + kPerZone - 1 < static_cast<int>(zones.total()); i += kPerZone)
-      w.lighting_zones.push_back({{zones.at<double>(0, i), zones.at<double>(0, i + 1)},
-                                  {zones.at<double>(0, i + 2), zones.at<double>(0, i + 3)},
-                                  zones.at<double>(0, i + 4)});
+    for (int i = 0; i < zones.rows; ++i)
+      w.lighting_zones.push_back({{zones.at<double>(i, 0), zones.at<double>(i, 1)},
+                                  {zones.at<double>(i, 2), zones.at<double>(i, 3)},
+                                  zones.at<double>(i, 4)});
   }
   get(c, "world/lighting_transition_m", w.lighting_transition_m);
   get(c, "world/ramp_start_m", w.ramp.start_m);
