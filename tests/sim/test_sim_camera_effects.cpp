@@ -9,17 +9,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ips/sim/rig.hpp"
+#include "sim_test_support.hpp"
 
 using namespace ips::sim;
 
 namespace {
 
-// Noise off, so that images compare exactly.
-Scenario quiet() {
-  Scenario sc = Scenario::defaults();
-  sc.camera.noise_sigma = 0;
-  return sc;
-}
+Scenario quiet() { return test_support::quietScenario(); }
 
 double meanAbsLaplacian(const cv::Mat& img) {
   cv::Mat lap;

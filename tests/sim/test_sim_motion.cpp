@@ -10,6 +10,7 @@
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/trajectory.hpp"
 #include "ips/sim/world.hpp"
+#include "sim_test_support.hpp"
 
 using namespace ips::sim;
 
@@ -100,29 +101,17 @@ TEST(SimImu, NoiseFreeIntegrationReproducesTrajectory) {
   ImuSimulator imu(ImuFigures::ideal(), traj, sc.start_utime, 7);
   const double duration = 20.0;  // start, corridor, turn into the room
   TrajectoryState s0 = traj.state(0);
-  Eigen::Quaterniond q = s0.orientation;
-  Eigen::Vector3d v = s0.velocity, p = s0.position;
-  const Eigen::Vector3d g(0, 0, -sc.gravity);
+  test_support::Strapdown nav(s0, sc.gravity);
   ImuMeasurement prev = imu.next();
   double max_pos_err = 0, max_att_err = 0;
   while (true) {
     const ImuMeasurement cur = imu.next();
     const double t = (cur.utime_true - sc.start_utime) * 1e-6;
     if (t > duration) break;
-    const double dt = (cur.utime_true - prev.utime_true) * 1e-6;
-    // Rates linear over the interval: rotation vector with the coning term.
-    const Eigen::Vector3d w0 = prev.angular_rate, w1 = cur.angular_rate;
-    const Eigen::Vector3d phi = 0.5 * (w0 + w1) * dt + (dt * dt / 12.0) * w0.cross(w1);
-    const Eigen::Quaterniond dq(
-        Eigen::AngleAxisd(phi.norm(), phi.norm() > 0 ? phi.normalized() : Eigen::Vector3d::UnitX()));
-    const Eigen::Quaterniond q1 = (q * dq).normalized();
-    const Eigen::Vector3d a0 = q * prev.specific_force + g, a1 = q1 * cur.specific_force + g;
-    p += v * dt + dt * dt / 6.0 * (2 * a0 + a1);
-    v += 0.5 * (a0 + a1) * dt;
-    q = q1;
+    nav.step(prev, cur);
     const TrajectoryState s = traj.state(t);
-    max_pos_err = std::max(max_pos_err, (p - s.position).norm());
-    max_att_err = std::max(max_att_err, rotationVector(s.orientation.conjugate() * q).norm());
+    max_pos_err = std::max(max_pos_err, (nav.p - s.position).norm());
+    max_att_err = std::max(max_att_err, rotationVector(s.orientation.conjugate() * nav.q).norm());
     prev = cur;
   }
   const TrajectoryState end = traj.state(duration);

@@ -12,17 +12,13 @@
 #include <optional>
 
 #include "ips/sim/rig.hpp"
+#include "sim_test_support.hpp"
 
 using namespace ips::sim;
 
 namespace {
 
-// Noise off, so that renderings compare exactly.
-Scenario quiet() {
-  Scenario sc = Scenario::defaults();
-  sc.camera.noise_sigma = 0;
-  return sc;
-}
+Scenario quiet() { return test_support::quietScenario(); }
 
 // The head held still at the walk's first waypoint, looking along +x down the south corridor, and two people in
 // front of it: one crossing the corridor 3 m ahead (standing a second at each wall), one walking to and from the head
@@ -106,40 +102,29 @@ double walkingTime(const Person& person, double from, double to, double span) {
   return from;
 }
 
-struct Strapdown {
+struct StrapdownErrors {
   double max_error = 0, max_vertical_error = 0, climb = 0;  // [m]; climb: highest integrated height over the start's
 };
 
 // The ideal IMU of the scenario integrated (strapdown, as SimImu.NoiseFreeIntegrationReproducesTrajectory does) from
 // the true state at t0 to t1, against the trajectory.
-Strapdown integrateIdealImu(const Scenario& sc, double t0, double t1) {
+StrapdownErrors integrateIdealImu(const Scenario& sc, double t0, double t1) {
   const Trajectory traj(sc.trajectory, sc.gravity);
   ImuSimulator imu(ImuFigures::ideal(), traj, sc.start_utime, 7);
   ImuMeasurement prev = imu.next();
   while ((prev.utime_true - sc.start_utime) * 1e-6 < t0) prev = imu.next();
   const TrajectoryState s0 = traj.state((prev.utime_true - sc.start_utime) * 1e-6);
-  Eigen::Quaterniond q = s0.orientation;
-  Eigen::Vector3d v = s0.velocity, p = s0.position;
-  const Eigen::Vector3d g(0, 0, -sc.gravity);
-  Strapdown out;
+  test_support::Strapdown nav(s0, sc.gravity);
+  StrapdownErrors out;
   while (true) {
     const ImuMeasurement cur = imu.next();
     const double t = (cur.utime_true - sc.start_utime) * 1e-6;
     if (t > t1) break;
-    const double dt = (cur.utime_true - prev.utime_true) * 1e-6;
-    const Eigen::Vector3d w0 = prev.angular_rate, w1 = cur.angular_rate;
-    const Eigen::Vector3d phi = 0.5 * (w0 + w1) * dt + (dt * dt / 12.0) * w0.cross(w1);
-    const Eigen::Quaterniond dq(
-        Eigen::AngleAxisd(phi.norm(), phi.norm() > 0 ? phi.normalized() : Eigen::Vector3d::UnitX()));
-    const Eigen::Quaterniond q1 = (q * dq).normalized();
-    const Eigen::Vector3d a0 = q * prev.specific_force + g, a1 = q1 * cur.specific_force + g;
-    p += v * dt + dt * dt / 6.0 * (2 * a0 + a1);
-    v += 0.5 * (a0 + a1) * dt;
-    q = q1;
+    nav.step(prev, cur);
     const TrajectoryState s = traj.state(t);
-    out.max_error = std::max(out.max_error, (p - s.position).norm());
-    out.max_vertical_error = std::max(out.max_vertical_error, std::abs(p.z() - s.position.z()));
-    out.climb = std::max(out.climb, p.z() - s0.position.z());
+    out.max_error = std::max(out.max_error, (nav.p - s.position).norm());
+    out.max_vertical_error = std::max(out.max_vertical_error, std::abs(nav.p.z() - s.position.z()));
+    out.climb = std::max(out.climb, nav.p.z() - s0.position.z());
     prev = cur;
   }
   return out;
@@ -370,7 +355,7 @@ TEST(SimRamp, ImuFollowsTheWalkerUpAndDown) {
   ASSERT_FALSE(std::isnan(t0) || std::isnan(t1));
   Scenario flat = sc;
   flat.world.ramp = flat.trajectory.floor_ramp = Ramp();
-  const Strapdown over_ramp = integrateIdealImu(sc, t0, t1), on_flat = integrateIdealImu(flat, t0, t1);
+  const StrapdownErrors over_ramp = integrateIdealImu(sc, t0, t1), on_flat = integrateIdealImu(flat, t0, t1);
   std::printf(
       "[ RAMP     ] ideal IMU over the ramp (%.1f s): max position error %.2e m (flat walk %.2e m), vertical "
       "%.2e m (flat %.2e m); integrated climb %.3f m\n",
