@@ -67,8 +67,9 @@ TEST(SimCameraEffects, MotionBlurGrowsWithTheExposureAndSmoothsTheImage) {
             0.95 * meanAbsLaplacian(plain.renderer.render(kWalkingFrame).left));
 }
 
-// The reference of the blur: the mean of renderings at sub-times of the exposure, made here with the scene renderer
-// directly (a float image, so only the 8-bit rounding of the simulator's image separates them).
+// The reference of the blur: the exposure's integral, here the mean of three times as many renderings over the
+// exposure as any tile took, made with the scene renderer directly (float images). Each tile takes only the sub-images
+// its own streaks need; the result must be as close to the integral as the whole image at the most sub-images.
 TEST(SimCameraEffects, MotionBlurMatchesTheMeanOfRenderingsOverTheExposure) {
   Scenario sc = quiet();
   sc.camera.exposure_us = 12000;
@@ -85,20 +86,28 @@ TEST(SimCameraEffects, MotionBlurMatchesTheMeanOfRenderingsOverTheExposure) {
     scene.render(view, rig.head.cam0InWorld(rig.trajectory.pose(time)), &radiance, nullptr);
     return cv::Mat(radiance * rig.renderer.gain(0));
   };
-  cv::Mat reference = cv::Mat::zeros(view.height, view.width, CV_32F);
-  for (int j = 0; j < n; ++j) reference += renderAt(t + exposure_s * ((j + 0.5) / n - 0.5)) / n;
-  reference = cv::min(reference, 255.0);  // the camera's 8 bits clip
-  const cv::Mat sharp = cv::min(renderAt(t), 255.0);
+  auto meanOver = [&](int samples) {
+    cv::Mat mean = cv::Mat::zeros(view.height, view.width, CV_32F);
+    for (int j = 0; j < samples; ++j) mean += renderAt(t + exposure_s * ((j + 0.5) / samples - 0.5)) / samples;
+    return cv::Mat(cv::min(mean, 255.0));  // the camera's 8 bits clip
+  };
+  const cv::Mat reference = meanOver(3 * n), uniform = meanOver(n), sharp = cv::min(renderAt(t), 255.0);
   cv::Mat blurred;
   f.left.convertTo(blurred, CV_32F);
-  const double error = cv::mean(cv::abs(blurred - reference))[0], unblurred = cv::mean(cv::abs(sharp - reference))[0];
+  auto meanError = [&](const cv::Mat& image) { return cv::mean(cv::abs(image - reference))[0]; };
+  cv::Mat uniform8;
+  uniform.convertTo(uniform8, CV_8U);  // rounded as the camera rounds
+  uniform8.convertTo(uniform8, CV_32F);
+  const double error = meanError(blurred), error_uniform = meanError(uniform8), unblurred = meanError(sharp);
   std::printf(
-      "[ BLUR     ] against %d renderings over the exposure: mean |difference| %.2f grey levels (sharp: %.2f)\n", n,
-      error, unblurred);
-  // Rounding to grey levels alone: |uniform(-0.5, 0.5)| has the mean 0.25.
-  EXPECT_LT(error, 0.27);
+      "[ BLUR     ] against the mean of %d renderings over the exposure, mean |difference| in grey levels: per tile "
+      "%.3f, the whole image at %d sub-images %.3f, sharp %.3f\n",
+      3 * n, error, n, error_uniform, unblurred);
+  // A tile's sub-images lie up to blur_step_px apart, where the whole image at the most sub-images has them closer
+  // in the slower tiles: at depth edges that shows as steps of 1/n of the edge's contrast. Measured: 0.037 grey levels
+  // more on the mean; rounding to 8 bits alone gives 0.25.
+  EXPECT_LT(error, error_uniform + 0.05);
   EXPECT_GT(unblurred, 2 * error);
-  EXPECT_LT(cv::norm(blurred, reference, cv::NORM_INF), 0.5 + 1e-3);
 }
 
 TEST(SimCameraEffects, AutoExposureBringsEachCameraToTheTargetGrey) {

@@ -245,7 +245,8 @@ TEST(SimPeople, MotionBlurFollowsTheirMotion) {
   const StereoFrame moving = rig.renderer.render(walking), still = rig.renderer.render(standing);
   const double t = (moving.utime_true - sc.start_utime) * 1e-6, exposure_s = sc.camera.exposure_us * 1e-6;
   const int n = moving.blur_samples[0];
-  // The streak: 1.2 m/s x 12 ms at 3 m is 3.6 px; in steps of blur_step_px 1 px, 5 sub-images.
+  // The streak: 1.2 m/s x 12 ms at 3 m is 3.6 px; in steps of blur_step_px 1 px, 9 sub-images (a power of 3) in the
+  // tiles the person crosses.
   EXPECT_GE(n, 3);
   EXPECT_EQ(still.blur_samples[0], 1);
   const SceneRenderer scene(rig.world, sc.camera.near_m);

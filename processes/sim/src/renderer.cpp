@@ -162,10 +162,14 @@ std::vector<SceneRenderer::CamQuad> SceneRenderer::prepare(const Eigen::Isometry
   return out;
 }
 
-void SceneRenderer::raster(const View& view, const std::vector<CamQuad>& quads, Buffers& buf, int ty) const {
+void SceneRenderer::raster(const View& view, const std::vector<CamQuad>& quads, Buffers& buf, int ty,
+                           const uint8_t* tiles) const {
   const int y0 = ty * View::kTile, y1 = std::min(view.height, y0 + View::kTile);
+  const uint8_t* row_tiles = tiles ? tiles + static_cast<size_t>(ty) * view.tiles_x : nullptr;
+  auto drawn = [&](int tx) { return !row_tiles || row_tiles[tx]; };
   float row_min = std::numeric_limits<float>::max(), row_max = -row_min;
   for (int tx = 0; tx < view.tiles_x; ++tx) {
+    if (!drawn(tx)) continue;
     const cv::Vec4f& tb = view.tile_bounds[static_cast<size_t>(ty) * view.tiles_x + tx];
     row_min = std::min(row_min, tb[2]);
     row_max = std::max(row_max, tb[3]);
@@ -179,6 +183,7 @@ void SceneRenderer::raster(const View& view, const std::vector<CamQuad>& quads, 
     const CamQuad& q = quads[k];
     if (q.bounds[2] > row_max || q.bounds[3] < row_min) continue;
     for (int tx = 0; tx < view.tiles_x; ++tx) {
+      if (!drawn(tx)) continue;
       const cv::Vec4f& tb = view.tile_bounds[static_cast<size_t>(ty) * view.tiles_x + tx];
       if (q.bounds[0] > tb[1] || q.bounds[1] < tb[0] || q.bounds[2] > tb[3] || q.bounds[3] < tb[2]) continue;
       const int x0 = tx * View::kTile, x1 = std::min(view.width, x0 + View::kTile);
@@ -267,8 +272,10 @@ constexpr int kExposureMeterStep = 4;
 }  // namespace
 
 void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads, const Buffers& buf, int y, float gain,
-                             float noise_sigma, uint64_t noise_seed, uint8_t* out8, float* out32) const {
+                             float noise_sigma, uint64_t noise_seed, uint8_t* out8, float* out32, int x_begin,
+                             int x_end) const {
   const size_t row = static_cast<size_t>(y) * view.width;
+  if (x_end < 0) x_end = view.width;
   uint64_t state = noise_seed;
   // Irwin-Hall: the sum of four 16-bit uniforms, scaled to unit variance (var of one U(0,1) is 1/12).
   const float noise_scale = noise_sigma * std::sqrt(3.0f) / 65536.0f;
@@ -281,7 +288,7 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
   // origin + s axis_s + t axis_t, takes its own factor.
   bool lit_per_pixel = false;
   float plan_x0 = 0, plan_y0 = 0, plan_xs = 0, plan_ys = 0, plan_xt = 0, plan_yt = 0;
-  for (int x = 0; x < view.width; ++x) {
+  for (int x = x_begin; x < x_end; ++x) {
     const int32_t id = buf.id[row + x];
     float value = 0;
     if (id >= 0) {
@@ -340,23 +347,26 @@ void SceneRenderer::shadeRow(const View& view, const std::vector<CamQuad>& quads
 }
 
 void SceneRenderer::render(const View& view, const Eigen::Isometry3d& T_world_cam, double t, cv::Mat* radiance,
-                           cv::Mat* depth) const {
+                           cv::Mat* depth, const std::vector<uint8_t>* tiles) const {
   const std::vector<Quad> people = world_.peopleAt(t);
-  renderQuads(view, prepare(T_world_cam, &people), radiance, depth);
+  renderQuads(view, prepare(T_world_cam, &people), radiance, depth, tiles);
 }
 
 void SceneRenderer::render(const View& view, const Eigen::Isometry3d& T_world_cam, cv::Mat* radiance,
                            cv::Mat* depth) const {
-  renderQuads(view, prepare(T_world_cam), radiance, depth);
+  renderQuads(view, prepare(T_world_cam), radiance, depth, nullptr);
 }
 
-void SceneRenderer::renderQuads(const View& view, const std::vector<CamQuad>& quads, cv::Mat* radiance,
-                                cv::Mat* depth) const {
+void SceneRenderer::renderQuads(const View& view, const std::vector<CamQuad>& quads, cv::Mat* radiance, cv::Mat* depth,
+                                const std::vector<uint8_t>* tiles) const {
+  if (tiles && tiles->size() != static_cast<size_t>(view.tiles_x) * view.tiles_y)
+    throw std::invalid_argument("SceneRenderer::render: need one flag per tile of the view");
+  const uint8_t* marks = tiles ? tiles->data() : nullptr;
   Buffers buf;
   buf.z.assign(static_cast<size_t>(view.width) * view.height, std::numeric_limits<float>::infinity());
   buf.id.assign(buf.z.size(), -1);
   cv::parallel_for_(cv::Range(0, view.tiles_y), [&](const cv::Range& r) {
-    for (int ty = r.start; ty < r.end; ++ty) raster(view, quads, buf, ty);
+    for (int ty = r.start; ty < r.end; ++ty) raster(view, quads, buf, ty, marks);
   });
   if (depth) {
     depth->create(view.height, view.width, CV_32F);
@@ -368,8 +378,20 @@ void SceneRenderer::renderQuads(const View& view, const std::vector<CamQuad>& qu
   }
   if (radiance) {
     radiance->create(view.height, view.width, CV_32F);
+    if (marks) *radiance = 0.0f;
     cv::parallel_for_(cv::Range(0, view.height), [&](const cv::Range& r) {
-      for (int y = r.start; y < r.end; ++y) shadeRow(view, quads, buf, y, 1, 0, 0, nullptr, radiance->ptr<float>(y));
+      for (int y = r.start; y < r.end; ++y) {
+        float* out = radiance->ptr<float>(y);
+        if (!marks) {
+          shadeRow(view, quads, buf, y, 1, 0, 0, nullptr, out);
+          continue;
+        }
+        const uint8_t* row_tiles = marks + static_cast<size_t>(y / View::kTile) * view.tiles_x;
+        for (int tx = 0; tx < view.tiles_x; ++tx)
+          if (row_tiles[tx])
+            shadeRow(view, quads, buf, y, 1, 0, 0, nullptr, out, tx * View::kTile,
+                     std::min(view.width, (tx + 1) * View::kTile));
+      }
     });
   }
 }
@@ -462,20 +484,36 @@ void StereoRenderer::renderWithEffects(int64_t k, int c, double t, const Exposur
   const Eigen::Isometry3d T_world_mid = cameraInWorld(t, c);
   cv::Mat radiance, depth, sub;
   scene_.render(v, T_world_mid, t, &radiance, &depth);
-  int n = 1;
+  int n_most = 1;
   if (cf.motion_blur) {
     const double exposure_s = e.exposure_us * 1e-6, t_a = t - 0.5 * exposure_s, t_b = t + 0.5 * exposure_s;
-    n = blurSamples(depth, c, cameraInWorld(t_a, c), T_world_mid, cameraInWorld(t_b, c), t_a, t_b);
-    // The sub-images at the middles of n equal parts of the exposure; n is odd, so the middle one is rendered.
-    for (int j = 0; j < n; ++j) {
-      if (2 * j + 1 == n) continue;
-      const double t_sub = t + exposure_s * ((j + 0.5) / n - 0.5);
-      scene_.render(v, cameraInWorld(t_sub, c), t_sub, &sub, nullptr);
-      radiance += sub;
+    const std::vector<int> n_tile =
+        blurSamplesPerTile(depth, c, cameraInWorld(t_a, c), T_world_mid, cameraInWorld(t_b, c), t_a, t_b);
+    n_most = *std::max_element(n_tile.begin(), n_tile.end());
+    // A tile with n sub-images takes them at the middles of n equal parts of the exposure, t + j / n exposure for
+    // j = -(n-1)/2 .. (n-1)/2 (n odd: the middle one is the image rendered above). With n = 3^k these times are among
+    // those of n_most: sub-image i of n_most (time i / n_most) serves every tile whose n_most / n divides i.
+    const int half = (n_most - 1) / 2;
+    std::vector<uint8_t> tiles(n_tile.size());
+    for (int i = -half; i <= half; ++i) {
+      if (i == 0) continue;
+      bool any = false;
+      for (size_t k = 0; k < n_tile.size(); ++k) any |= tiles[k] = i % (n_most / n_tile[k]) == 0;
+      if (!any) continue;
+      const double t_sub = t + exposure_s * i / n_most;
+      scene_.render(v, cameraInWorld(t_sub, c), t_sub, &sub, nullptr, &tiles);
+      radiance += sub;  // zero outside the tiles drawn
     }
-    if (n > 1) radiance /= n;
+    for (int ty = 0; ty < v.tiles_y; ++ty)
+      for (int tx = 0; tx < v.tiles_x; ++tx) {
+        const int n = n_tile[static_cast<size_t>(ty) * v.tiles_x + tx];
+        if (n == 1) continue;
+        const cv::Rect tile(tx * View::kTile, ty * View::kTile, std::min(View::kTile, v.width - tx * View::kTile),
+                            std::min(View::kTile, v.height - ty * View::kTile));
+        radiance(tile) /= n;
+      }
   }
-  *samples = n;
+  *samples = n_most;
   // Grey = the fixed gain x the loop's gain x the exposure against the reference x the illumination x the mean
   // radiance; the sensor's noise is amplified by the loop's gain as well.
   const float scale = static_cast<float>(gain_[c] * e.gain * e.exposure_us / cf.exposure_us);
@@ -549,96 +587,84 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   return frame;
 }
 
-int StereoRenderer::blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_world_a,
-                                const Eigen::Isometry3d& T_world_mid, const Eigen::Isometry3d& T_world_b, double t_a,
-                                double t_b) const {
-  const Eigen::Isometry3d T_a_mid = T_world_a.inverse() * T_world_mid, T_b_mid = T_world_b.inverse() * T_world_mid;
-  // The longest streak: where the points seen on a grid of pixels at the exposure's middle are at its start and end.
+std::vector<int> StereoRenderer::blurSamplesPerTile(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_world_a,
+                                                    const Eigen::Isometry3d& T_world_mid,
+                                                    const Eigen::Isometry3d& T_world_b, double t_a, double t_b) const {
   const CameraFigures& cf = scenario_.camera;
   const View& v = raw_[c];
   const ips::CameraIntrinsics& cam = c == 0 ? head_.calibration.cam0 : head_.calibration.cam1;
-  std::vector<cv::Point3d> points;
+  // The points seen on a grid of pixels at the exposure's middle, where they are at its start and end, each in the
+  // camera of that time. A point on a person (within kOnPerson_m of its box at the middle) moves with the person.
+  constexpr double kOnPerson_m = 0.05;
+  const double t_mid = 0.5 * (t_a + t_b);
+  const Eigen::Isometry3d T_a_world = T_world_a.inverse(), T_b_world = T_world_b.inverse();
+  auto personAt = [&](const Person& person, double time) {
+    const Eigen::Vector2d centre = person.centre(time);
+    return Eigen::Vector3d(centre.x(), centre.y(), world_.ramp.floorHeight(centre));
+  };
+  std::vector<Eigen::Vector3d> people_mid;  // the foot of each box's centre at the middle
+  for (const Person& person : world_.people) people_mid.push_back(personAt(person, t_mid));
+  std::vector<cv::Point3d> at_a, at_b;
+  std::vector<cv::Point2d> grid_px;
   for (int y = kBlurGridStep / 2; y < v.height; y += kBlurGridStep)
     for (int x = kBlurGridStep / 2; x < v.width; x += kBlurGridStep) {
       const size_t i = static_cast<size_t>(y) * v.width + x;
       const double z = depth.at<float>(y, x);
       if (!(z > 0)) continue;
-      points.emplace_back(v.rx[i] * z, v.ry[i] * z, z);
+      Eigen::Vector3d p_a = T_world_mid * Eigen::Vector3d(v.rx[i] * z, v.ry[i] * z, z), p_b = p_a;
+      for (size_t k = 0; k < world_.people.size(); ++k) {
+        const Person& person = world_.people[k];
+        const Eigen::Vector3d d = p_a - people_mid[k];
+        const Eigen::Vector2d along = person.forward(), across(-along.y(), along.x());
+        const Eigen::Vector2d d2 = d.head<2>();
+        if (std::abs(d2.dot(across)) > 0.5 * person.size_m.x() + kOnPerson_m ||
+            std::abs(d2.dot(along)) > 0.5 * person.size_m.y() + kOnPerson_m || d.z() < -kOnPerson_m ||
+            d.z() > person.size_m.z() + kOnPerson_m)
+          continue;
+        p_b += personAt(person, t_b) - people_mid[k];
+        p_a += personAt(person, t_a) - people_mid[k];
+        break;
+      }
+      p_a = T_a_world * p_a;
+      p_b = T_b_world * p_b;
+      at_a.emplace_back(p_a.x(), p_a.y(), p_a.z());
+      at_b.emplace_back(p_b.x(), p_b.y(), p_b.z());
+      grid_px.emplace_back(x, y);
     }
-  auto project = [&](const std::vector<cv::Point3d>& pts, const Eigen::Isometry3d& T) {
-    if (pts.empty()) return std::vector<cv::Point2d>();
-    cv::Mat R(3, 3, CV_64F), rvec;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) R.at<double>(i, j) = T.linear()(i, j);
-    cv::Rodrigues(R, rvec);
-    const cv::Mat tvec = (cv::Mat_<double>(3, 1) << T.translation().x(), T.translation().y(), T.translation().z());
+  auto project = [&](const std::vector<cv::Point3d>& pts) {
     std::vector<cv::Point2d> px;
+    if (pts.empty()) return px;
+    const cv::Mat zero = cv::Mat::zeros(3, 1, CV_64F);
     if (cam.model == ips::DistortionModel::kEquidistant)
-      cv::fisheye::projectPoints(pts, px, rvec, tvec, cam.cvK(), cam.cvDistortion());
+      cv::fisheye::projectPoints(pts, px, zero, zero, cam.cvK(), cam.cvDistortion());
     else
-      cv::projectPoints(pts, rvec, tvec, cam.cvK(), cam.cvDistortion(), px);
+      cv::projectPoints(pts, zero, zero, cam.cvK(), cam.cvDistortion(), px);
     return px;
   };
-  const std::vector<cv::Point2d> pa = project(points, T_a_mid), pb = project(points, T_b_mid);
-  double longest = 0;
-  for (size_t i = 0; i < pa.size(); ++i) longest = std::max(longest, cv::norm(pb[i] - pa[i]));
-  // The people move on their own: the corners of the boxes of those seen at the exposure's middle, where they are at
-  // its start and end, each in the camera of that time.
-  if (!world_.people.empty()) {
-    // The lens's field of view in normalised coordinates: beyond it the distortion polynomial folds points back into
-    // the image, with streaks that mean nothing.
-    float fov[4] = {std::numeric_limits<float>::max(), -std::numeric_limits<float>::max(),
-                    std::numeric_limits<float>::max(), -std::numeric_limits<float>::max()};
-    for (const cv::Vec4f& b : v.tile_bounds) {
-      fov[0] = std::min(fov[0], b[0]);
-      fov[1] = std::max(fov[1], b[1]);
-      fov[2] = std::min(fov[2], b[2]);
-      fov[3] = std::max(fov[3], b[3]);
-    }
-    auto inView = [&](const Eigen::Vector3d& p) {
-      return p.z() > cf.near_m && p.x() > fov[0] * p.z() && p.x() < fov[1] * p.z() && p.y() > fov[2] * p.z() &&
-             p.y() < fov[3] * p.z();
-    };
-    auto toCv = [](const Eigen::Vector3d& p) { return cv::Point3d(p.x(), p.y(), p.z()); };
-    const Eigen::Isometry3d T_a_world = T_world_a.inverse(), T_mid_world = T_world_mid.inverse(),
-                            T_b_world = T_world_b.inverse(), identity = Eigen::Isometry3d::Identity();
-    const double t_mid = 0.5 * (t_a + t_b);
-    std::vector<cv::Point3d> corners_a, corners_b;
-    for (const Person& person : world_.people) {
-      auto cornersAt = [&](double time) { return person.corners(time, world_.ramp.floorHeight(person.centre(time))); };
-      // Seen: a corner drawn a tenth into the box lies in view with nothing nearer in the depth buffer (the box's own
-      // surface is within a few centimetres of it).
-      constexpr double kInset = 0.9, kSurfaceTolerance_m = 0.05;
-      const std::array<Eigen::Vector3d, 8> mid = cornersAt(t_mid);
-      const Eigen::Vector3d centre = 0.125 * std::accumulate(mid.begin(), mid.end(), Eigen::Vector3d::Zero().eval());
-      std::vector<cv::Point3d> probes;
-      for (const Eigen::Vector3d& corner : mid) {
-        const Eigen::Vector3d p = T_mid_world * (centre + kInset * (corner - centre));
-        if (inView(p)) probes.push_back(toCv(p));
+  const std::vector<cv::Point2d> pa = project(at_a), pb = project(at_b);
+  // The longest streak that reaches each tile. A streak drawn at the exposure's middle at a grid point runs half its
+  // length either way along the image motion, so it counts in every tile within that distance.
+  std::vector<float> streak(static_cast<size_t>(v.tiles_x) * v.tiles_y, 0.0f);
+  for (size_t i = 0; i < pa.size(); ++i) {
+    const double length = cv::norm(pb[i] - pa[i]), r = 0.5 * length;
+    const cv::Point2d& mid = grid_px[i];
+    const int tx0 = std::max(0, static_cast<int>(std::floor((mid.x - r) / View::kTile)));
+    const int tx1 = std::min(v.tiles_x - 1, static_cast<int>(std::floor((mid.x + r) / View::kTile)));
+    const int ty0 = std::max(0, static_cast<int>(std::floor((mid.y - r) / View::kTile)));
+    const int ty1 = std::min(v.tiles_y - 1, static_cast<int>(std::floor((mid.y + r) / View::kTile)));
+    for (int ty = ty0; ty <= ty1; ++ty)
+      for (int tx = tx0; tx <= tx1; ++tx) {
+        float& s = streak[static_cast<size_t>(ty) * v.tiles_x + tx];
+        s = std::max(s, static_cast<float>(length));
       }
-      bool seen = false;
-      const std::vector<cv::Point2d> px = project(probes, identity);
-      for (size_t i = 0; i < px.size() && !seen; ++i) {
-        const int x = static_cast<int>(std::lround(px[i].x)), y = static_cast<int>(std::lround(px[i].y));
-        if (x < 0 || y < 0 || x >= v.width || y >= v.height) continue;
-        const float z = depth.at<float>(y, x);
-        seen = z > 0 && z > probes[i].z - kSurfaceTolerance_m;
-      }
-      if (!seen) continue;
-      const std::array<Eigen::Vector3d, 8> at_a = cornersAt(t_a), at_b = cornersAt(t_b);
-      for (int i = 0; i < 8; ++i) {
-        const Eigen::Vector3d a = T_a_world * at_a[i], b = T_b_world * at_b[i];
-        if (!inView(a) || !inView(b)) continue;
-        corners_a.push_back(toCv(a));
-        corners_b.push_back(toCv(b));
-      }
-    }
-    const std::vector<cv::Point2d> qa = project(corners_a, identity), qb = project(corners_b, identity);
-    for (size_t i = 0; i < qa.size(); ++i) longest = std::max(longest, cv::norm(qb[i] - qa[i]));
   }
-  int n = std::clamp(static_cast<int>(std::ceil(longest / cf.blur_step_px)), 1, cf.max_blur_samples);
-  if (n % 2 == 0) n = n + 1 <= cf.max_blur_samples ? n + 1 : n - 1;
-  return n;
+  std::vector<int> n_tile(streak.size());
+  for (size_t k = 0; k < streak.size(); ++k) {
+    int n = 1;
+    while (n < cf.max_blur_samples && streak[k] > n * cf.blur_step_px) n *= 3;
+    n_tile[k] = n;
+  }
+  return n_tile;
 }
 
 cv::Mat StereoRenderer::rectifiedDepth(double t, int camera) const {

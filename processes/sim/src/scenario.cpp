@@ -291,9 +291,10 @@ void Scenario::validate() const {
   require(camera.near_m > 0, "camera/near_m must be positive");
   require(camera.exposure_us > 0 && camera.exposure_us < 1e6 / camera.rate_hz,
           "camera/exposure_us must be positive and shorter than the frame interval");
-  require(camera.blur_step_px > 0 && camera.max_blur_samples >= 1 && camera.max_blur_samples <= 63 &&
-              camera.max_blur_samples % 2 == 1,
-          "camera/blur_step_px must be positive, max_blur_samples odd in 1..63");
+  const int blur_bound = camera.max_blur_samples;
+  require(camera.blur_step_px > 0 &&
+              (blur_bound == 1 || blur_bound == 3 || blur_bound == 9 || blur_bound == 27 || blur_bound == 81),
+          "camera/blur_step_px must be positive, max_blur_samples a power of 3 in 1..81");
   require(camera.ae_target_grey > 0 && camera.ae_target_grey < 255 && camera.ae_min_exposure_us > 0 &&
               camera.ae_min_exposure_us <= camera.ae_max_exposure_us &&
               camera.ae_max_exposure_us < 1e6 / camera.rate_hz && camera.ae_max_gain_db >= 0,

@@ -42,9 +42,10 @@ class SceneRenderer {
   explicit SceneRenderer(const World& world, double near_m = 0.05);
   // The scene at scenario time t [s]: the world's static surfaces and its people where they are at t. Any of radiance
   // (CV_32F, grey levels before gain and noise) and depth (CV_32F, z [m] in the camera frame, 0 where nothing was hit)
-  // may be null. T_world_cam: camera pose (OpenCV camera frame).
-  void render(const View& view, const Eigen::Isometry3d& T_world_cam, double t, cv::Mat* radiance,
-              cv::Mat* depth) const;
+  // may be null. T_world_cam: camera pose (OpenCV camera frame). With `tiles` (one entry per View tile, row-major)
+  // only the tiles marked non-zero are drawn; the rest of radiance and depth is 0.
+  void render(const View& view, const Eigen::Isometry3d& T_world_cam, double t, cv::Mat* radiance, cv::Mat* depth,
+              const std::vector<uint8_t>* tiles = nullptr) const;
   // The static world alone (no people): what does not depend on time.
   void render(const View& view, const Eigen::Isometry3d& T_world_cam, cv::Mat* radiance, cv::Mat* depth) const;
 
@@ -63,14 +64,19 @@ class SceneRenderer {
   // at them) as the camera sees them, nearest first.
   std::vector<CamQuad> prepare(const Eigen::Isometry3d& T_world_cam, const std::vector<Quad>* moving = nullptr) const;
   const World& world() const { return world_; }
-  void raster(const View& view, const std::vector<CamQuad>& quads, Buffers& buf, int tile_row) const;
-  // Shades one row into `out` (grey levels): gain * radiance + noise (Irwin-Hall, per-row stream), rounded to
-  // 8 bit if out8 is set, else float radiance into out32.
+  // One row of tiles; with `tiles` (one flag per tile of the view) only the marked ones.
+  void raster(const View& view, const std::vector<CamQuad>& quads, Buffers& buf, int tile_row,
+              const uint8_t* tiles = nullptr) const;
+  // Shades pixels [x_begin, x_end) of one row (x_end < 0: to the row's end) into `out` (grey levels): gain * radiance
+  // + noise (Irwin-Hall, per-row stream), rounded to 8 bit if out8 is set, else float radiance into out32. out8 and
+  // out32 point at the row's first pixel.
   void shadeRow(const View& view, const std::vector<CamQuad>& quads, const Buffers& buf, int row, float gain,
-                float noise_sigma, uint64_t noise_seed, uint8_t* out8, float* out32) const;
+                float noise_sigma, uint64_t noise_seed, uint8_t* out8, float* out32, int x_begin = 0,
+                int x_end = -1) const;
 
  private:
-  void renderQuads(const View& view, const std::vector<CamQuad>& quads, cv::Mat* radiance, cv::Mat* depth) const;
+  void renderQuads(const View& view, const std::vector<CamQuad>& quads, cv::Mat* radiance, cv::Mat* depth,
+                   const std::vector<uint8_t>* tiles) const;
 
   const World& world_;
   double near_;
@@ -97,7 +103,7 @@ struct StereoFrame {
   bool lost = false;               // dropped on the way (camera/frame_loss): no images
   double exposure_us[2] = {0, 0};  // left, right: the exposure each camera used
   double gain_db[2] = {0, 0};      // and its gain (the fixed one plus the auto exposure's)
-  int blur_samples[2] = {1, 1};    // sub-images integrated over the exposure (1: no motion blur)
+  int blur_samples[2] = {1, 1};    // the most sub-images any tile integrated over the exposure (1: no motion blur)
 };
 
 // What a camera's exposure loop chose for one image.
@@ -134,12 +140,14 @@ class StereoRenderer {
   // Renders camera c's image of frame k with the effects on: radiance integrated over the exposure, vignetting,
   // exposure and gain, then noise, into out (CV_8UC1).
   void renderWithEffects(int64_t k, int c, double t, const Exposure& e, cv::Mat& out, int* samples) const;
-  // The sub-images motion blur needs for camera c: the longest image motion over the exposure of the points seen in
-  // depth (z [m] at the exposure's middle, 0 where nothing is seen) in steps of blur_step_px, odd, at most
-  // max_blur_samples. The cameras at the exposure's start (time t_a), middle and end (t_b) in world; the people's own
-  // motion counts too (their boxes' corners at t_a and t_b).
-  int blurSamples(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_world_a, const Eigen::Isometry3d& T_world_mid,
-                  const Eigen::Isometry3d& T_world_b, double t_a, double t_b) const;
+  // The sub-images motion blur needs in each tile of camera c's view (row-major, View::kTile): 3^k for the least k
+  // that keeps neighbouring sub-images at most blur_step_px apart, at most max_blur_samples. The image motion over the
+  // exposure is measured on the points seen in depth (z [m] at the exposure's middle, 0 where nothing is seen) on a
+  // 16-pixel grid, those on a person moving with it; a streak counts in every tile it reaches. The cameras at the
+  // exposure's start (time t_a), middle and end (t_b) in world.
+  std::vector<int> blurSamplesPerTile(const cv::Mat& depth, int c, const Eigen::Isometry3d& T_world_a,
+                                      const Eigen::Isometry3d& T_world_mid, const Eigen::Isometry3d& T_world_b,
+                                      double t_a, double t_b) const;
 
   const Scenario& scenario_;
   const World& world_;

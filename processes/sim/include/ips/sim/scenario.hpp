@@ -42,10 +42,12 @@ struct CameraFigures {
   double exposure_us = 4000.0;
   // Effects of a real camera, each off by default (the easy walk; config/sim_hard.yaml switches them on).
   // Motion blur: every image integrates the scene over its exposure, rendered at sub-times close enough that
-  // neighbouring sub-images lie at most blur_step_px apart where the image moves most, at most max_blur_samples.
+  // neighbouring sub-images lie at most blur_step_px apart, tile by tile (a far wall needs fewer than the floor at the
+  // feet). A tile takes 3^k sub-images, at most max_blur_samples (a power of 3): the sub-times of 3^k are among those
+  // of 3^(k+1), so each sub-image is rendered once, over the tiles that need it.
   bool motion_blur = false;
   double blur_step_px = 1.0;
-  int max_blur_samples = 15;
+  int max_blur_samples = 27;
   // Auto exposure per camera: the exposure that brings the camera's previous image (its mean grey) to
   // ae_target_grey, as a camera's exposure loop acts on the last image; within [ae_min_exposure_us,
   // ae_max_exposure_us], beyond that the gain rises, up to ae_max_gain_db. Bright and dark views then differ in
