@@ -36,7 +36,9 @@ struct SimulatedMotion {
 
 // IMU at 200 Hz stamped on true time; tracker at 10 Hz whose stamps are late by camera_late_us. A non-zero
 // outlier_every turns every n-th tracker rotation by a wrong 3 deg (a bad pair).
-inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us, unsigned seed, int outlier_every = 0) {
+// omega: the head's angular velocity in the IMU frame over time (default: turns about all axes).
+inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us, unsigned seed, int outlier_every = 0,
+                                      Eigen::Vector3d (*omega)(double) = simulatedOmega) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> gyro_noise(0, 0.005), tracker_noise(0, 0.0005);
   SimulatedMotion s;
@@ -47,7 +49,7 @@ inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us,
   int step = 0;
   for (double t = 0; t <= duration_s + 1e-9; t += dt, ++step) {
     if (step % 10 == 0) {  // 200 Hz
-      Eigen::Vector3d w = simulatedOmega(t) + s.gyro_bias;
+      Eigen::Vector3d w = omega(t) + s.gyro_bias;
       for (int i = 0; i < 3; ++i) w[i] += gyro_noise(rng);
       s.gyro.push_back({t0 + static_cast<int64_t>(std::llround(t * 1e6)), w});
     }
@@ -63,7 +65,7 @@ inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us,
       q_prev_frame = q_w_b;
     }
     // Exact attitude propagation with the mid-point rate.
-    const Eigen::Vector3d w = simulatedOmega(t + dt / 2) * dt;
+    const Eigen::Vector3d w = omega(t + dt / 2) * dt;
     q_w_b = (q_w_b * Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized()))).normalized();
   }
   return s;

@@ -113,7 +113,9 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
     return gyro.rotation(v.t0 - delay, v.t1 - delay, bias);
   };
 
-  // 2. The rotation in closed form: camera rotation vectors = R_cam_imu * IMU rotation vectors (Kabsch).
+  // 2. The rotation in closed form: camera rotation vectors = R_cam_imu * IMU rotation vectors (Kabsch), unless known.
+  const bool rotation_known = config.known_R_imu_cam.has_value();
+  if (rotation_known) fit.R_cam_imu = config.known_R_imu_cam->transpose();
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   size_t turning = 0;
   for (const Interval& v : intervals) {
@@ -125,17 +127,20 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::Vector3d s = svd.singularValues();
   // The rotation is fixed only if the head turned about at least two different axes.
-  if (turning < config.coarse.min_intervals || !(s(1) > 1e-3 * s(0))) {
+  if (!rotation_known && (turning < config.coarse.min_intervals || !(s(1) > 1e-3 * s(0)))) {
     out.reason = "the head turned about one axis only (or too little): turn it about all axes";
     out.intervals = turning;
     return out;
   }
   Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
   D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() > 0 ? 1 : -1;
-  fit.R_cam_imu = svd.matrixV() * D * svd.matrixU().transpose();
+  if (!rotation_known) fit.R_cam_imu = svd.matrixV() * D * svd.matrixU().transpose();
 
-  // 3. Gauss-Newton on the 7 parameters with numeric derivatives, outliers left out by a robust bound.
+  // 3. Gauss-Newton on the 7 parameters (rotation, bias, delay; 4 with the rotation known) with numeric derivatives,
+  // outliers left out by a robust bound.
   constexpr int kParams = 7;
+  // The parameters fitted: all, or bias and delay (the rotation's columns of the normal equations held at zero step).
+  const int first = rotation_known ? 3 : 0, fitted = kParams - first;
   // Below this spread (rad) residuals are rounding: noise-free data must not turn every interval into an outlier.
   constexpr double kSigmaFloor = 1e-7;
   const double h_rot = 1e-6, h_bias = 1e-5, h_delay = 50.0;
@@ -183,7 +188,8 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
       JtJ += J.transpose() * J;
       Jtr += J.transpose() * r[k];
     }
-    const Eigen::Matrix<double, kParams, 1> step = -JtJ.ldlt().solve(Jtr);
+    Eigen::Matrix<double, kParams, 1> step = Eigen::Matrix<double, kParams, 1>::Zero();
+    step.tail(fitted) = -JtJ.bottomRightCorner(fitted, fitted).ldlt().solve(Jtr.tail(fitted));
     if (!step.allFinite()) break;
     fit.R_cam_imu = fit.R_cam_imu * rotationFromVector(step.head<3>());
     fit.bias += step.segment<3>(3);
@@ -202,13 +208,14 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
     }
   out.intervals = n;
   out.rejected = intervals.size() - n;
-  if (n <= static_cast<size_t>(kParams)) {
+  if (n <= static_cast<size_t>(fitted)) {
     out.reason = "too few intervals left after the outliers";
     return out;
   }
-  const double variance = sum_sq / static_cast<double>(3 * n - kParams);
-  const Eigen::Matrix<double, kParams, kParams> covariance =
-      variance * JtJ.ldlt().solve(Eigen::Matrix<double, kParams, kParams>::Identity());
+  const double variance = sum_sq / static_cast<double>(3 * n - fitted);
+  Eigen::Matrix<double, kParams, kParams> covariance = Eigen::Matrix<double, kParams, kParams>::Zero();
+  covariance.bottomRightCorner(fitted, fitted) =
+      variance * JtJ.bottomRightCorner(fitted, fitted).ldlt().solve(Eigen::MatrixXd::Identity(fitted, fitted));
   out.residual_rms_deg = std::sqrt(sum_sq / static_cast<double>(3 * n)) / kDeg;
   out.R_imu_cam = fit.R_cam_imu.transpose();
   // The perturbation is on the right of R_cam_imu, i.e. in the IMU frame.

@@ -17,6 +17,7 @@
 //      the covariance from the normal equations scaled by the residuals' spread.
 #include <Eigen/Core>
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -32,13 +33,17 @@ struct CameraImuConfig {
   // left out: a tracker delta from a bad pair must not bend the estimate.
   double outlier_sigmas = 4.0;
   double min_rotation_deg = 0.5;  // intervals turning less carry no direction for step 2 (still used in step 3)
+  // The rotation when it is known already (from a calibration): step 2 is skipped and step 3 fits the bias and the
+  // delay alone. For a running system, whose motion (a walk: turns about the vertical, the gait's sway) need not
+  // determine the rotation, but whose calibration gives it.
+  std::optional<Eigen::Matrix3d> known_R_imu_cam;
 };
 
 struct CameraImuEstimate {
   bool ok = false;
   std::string reason;                                            // why not ok
   Eigen::Matrix3d R_imu_cam = Eigen::Matrix3d::Identity();       // the rotation part of StereoCalibration::T_imu_cam0
-  Eigen::Vector3d rotation_sigma_deg = Eigen::Vector3d::Zero();  // 1 sigma per axis of the IMU frame
+  Eigen::Vector3d rotation_sigma_deg = Eigen::Vector3d::Zero();  // 1 sigma per axis of the IMU frame (0 when known)
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();           // [rad/s] in the IMU frame, over the recording
   double delay_us = 0, delay_sigma_us = 0;
   double coarse_delay_us = 0, coarse_correlation = 0;  // step 1
