@@ -174,6 +174,12 @@ void FilterProcess::reportCounters(fw::Health& health) const {
   }
   health.set("imu_gaps", est_.imuGaps());
   health.set("starts_in_motion", est_.startsInMotion());
+  // The camera's delay against the IMU as estimated online [us], whether it is applied, and how often it ran.
+  const filter::CameraDelayEstimator::Figures& delay = est_.cameraDelay();
+  health.set("camera_delay_us", std::llround(delay.delay_us));
+  health.set("camera_delay_sigma_us", std::llround(delay.sigma_us));
+  health.set("camera_delay_applied", delay.applied ? 1 : 0);
+  health.set("camera_delay_estimates", delay.estimates);
 }
 
 }  // namespace ips::filter_app

@@ -36,6 +36,7 @@ Matrix21d initialCovariance(const InitParams& ip) {
 Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
     : params_(params),
       T_imu_cam0_(calib.T_imu_cam0),
+      camera_delay_(params.camera_delay, calib.T_imu_cam0.linear(), params.camera_latency_us),
       R_body_tilt_(calib.T_imu_cam0.linear() * calib.R_tilt_cam0.transpose()) {
   run_.kf = makeKalmanFilter(params_);
   run_.counts = true;
@@ -82,6 +83,7 @@ void Estimator::addImu(const ImuSample& s) {
   e.imu = s;
   e.time = s.utime - params_.imu_latency_us;
   e.imu.utime = e.time;
+  camera_delay_.addGyro(e.time, s.angular_rate);
   insert(std::move(e));
 }
 
@@ -109,7 +111,7 @@ void Estimator::addCloudDelta(const TrackerDelta& d) {
 
 void Estimator::addKeyframe(int64_t utime) {
   if (!params_.cloud) return;
-  keyframe_times_.insert(utime - params_.camera_latency_us);
+  keyframe_times_.insert(utime - camera_delay_.latencyAt(utime));
   // Only the newest announcements can still pin a clone (the older ones are pinned or gone already).
   const size_t keep = static_cast<size_t>(params_.max_keyframe_clones + params_.max_clones);
   while (keyframe_times_.size() > keep) keyframe_times_.erase(keyframe_times_.begin());
@@ -132,8 +134,9 @@ void Estimator::addDelta(const TrackerDelta& d, Sensor sensor) {
   Event e;
   e.sensor = sensor;
   e.delta = checked;
-  e.delta.utime = d.utime - params_.camera_latency_us;
-  e.delta.utime_prev = d.utime_prev - params_.camera_latency_us;
+  if (sensor == kSensorTracker && checked.valid) camera_delay_.addDelta(d.utime_prev, d.utime, d.rotation);
+  e.delta.utime = d.utime - camera_delay_.latencyAt(d.utime);
+  e.delta.utime_prev = d.utime_prev - camera_delay_.latencyAt(d.utime_prev);
   e.time = e.delta.utime;
   if (e.time <= processed_time_) {
     // Deltas come late by nature (after the tracker or the mapper ran): they act on the clones, which are kept.
@@ -167,7 +170,7 @@ void Estimator::pruneClones(KalmanFilter& kf) {
 std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
   Event e;
   e.sensor = kSensorImage;
-  e.time = utime - params_.camera_latency_us;
+  e.time = utime - camera_delay_.latencyAt(utime);
   const int64_t t = e.time;
   if (t < processed_time_) {
     if (initialized_) ++counters_[kSensorImage].too_late;

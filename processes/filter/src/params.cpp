@@ -67,6 +67,19 @@ FilterParams loadFilterParams(const Config& c) {
   p.imu_latency_us = c.getInt("latency_us/imu", static_cast<int>(p.imu_latency_us));
   p.tilt_latency_us = c.getInt("latency_us/tilt", static_cast<int>(p.tilt_latency_us));
   p.camera_latency_us = c.getInt("latency_us/camera", static_cast<int>(p.camera_latency_us));
+  CameraDelayParams& cd = p.camera_delay;
+  cd.estimate = c.getBool("camera_delay/estimate", cd.estimate);
+  cd.max_us = c.getInt("camera_delay/max_us", static_cast<int>(cd.max_us));
+  cd.every_intervals = c.getInt("camera_delay/every_intervals", cd.every_intervals);
+  cd.window_intervals = c.getInt("camera_delay/window_intervals", cd.window_intervals);
+  cd.min_intervals = c.getInt("camera_delay/min_intervals", cd.min_intervals);
+  cd.min_rate = c.getDouble("camera_delay/min_rate", cd.min_rate);
+  cd.max_sigma_us = c.getDouble("camera_delay/max_sigma_us", cd.max_sigma_us);
+  if (cd.max_us <= 0 || cd.max_us > 1'000'000 || cd.every_intervals < 1 || cd.min_intervals < 20 ||
+      cd.window_intervals < cd.min_intervals || cd.min_rate < 0 || !(cd.max_sigma_us > 0))
+    throw ConfigError(c.path() +
+                      ": camera_delay: need 0 < max_us <= 1e6, every_intervals >= 1, min_intervals >= 20, "
+                      "window_intervals >= min_intervals, min_rate >= 0, max_sigma_us > 0");
 
   p.reorder_window_us = c.getInt("reorder_window_us", static_cast<int>(p.reorder_window_us));
   nonNegative(c, "reorder_window_us", static_cast<double>(p.reorder_window_us));

@@ -26,6 +26,7 @@
 #include <vector>
 
 #include "ips/calibration.hpp"
+#include "ips/filter/camera_delay.hpp"
 #include "ips/filter/kalman.hpp"
 #include "ips/filter/params.hpp"
 #include "ips/filter/state.hpp"
@@ -123,6 +124,8 @@ class Estimator {
   const KalmanFilter& filter() const { return *run_.kf; }
   const std::array<SensorCounters, kNumSensors>& counters() const { return counters_; }
   int64_t imuGaps() const { return imu_gaps_; }
+  // The camera's delay against the IMU as estimated online (FilterParams::camera_delay).
+  const CameraDelayEstimator::Figures& cameraDelay() const { return camera_delay_.figures(); }
   const FilterParams& params() const { return params_; }
 
  private:
@@ -166,6 +169,8 @@ class Estimator {
 
   FilterParams params_;
   Eigen::Isometry3d T_imu_cam0_;
+  // The latency of each camera stamp: the configured one until the online estimate is certain.
+  CameraDelayEstimator camera_delay_;
   Eigen::Matrix3d R_body_tilt_;
   double gyro_sigma_, accel_sigma_;
   double gate2_, gate6_;
