@@ -30,6 +30,12 @@ if [ "${IPS_SEEDS:-1}" -gt 1 ]; then
     IPS_SEEDS=1 IPS_SEED=$seed "$ROOT/tools/main_job.sh" "$@" || echo "[main job] seed $seed: the job failed (its report says why)"
     runs+=("$(readlink -f "$ROOT/out/latest")")
     ln -sfn "${runs[-1]}" "$seeds_dir/seed_$seed"
+    # The simulated walk (about 3 GB) goes once its report is written: `sim --seed N` renders it again byte for
+    # byte, and ten of them would fill a disk. IPS_KEEP_LOGS=1 keeps them.
+    if [ "${IPS_KEEP_LOGS:-0}" != 1 ] && [ -f "${runs[-1]}/walk.lcmlog" ] && [ ! -L "${runs[-1]}/walk.lcmlog" ]; then
+      rm -f "${runs[-1]}/walk.lcmlog"
+      echo "[main job] seed $seed: its simulated walk removed (sim --seed $seed renders it again; IPS_KEEP_LOGS=1 keeps it)"
+    fi
   done
   ips_seeds --runs "$(IFS=,; echo "${runs[*]}")" --out "$seeds_dir/seeds.json" | tee "$seeds_dir/seeds.txt"
   ln -sfn "$(basename "$seeds_dir")" "$ROOT/out/latest"
