@@ -115,26 +115,29 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
 
   // 2. The rotation in closed form: camera rotation vectors = R_cam_imu * IMU rotation vectors (Kabsch), unless known.
   const bool rotation_known = config.known_R_imu_cam.has_value();
-  if (rotation_known) fit.R_cam_imu = config.known_R_imu_cam->transpose();
-  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-  size_t turning = 0;
-  for (const Interval& v : intervals) {
-    const Eigen::Vector3d a = rotationVector(v.R_tracker), b = rotationVector(gyroOf(v, fit.bias, fit.delay_us));
-    if (a.norm() < config.min_rotation_deg * kDeg || b.norm() < config.min_rotation_deg * kDeg) continue;
-    H += b * a.transpose();
-    ++turning;
+  if (rotation_known) {
+    fit.R_cam_imu = config.known_R_imu_cam->transpose();
+  } else {
+    Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+    size_t turning = 0;
+    for (const Interval& v : intervals) {
+      const Eigen::Vector3d a = rotationVector(v.R_tracker), b = rotationVector(gyroOf(v, fit.bias, fit.delay_us));
+      if (a.norm() < config.min_rotation_deg * kDeg || b.norm() < config.min_rotation_deg * kDeg) continue;
+      H += b * a.transpose();
+      ++turning;
+    }
+    const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Vector3d s = svd.singularValues();
+    // The rotation is fixed only if the head turned about at least two different axes.
+    if (turning < config.coarse.min_intervals || !(s(1) > 1e-3 * s(0))) {
+      out.reason = "the head turned about one axis only (or too little): turn it about all axes";
+      out.intervals = turning;
+      return out;
+    }
+    Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+    D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() > 0 ? 1 : -1;
+    fit.R_cam_imu = svd.matrixV() * D * svd.matrixU().transpose();
   }
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  const Eigen::Vector3d s = svd.singularValues();
-  // The rotation is fixed only if the head turned about at least two different axes.
-  if (!rotation_known && (turning < config.coarse.min_intervals || !(s(1) > 1e-3 * s(0)))) {
-    out.reason = "the head turned about one axis only (or too little): turn it about all axes";
-    out.intervals = turning;
-    return out;
-  }
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixV() * svd.matrixU().transpose()).determinant() > 0 ? 1 : -1;
-  if (!rotation_known) fit.R_cam_imu = svd.matrixV() * D * svd.matrixU().transpose();
 
   // 3. Gauss-Newton on the 7 parameters (rotation, bias, delay; 4 with the rotation known) with numeric derivatives,
   // outliers left out by a robust bound.
@@ -172,12 +175,13 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
       if (!kept[k]) continue;
       const Interval& v = intervals[k];
       const Eigen::Matrix3d G = gyroOf(v, fit.bias, fit.delay_us);
-      Eigen::Matrix<double, 3, kParams> J;
+      Eigen::Matrix<double, 3, kParams> J = Eigen::Matrix<double, 3, kParams>::Zero();
       for (int j = 0; j < 3; ++j) {
         const Eigen::Vector3d e = Eigen::Vector3d::Unit(j);
-        J.col(j) = (residual(v, fit.R_cam_imu * rotationFromVector(h_rot * e), G) -
-                    residual(v, fit.R_cam_imu * rotationFromVector(-h_rot * e), G)) /
-                   (2 * h_rot);
+        if (!rotation_known)
+          J.col(j) = (residual(v, fit.R_cam_imu * rotationFromVector(h_rot * e), G) -
+                      residual(v, fit.R_cam_imu * rotationFromVector(-h_rot * e), G)) /
+                     (2 * h_rot);
         J.col(3 + j) = (residual(v, fit.R_cam_imu, gyroOf(v, fit.bias + h_bias * e, fit.delay_us)) -
                         residual(v, fit.R_cam_imu, gyroOf(v, fit.bias - h_bias * e, fit.delay_us))) /
                        (2 * h_bias);
