@@ -10,13 +10,13 @@ namespace ips::eval {
 std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scenario_path, double duration_s,
                                                   const tracker::TrackerParams& params, SimPrior prior_mode,
                                                   const std::function<void(const SimFrameError&)>& each,
-                                                  const SimGuide& guide) {
+                                                  const SimGuide& guide, const StereoCalibration* told) {
   const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
   const sim::Rig rig(sc);
   sim::ImuSimulator imu(sc.imu, rig.trajectory, sc.start_utime, sc.seed);
   sim::ImuMeasurement next_imu = imu.next();
 
-  tracker::StereoTracker tracker(rig.head.calibration, params);
+  tracker::StereoTracker tracker(told ? *told : rig.head.calibration, params);
   const int64_t frames = int64_t(std::floor(duration_s * sc.camera.rate_hz)) + 1;
   std::vector<SimFrameError> out;
   Eigen::Isometry3d prev_cam = Eigen::Isometry3d::Identity();

@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "ips/tracker/motion.hpp"
@@ -235,4 +237,40 @@ TEST(Motion, FarRotationNeedsEnoughPoints) {
   EXPECT_FALSE(
       estimateFarRotation(cam, far, Eigen::Vector3d::Zero(), Eigen::Matrix3d::Identity() * 1e-4, MotionParams(), fp)
           .valid);
+}
+
+// A right principal point 0.4 px off the calibration's: every disparity is 0.4 px short, the far points' depths are
+// too long by more than the near ones', and the two disagree about the motion. One pair's inliers observe the
+// offset; with it applied, the pair observes no further correction and the translation comes out right.
+TEST(Motion, DisparityOffsetObservedByOnePairAndTheTranslationRightWithIt) {
+  RectifiedStereo truth = testStereo();
+  truth.disparity_offset = 0.4;
+  const RigidMotion m = trueMotion();
+  const MotionParams params;
+  std::vector<Correspondence> corr = makeCorrespondences(truth, m, 300, params.pixel_sigma, 0, 11);
+  auto estimateWith = [&](RectifiedStereo told, MotionEstimate& est) {
+    for (Correspondence& c : corr) {
+      c.p_prev = told.triangulate(c.prev.xl, c.prev.y, c.prev.xr);
+      c.p_now = told.triangulate(c.now.xl, c.now.y, c.now.xr);
+    }
+    est = estimateMotion(told, corr, params);
+    EXPECT_TRUE(est.valid);
+    return observeDisparityOffset(told, corr, est.inliers, est.motion, params);
+  };
+  RectifiedStereo told = testStereo();
+  MotionEstimate before, after;
+  const DisparityOffsetObservation first = estimateWith(told, before);
+  ASSERT_TRUE(first.valid);
+  const double sigma = std::sqrt(first.variance_px2);
+  EXPECT_LT(sigma, 0.1);
+  EXPECT_NEAR(first.correction_px, 0.4, 4 * sigma);
+
+  told.disparity_offset = first.correction_px;
+  const DisparityOffsetObservation second = estimateWith(told, after);
+  ASSERT_TRUE(second.valid);
+  EXPECT_LT(std::abs(second.correction_px), 4 * std::sqrt(second.variance_px2));
+  const double err_before = (before.motion.t - m.t).norm(), err_after = (after.motion.t - m.t).norm();
+  EXPECT_LT(err_after, 0.5 * err_before);
+  std::printf("[ OFFSET   ] observed %.3f +- %.3f px (truth 0.4); translation error %.2f mm -> %.2f mm\n",
+              first.correction_px, sigma, 1000 * err_before, 1000 * err_after);
 }

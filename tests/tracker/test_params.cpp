@@ -34,6 +34,11 @@ TEST(Params, ConfigFileWritesOutTheDefaults) {
   EXPECT_EQ(file.motion.min_inliers, def.motion.min_inliers);
   EXPECT_DOUBLE_EQ(file.prior.cv_rotation_sigma_per_s, def.prior.cv_rotation_sigma_per_s);
   EXPECT_DOUBLE_EQ(file.prior.imu_translation_sigma_per_s, def.prior.imu_translation_sigma_per_s);
+  EXPECT_EQ(file.disparity_offset.estimate, def.disparity_offset.estimate);
+  EXPECT_DOUBLE_EQ(file.disparity_offset.initial_px, def.disparity_offset.initial_px);
+  EXPECT_DOUBLE_EQ(file.disparity_offset.gate_chi2, def.disparity_offset.gate_chi2);
+  EXPECT_DOUBLE_EQ(file.disparity_offset.apply_sigmas, def.disparity_offset.apply_sigmas);
+  EXPECT_EQ(file.disparity_offset.min_observations, def.disparity_offset.min_observations);
 }
 
 TEST(Params, PartialFileOverridesOnlyItsKeys) {
@@ -49,7 +54,7 @@ TEST(Params, BadValuesNameFileAndKey) {
   for (const std::string& text :
        {std::string("detector:\n  response: fast\n"), std::string("matcher:\n  ncc_half_window: 0\n"),
         std::string("detector:\n  sobel_size: 4\n"), std::string("motion:\n  min_inliers: 2\n"),
-        std::string("matcher:\n  max_disparity: 0.5\n")}) {
+        std::string("matcher:\n  max_disparity: 0.5\n"), std::string("disparity_offset:\n  apply_sigmas: -1\n")}) {
     const std::string path = writeTemp("bad.yaml", text);
     try {
       loadTrackerParams(path);

@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
     double far_matches = 0, far_inliers = 0;
     double total_ms = 0;
     ips::tracker::StageTimes stages;  // sums [ms]
-    int64_t guided = 0, wide = 0;
+    int64_t guided = 0, wide = 0, offset_observed = 0, offset_rejected = 0;
     while (log.next(&event)) {
       if (event.channel == "GT_POSE" && gt_out.is_open()) {
         ips::ground_truth_t g{};
@@ -96,6 +96,7 @@ int main(int argc, char** argv) {
         stages.rectify += r.times.rectify, stages.detect += r.times.detect, stages.intra += r.times.intra;
         stages.inter += r.times.inter, stages.motion += r.times.motion;
         guided += r.guided_pass ? 1 : 0, wide += r.wide_retry ? 1 : 0;
+        offset_observed += r.disparity_offset_observed, offset_rejected += r.disparity_offset_rejected;
         chain.add(r.utime, r.utime_prev, r.valid, r.rotation, r.translation);
         const ips::tracker::FusedIncrement fused = ips::tracker::fuseFarRotation(r, tracker.params().far.fuse_chi2);
         far_chain.add(r.utime, r.utime_prev, r.valid, fused.rotation, fused.translation);
@@ -129,6 +130,11 @@ int main(int argc, char** argv) {
         "rotation from far points: valid on %lld pairs, %.0f far matches and %.0f far inliers per pair, fused "
         "into %lld increments\n",
         static_cast<long long>(far_valid), far_matches / n, far_inliers / n, static_cast<long long>(far_used));
+    std::printf(
+        "disparity offset: estimate %.3f px (sigma %.3f px) after %lld pairs' observations (%lld refused by the gate), "
+        "in use %.3f px\n",
+        tracker.disparityOffsetEstimate(), tracker.disparityOffsetSigma(), static_cast<long long>(offset_observed),
+        static_cast<long long>(offset_rejected), tracker.disparityOffset());
     std::printf("pairs=%lld valid=%lld ms_per_pair=%.2f\n", static_cast<long long>(pairs),
                 static_cast<long long>(valid), pairs ? total_ms / pairs : 0.0);
     return 0;

@@ -1,5 +1,6 @@
 #include "tracker_process.hpp"
 
+#include <cmath>
 #include <ips/integrity_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <optional>
@@ -205,6 +206,17 @@ void TrackerProcess::processOldest() {
   if (r.far_valid) node_.health().count("far_rotation");
   if (!r.valid) node_.health().count("invalid_delta");
   if (r.retry_around_own_motion) node_.health().count("prior_overruled_by_own_motion");
+  // The disparity offset (DisparityOffsetParams) in thousandths of a pixel: in use, the running estimate, its sigma.
+  if (r.disparity_offset_rejected) node_.health().count("disparity_offset_refused");
+  if (r.disparity_offset_applied) {
+    node_.health().count("disparity_offset_applied");
+    IPS_INFO("tracker: disparity offset " << r.disparity_offset_px << " px (sigma " << r.disparity_offset_sigma_px
+                                          << ") applied from the pair after " << r.utime);
+  }
+  node_.health().set("disparity_offset_mpx", std::llround(1000 * tracker_.disparityOffset()));
+  node_.health().set("disparity_offset_estimate_mpx", std::llround(1000 * r.disparity_offset_px));
+  if (std::isfinite(r.disparity_offset_sigma_px))
+    node_.health().set("disparity_offset_sigma_mpx", std::llround(1000 * r.disparity_offset_sigma_px));
   const auto& st = tracker_.predictionStats();
   node_.health().set("prediction_ok_permille",
                      st.frames_with_prior ? 1000 * st.frames_prior_ok / st.frames_with_prior : 0);

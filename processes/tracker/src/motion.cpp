@@ -1,6 +1,7 @@
 #include "ips/tracker/motion.hpp"
 
 #include <Eigen/Cholesky>
+#include <Eigen/LU>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -33,14 +34,14 @@ Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {
 }
 
 Eigen::Vector3d RectifiedStereo::triangulate(double xl, double y, double xr) const {
-  const double d = xl - xr;
+  const double d = xl - xr + disparity_offset;
   const double z = f * baseline / d;
   return {(xl - cx) * z / f, (y - cy) * z / f, z};
 }
 
 Eigen::Vector3d RectifiedStereo::project(const Eigen::Vector3d& p) const {
   const double z = std::max(p.z(), kMinProjectionDepth);
-  return {f * p.x() / z + cx, f * p.y() / z + cy, f * (p.x() - baseline) / z + cx};
+  return {f * p.x() / z + cx, f * p.y() / z + cy, f * (p.x() - baseline) / z + cx + disparity_offset};
 }
 
 bool alignPointClouds(const std::vector<Eigen::Vector3d>& prev, const std::vector<Eigen::Vector3d>& now,
@@ -82,7 +83,7 @@ Eigen::Matrix3d RectifiedStereo::projectJacobian(const Eigen::Vector3d& p) const
 }
 
 Eigen::Matrix3d RectifiedStereo::triangulationCovariance(double xl, double y, double xr, double sigma) const {
-  const double d = xl - xr;
+  const double d = xl - xr + disparity_offset;
   const double z = f * baseline / d;
   const double dz_dxl = -z / d, dz_dxr = z / d;
   Eigen::Matrix3d j;                                               // rows X Y Z, columns xl y xr
@@ -97,12 +98,14 @@ namespace {
 // Whitened forward residual: L^-1 r with S = L L^T the residual's covariance. Returns r^T S^-1 r.
 double whitenedForward(const RectifiedStereo& cam, const Correspondence& c, const Eigen::Matrix3d& R,
                        const Eigen::Vector3d& t, const Eigen::Matrix3d& cov_prev, double sigma, Eigen::Vector3d* white,
-                       Eigen::Vector3d* raw, Eigen::Matrix<double, 3, 6>* jac = nullptr) {
+                       Eigen::Vector3d* raw, Eigen::Matrix<double, 3, 6>* jac = nullptr,
+                       Eigen::Vector3d* jac_offset = nullptr) {
   const Eigen::Vector3d p = R.transpose() * (c.p_prev - t);
   if (p.z() < kMinProjectionDepth) {
     if (white) white->setConstant(1e6);
     if (raw) raw->setConstant(1e6);
     if (jac) jac->setZero();
+    if (jac_offset) jac_offset->setZero();
     return 1e12;
   }
   const Eigen::Vector3d r = cam.project(p) - Eigen::Vector3d(c.now.xl, c.now.y, c.now.xr);
@@ -118,6 +121,12 @@ double whitenedForward(const RectifiedStereo& cam, const Correspondence& c, cons
     dp.leftCols<3>() = -R.transpose();
     dp.rightCols<3>() << 0, -p.z(), p.y(), p.z(), 0, -p.x(), -p.y(), p.x(), 0;
     *jac = llt.matrixL().solve(cam.projectJacobian(p) * dp);
+  }
+  if (jac_offset) {
+    // By the disparity offset: the older point scales with 1 / d (P = (xl - cx, y - cy, f) b / d), and the
+    // newer right column's prediction moves with the offset itself.
+    const double d = c.prev.xl - c.prev.xr + cam.disparity_offset;
+    *jac_offset = llt.matrixL().solve(J * (-c.p_prev / d) + Eigen::Vector3d::UnitZ());
   }
   return w.squaredNorm();
 }
@@ -183,6 +192,74 @@ RigidMotion refineMotion(const RectifiedStereo& cam, const std::vector<Correspon
                          Matrix6d* covariance, double* rms_px) {
   return refineWithCovariances(cam, corr, prevCovariances(cam, corr, sigma), use, initial, iterations, sigma,
                                covariance, rms_px);
+}
+
+DisparityOffsetObservation observeDisparityOffset(const RectifiedStereo& cam, const std::vector<Correspondence>& corr,
+                                                  const std::vector<int>& inliers, const RigidMotion& motion,
+                                                  const MotionParams& params) {
+  DisparityOffsetObservation out;
+  using Vector7d = Eigen::Matrix<double, 7, 1>;
+  const double sigma = params.pixel_sigma;
+  // Gauss-Newton on motion and offset together, to convergence: an offset of a few tenths of a pixel is a tenth of
+  // the smallest disparities, too much for one linear step.
+  RectifiedStereo at = cam;
+  RigidMotion m = motion;
+  std::vector<int> use = inliers;
+  constexpr int kMaxIterations = 10;
+  // The inliers were gated with the offset in use: a wrong one has thrown out the far points that disagree most, and
+  // the rest would pull the estimate back towards it. They are gated again at the estimate until they settle.
+  constexpr int kMaxRounds = 3;
+  for (int round = 0; round < kMaxRounds; ++round) {
+    const size_t num_res = use.size() * 3;
+    if (num_res <= 7) return out;
+    for (int iter = 0; iter <= kMaxIterations; ++iter) {
+      Eigen::Matrix<double, 7, 7> jtj = Eigen::Matrix<double, 7, 7>::Zero();
+      Vector7d jtr = Vector7d::Zero();
+      double chi2 = 0;
+      for (int idx : use) {
+        Correspondence c = corr[idx];
+        c.p_prev = at.triangulate(c.prev.xl, c.prev.y, c.prev.xr);
+        const Eigen::Matrix3d cov_prev = at.triangulationCovariance(c.prev.xl, c.prev.y, c.prev.xr, sigma);
+        Eigen::Vector3d w, j_offset;
+        Eigen::Matrix<double, 3, 6> J6;
+        chi2 += whitenedForward(at, c, m.R, m.t, cov_prev, sigma, &w, nullptr, &J6, &j_offset);
+        Eigen::Matrix<double, 3, 7> J;
+        J << J6, j_offset;
+        jtj += J.transpose() * J;
+        jtr += J.transpose() * w;
+      }
+      Eigen::FullPivLU<Eigen::Matrix<double, 7, 7>> lu(jtj);
+      if (!lu.isInvertible()) return out;
+      const Eigen::Matrix<double, 7, 7> inv = lu.inverse();
+      const Vector7d step = -(inv * jtr);
+      if (!step.allFinite()) return out;
+      if (iter == kMaxIterations || std::abs(step(6)) < 1e-4) {
+        out.correction_px = at.disparity_offset - cam.disparity_offset;
+        out.variance_px2 = std::max(1.0, chi2 / double(num_res - 7)) * inv(6, 6);
+        out.valid = std::isfinite(out.variance_px2) && out.variance_px2 > 0;
+        break;
+      }
+      m.t += step.head<3>();
+      m.R = m.R * expSO3(step.segment<3>(3));
+      at.disparity_offset += step(6);
+    }
+    if (!out.valid) return out;
+    std::vector<int> again;
+    for (size_t i = 0; i < corr.size(); ++i) {
+      const Correspondence& c0 = corr[i];
+      // Points that the offset moves beyond motion/max_depth stay with the near ones here: the split is the caller's.
+      if (c0.prev.xl - c0.prev.xr + at.disparity_offset <= 0) continue;
+      Correspondence c = c0;
+      c.p_prev = at.triangulate(c.prev.xl, c.prev.y, c.prev.xr);
+      const Eigen::Matrix3d cov_prev = at.triangulationCovariance(c.prev.xl, c.prev.y, c.prev.xr, sigma);
+      if (whitenedForward(at, c, m.R, m.t, cov_prev, sigma, nullptr, nullptr) < params.inlier_chi2)
+        again.push_back(int(i));
+    }
+    if (again == use || round + 1 == kMaxRounds) break;
+    use = std::move(again);
+    out.valid = false;
+  }
+  return out;
 }
 
 MotionEstimate estimateMotion(const RectifiedStereo& cam, const std::vector<Correspondence>& corr,

@@ -79,6 +79,13 @@ TrackerParams loadTrackerParams(const Config& c) {
   readInt(c, "far_rotation/ransac_iterations", fr.ransac_iterations, 1);
   readDouble(c, "far_rotation/fuse_chi2", fr.fuse_chi2, 0.0);
 
+  DisparityOffsetParams& dof = p.disparity_offset;
+  dof.estimate = c.getBool("disparity_offset/estimate", dof.estimate);
+  dof.initial_px = c.getDouble("disparity_offset/initial_px", dof.initial_px);
+  readDouble(c, "disparity_offset/gate_chi2", dof.gate_chi2, 0.0);
+  readDouble(c, "disparity_offset/apply_sigmas", dof.apply_sigmas, 0.0);
+  readInt(c, "disparity_offset/min_observations", dof.min_observations, 0);
+
   PriorParams& pr = p.prior;
   readDouble(c, "prior/cv_rotation_sigma_per_s", pr.cv_rotation_sigma_per_s, 0.0);
   readDouble(c, "prior/cv_translation_sigma_per_s", pr.cv_translation_sigma_per_s, 0.0);

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -106,6 +107,7 @@ StereoTracker::StereoTracker(const StereoCalibration& calib, const TrackerParams
   stereo_.cx = rect_.cx;
   stereo_.cy = rect_.cy;
   stereo_.baseline = rect_.baseline;
+  stereo_.disparity_offset = offset_estimate_px_ = params_.disparity_offset.initial_px;
   if (!(stereo_.f > 0) || !(stereo_.baseline > 0))
     throw std::invalid_argument("StereoTracker: rectification failed (check R_cam1_cam0, t_cam1_cam0)");
   // Fixed-point tables remap several times faster than float maps, at 1/32 px interpolation steps.
@@ -156,7 +158,7 @@ std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matri
     const double rho_now = rho / v.z();
     q.xl = stereo_.f * v.x() / v.z() + stereo_.cx;
     q.y = stereo_.f * v.y() / v.z() + stereo_.cy;
-    q.xr = q.xl - fb * rho_now;
+    q.xr = q.xl - fb * rho_now + stereo_.disparity_offset;
     if (!have_prior) {
       q.radius = mp.window_max_px;
     } else {
@@ -180,16 +182,65 @@ std::vector<Correspondence> StereoTracker::correspondences(const std::vector<Int
     c.prev = m.prev_obs;
     c.now = m.now_obs;
     c.id = m.prev;
-    const bool near = c.prev.xl - c.prev.xr >= near_disparity && c.now.xl - c.now.xr >= near_disparity;
+    const double off = stereo_.disparity_offset;
+    const bool near = c.prev.xl - c.prev.xr + off >= near_disparity && c.now.xl - c.now.xr + off >= near_disparity;
     if (!near) {
       if (far) far->push_back(c);
       continue;
     }
-    c.p_prev = ref_->points[m.prev];
+    // Triangulated again rather than taken from the reference pair: the disparity offset may have changed since.
+    c.p_prev = stereo_.triangulate(c.prev.xl, c.prev.y, c.prev.xr);
     c.p_now = stereo_.triangulate(c.now.xl, c.now.y, c.now.xr);
     out.push_back(c);
   }
   return out;
+}
+
+void StereoTracker::updateDisparityOffset(const std::vector<Correspondence>& corr, const MotionEstimate& est,
+                                          TrackResult& res) {
+  const DisparityOffsetParams& p = params_.disparity_offset;
+  res.disparity_offset_used_px = stereo_.disparity_offset;
+  if (!p.estimate) return;
+  const DisparityOffsetObservation obs = observeDisparityOffset(stereo_, corr, est.inliers, est.motion, params_.motion);
+  if (!obs.valid) return;
+  // The pairs' corrections since the offset in use was set, averaged with their inverse variances. A pair's
+  // correction comes out somewhat short of the whole (its disparities are noisy, which dilutes the near/far
+  // contrast the offset is seen in), so the average is applied and the average begins anew against it: each round
+  // takes the rest of the way.
+  const double mean = offset_weight_ > 0 ? offset_weighted_sum_ / offset_weight_ : 0.0;
+  const double mean_var = offset_weight_ > 0 ? offset_variance_px2_ : std::numeric_limits<double>::infinity();
+  const double innovation = obs.correction_px - mean;
+  if (innovation * innovation / (obs.variance_px2 + mean_var) > p.gate_chi2) {
+    res.disparity_offset_rejected = true;
+    return;
+  }
+  const double w = 1.0 / obs.variance_px2;
+  offset_weighted_sum_ += w * obs.correction_px;
+  offset_weight_ += w;
+  offset_w2_ += w * w;
+  offset_w2_sum_ += w * w * obs.correction_px;
+  offset_w2_sum2_ += w * w * obs.correction_px * obs.correction_px;
+  ++offset_observations_;
+  ++offset_round_observations_;
+  res.disparity_offset_observed = true;
+  const double correction = offset_weighted_sum_ / offset_weight_;
+  // The average's variance from the pairs' own variances, or from the corrections' scatter where that is larger
+  // (sum w^2 (c - mean)^2 / (sum w)^2): on a real head the pairs' variances can be too small, and a right offset
+  // must not be moved on their word.
+  const double n = offset_round_observations_;
+  const double scatter =
+      n > 1 ? (offset_w2_sum2_ - 2 * correction * offset_w2_sum_ + correction * correction * offset_w2_) /
+                  (offset_weight_ * offset_weight_) * n / (n - 1)
+            : 0.0;
+  const double sigma = std::sqrt(std::max(1.0 / offset_weight_, scatter));
+  offset_estimate_px_ = stereo_.disparity_offset + correction;
+  offset_variance_px2_ = sigma * sigma;
+  if (offset_round_observations_ >= p.min_observations && std::abs(correction) > p.apply_sigmas * sigma) {
+    stereo_.disparity_offset = offset_estimate_px_;
+    offset_weighted_sum_ = offset_weight_ = offset_w2_ = offset_w2_sum_ = offset_w2_sum2_ = 0;
+    offset_round_observations_ = 0;
+    res.disparity_offset_applied = true;
+  }
 }
 
 TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const cv::Mat& right_raw,
@@ -349,7 +400,10 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
                                 std::abs(c.now.y - q.y) <= params_.matcher.prior_ok_px;
     }
     res.prediction_ok_ratio = double(res.num_predictions_ok) / double(est.inliers.size());
+    updateDisparityOffset(used_corr, est, res);
   }
+  res.disparity_offset_px = offset_estimate_px_;
+  res.disparity_offset_sigma_px = disparityOffsetSigma();
   res.prior_ok = have_prior && est.valid && res.prediction_ok_ratio >= params_.matcher.prior_ok_fraction;
   if (have_prior) {
     stats_.frames_with_prior++;

@@ -32,10 +32,11 @@ struct SimFrameError {
 using SimGuide = std::function<const tracker::DisparityGuide*(const tracker::StereoTracker&, const sim::StereoFrame&)>;
 
 // Frames 0 .. floor(duration * rate); `each` sees every frame after the first.
+// `told`: the calibration the tracker gets (default: the head's true one).
 std::vector<SimFrameError> runTrackerOnSimulation(const std::string& scenario_path, double duration_s,
                                                   const tracker::TrackerParams& params, SimPrior prior_mode,
                                                   const std::function<void(const SimFrameError&)>& each = {},
-                                                  const SimGuide& guide = {});
+                                                  const SimGuide& guide = {}, const StereoCalibration* told = nullptr);
 
 // One pair of the epipolar integrity monitor on the simulated head (runIntegrityOnSimulation).
 struct SimIntegrityFrame {

@@ -19,13 +19,16 @@ using Matrix6d = Eigen::Matrix<double, 6, 6>;
 // The rectified stereo pinhole: both cameras share f, cx, cy; the right one sits `baseline` metres along +x.
 struct RectifiedStereo {
   double f = 0, cx = 0, cy = 0, baseline = 0;
+  // The right camera's principal point minus the left's [px] (DisparityOffsetParams): a right column is
+  // xr = cx + disparity_offset + f (X - b) / Z, so the disparity of a point is xl - xr + disparity_offset.
+  double disparity_offset = 0;
 
   // Point in the rectified left camera from a left pixel (xl, y) and the right column xr (same row).
   Eigen::Vector3d triangulate(double xl, double y, double xr) const;
   // The same point in inverse depth, defined also at infinity (disparity 0) and beyond (noise): X = ray / rho with
   // ray = ((xl - cx) / f, (y - cy) / f, 1) and rho = (xl - xr) / (f b).
   Eigen::Vector3d ray(double xl, double y) const { return {(xl - cx) / f, (y - cy) / f, 1.0}; }
-  double inverseDepth(double xl, double xr) const { return (xl - xr) / (f * baseline); }
+  double inverseDepth(double xl, double xr) const { return (xl - xr + disparity_offset) / (f * baseline); }
   // Projection into left (x, y) and right (x) of a point in the rectified left camera.
   Eigen::Vector3d project(const Eigen::Vector3d& p) const;
   // d project / d point at p.
@@ -103,6 +106,20 @@ struct FarRotationEstimate {
 FarRotationEstimate estimateFarRotation(const RectifiedStereo& cam, const std::vector<Correspondence>& far,
                                         const Eigen::Vector3d& t, const Eigen::Matrix3d& t_cov,
                                         const MotionParams& motion, const FarRotationParams& params);
+
+// What one pair says about the disparity offset: the correction to add to cam.disparity_offset that minimises the
+// whitened reprojection errors of the inliers jointly with the motion (Gauss-Newton on 7 parameters from the 6-DoF
+// estimate; the inliers gated again at the result), and its variance [px^2], scaled by the residuals' variance factor
+// (at least 1). Inliers all at about one depth do not tell the offset from the motion's
+// length: the variance is then large. valid = false with fewer than three inliers or a singular system.
+struct DisparityOffsetObservation {
+  bool valid = false;
+  double correction_px = 0;
+  double variance_px2 = 0;
+};
+DisparityOffsetObservation observeDisparityOffset(const RectifiedStereo& cam, const std::vector<Correspondence>& corr,
+                                                  const std::vector<int>& inliers, const RigidMotion& motion,
+                                                  const MotionParams& params);
 
 Eigen::Matrix3d expSO3(const Eigen::Vector3d& w);
 Eigen::Vector3d logSO3(const Eigen::Matrix3d& R);

@@ -75,6 +75,22 @@ struct FarRotationParams {
   double fuse_chi2 = 16.27;     // fuseFarRotation's gate on the two rotations' difference (3 dof, 99.9 %)
 };
 
+// Self-calibration of the disparity's zero: the right rectified camera's principal point against the left's. A
+// calibration leaves it a few tenths of a pixel off (each principal point to about 0.3 px), and such an offset
+// scales every depth by d / (d + offset): little for near points, much for far ones, so the translation between two
+// pairs comes out too long or too short, by the same factor on every pair. Near and far points disagree about the
+// motion unless the offset is right, so each pair observes it (7 parameters instead of 6 in the refinement). The
+// pairs' corrections are averaged, and the average replaces the offset in use for the following pairs once it is
+// more than apply_sigmas of its sigmas from zero (so that a right calibration is kept exactly); then the average
+// begins anew.
+struct DisparityOffsetParams {
+  bool estimate = true;
+  double initial_px = 0;      // the offset known beforehand (an earlier run's estimate); 0: the calibration's
+  double gate_chi2 = 10.83;   // a pair's correction against the average (1 dof, 99.9 %)
+  double apply_sigmas = 4.0;  // applied when the average is this many sigmas from zero (tested on every pair) ...
+  int min_observations = 20;  // ... and has this many pairs (their points are not independent)
+};
+
 struct PriorParams {
   // Constant-velocity prior: the last delta scaled to the new interval, with this 1-sigma uncertainty
   // per second of interval (the motion changes between frames).
@@ -92,6 +108,7 @@ struct TrackerParams {
   MatcherParams matcher;
   MotionParams motion;
   FarRotationParams far;
+  DisparityOffsetParams disparity_offset;
   PriorParams prior;
 };
 

@@ -8,7 +8,9 @@
 // Knows nothing of LCM; TrackResult maps one to one onto ips_tracker_delta_t.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <opencv2/core.hpp>
 
@@ -76,6 +78,14 @@ struct TrackResult {
   int num_far_inliers = 0;
   double far_residual_rms_px = 0;
 
+  // The disparity offset (DisparityOffsetParams) this pair was triangulated with, and the estimate after it.
+  double disparity_offset_used_px = 0;
+  double disparity_offset_px = 0;
+  double disparity_offset_sigma_px = 0;
+  bool disparity_offset_observed = false;  // this pair's observation entered the estimate
+  bool disparity_offset_rejected = false;  // ... or its gate refused it
+  bool disparity_offset_applied = false;   // the estimate replaced the offset in use after this pair
+
   Eigen::Vector3d rotationVector() const;
 };
 
@@ -123,6 +133,12 @@ class StereoTracker {
   const StereoCalibration& calibration() const { return calib_; }
   const RectifiedStereo& rectifiedStereo() const { return stereo_; }
   const PredictionStats& predictionStats() const { return stats_; }
+  // The disparity offset in use [px], its estimate and the estimate's 1-sigma (infinite before the first
+  // observation).
+  double disparityOffset() const { return stereo_.disparity_offset; }
+  double disparityOffsetEstimate() const { return offset_estimate_px_; }
+  double disparityOffsetSigma() const { return std::sqrt(offset_variance_px2_); }
+  int disparityOffsetObservations() const { return offset_observations_; }
   const TrackerParams& params() const { return params_; }
 
   // The last processed rectified pair and its stereo features (for tools and tests).
@@ -160,6 +176,15 @@ class StereoTracker {
   RigidMotion last_delta_;  // camera 0 frame
   double last_dt_s_ = 0;
   PredictionStats stats_;
+  // The disparity offset's estimate (a constant of the head) and its variance (infinite before any observation);
+  // the weighted corrections since stereo_.disparity_offset was last set.
+  double offset_estimate_px_ = 0;
+  double offset_variance_px2_ = std::numeric_limits<double>::infinity();
+  int offset_observations_ = 0;
+  double offset_weighted_sum_ = 0, offset_weight_ = 0;             // sum w c, sum w (w = 1 / a pair's variance)
+  double offset_w2_ = 0, offset_w2_sum_ = 0, offset_w2_sum2_ = 0;  // sum w^2, sum w^2 c, sum w^2 c^2
+  int offset_round_observations_ = 0;
+  void updateDisparityOffset(const std::vector<Correspondence>& corr, const MotionEstimate& est, TrackResult& res);
 };
 
 }  // namespace ips::tracker
