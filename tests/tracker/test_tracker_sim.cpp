@@ -4,21 +4,30 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 
 #include "ips/eval/tracker_on_sim.hpp"
 
 using namespace ips::tracker;
 
-TEST(TrackerSim, WalkRelativePoseErrorPerFrame) {
-  // The default walk (config/sim_walk.yaml holds its defaults) without the still start, so that the 2.5 s
-  // tracked here are walking.
+namespace {
+
+// The default walk (config/sim_walk.yaml holds its defaults) without the still start, so that what is tracked is
+// walking from the first pair.
+std::string walkWithoutStillStart() {
   const std::string scenario = testing::TempDir() + "/walk_without_still_start.yaml";
-  {
-    FILE* f = std::fopen(scenario.c_str(), "w");
-    ASSERT_NE(f, nullptr);
-    std::fputs("%YAML:1.0\n---\ntrajectory:\n  start_still_s: 0\n", f);
-    std::fclose(f);
-  }
+  FILE* f = std::fopen(scenario.c_str(), "w");
+  if (!f) throw std::runtime_error("cannot write " + scenario);
+  std::fputs("%YAML:1.0\n---\ntrajectory:\n  start_still_s: 0\n", f);
+  std::fclose(f);
+  return scenario;
+}
+
+}  // namespace
+
+TEST(TrackerSim, WalkRelativePoseErrorPerFrame) {
+  const std::string scenario = walkWithoutStillStart();
   std::vector<double> rot, pct;
   const auto errors =
       ips::eval::runTrackerOnSimulation(scenario, 2.5, TrackerParams(), ips::eval::SimPrior::ConstantVelocity);
@@ -45,13 +54,7 @@ TEST(TrackerSim, WalkRelativePoseErrorPerFrame) {
 // it, a disparity offset of that size. The tracker finds it while walking, applies it, and the later deltas' lengths
 // are right (without it they would be 1-3 % too long).
 TEST(TrackerSim, DisparityOffsetFoundFromAShiftedRightPrincipalPoint) {
-  const std::string scenario = testing::TempDir() + "/walk_without_still_start_offset.yaml";
-  {
-    FILE* f = std::fopen(scenario.c_str(), "w");
-    ASSERT_NE(f, nullptr);
-    std::fputs("%YAML:1.0\n---\ntrajectory:\n  start_still_s: 0\n", f);
-    std::fclose(f);
-  }
+  const std::string scenario = walkWithoutStillStart();
   const ips::sim::Rig rig(ips::sim::Scenario::load(scenario));
   ips::StereoCalibration told = rig.head.calibration;
   const double shift_px = 0.5;

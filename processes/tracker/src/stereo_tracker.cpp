@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <memory>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -95,7 +94,7 @@ MotionPrior MotionPrior::fromImuRates(const Eigen::Vector3d& omega_imu, const Ei
 }
 
 StereoTracker::StereoTracker(const StereoCalibration& calib, const TrackerParams& params)
-    : params_(params), calib_(calib) {
+    : params_(params), calib_(calib), offset_(params.disparity_offset) {
   if (calib.cam0.width <= 0 || calib.cam0.height <= 0 || calib.cam0.width != calib.cam1.width ||
       calib.cam0.height != calib.cam1.height)
     throw std::invalid_argument("StereoTracker: both cameras need the same positive image size");
@@ -107,7 +106,7 @@ StereoTracker::StereoTracker(const StereoCalibration& calib, const TrackerParams
   stereo_.cx = rect_.cx;
   stereo_.cy = rect_.cy;
   stereo_.baseline = rect_.baseline;
-  stereo_.disparity_offset = offset_estimate_px_ = params_.disparity_offset.initial_px;
+  stereo_.disparity_offset = offset_.inUse();
   if (!(stereo_.f > 0) || !(stereo_.baseline > 0))
     throw std::invalid_argument("StereoTracker: rectification failed (check R_cam1_cam0, t_cam1_cam0)");
   // Fixed-point tables remap several times faster than float maps, at 1/32 px interpolation steps.
@@ -133,7 +132,7 @@ void StereoTracker::reset() {
 
 std::vector<Prediction> StereoTracker::predict(const RigidMotion& m, const Matrix6d& cov, bool have_prior) const {
   const MatcherParams& mp = params_.matcher;
-  std::vector<Prediction> out(ref_->points.size());
+  std::vector<Prediction> out(ref_->features.size());
   // Image-space 1-sigma of the prediction: rotation moves every point by about f * angle, translation by
   // f * shift / depth.
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot_eig(cov.bottomRightCorner<3, 3>(), Eigen::EigenvaluesOnly);
@@ -198,49 +197,15 @@ std::vector<Correspondence> StereoTracker::correspondences(const std::vector<Int
 
 void StereoTracker::updateDisparityOffset(const std::vector<Correspondence>& corr, const MotionEstimate& est,
                                           TrackResult& res) {
-  const DisparityOffsetParams& p = params_.disparity_offset;
   res.disparity_offset_used_px = stereo_.disparity_offset;
-  if (!p.estimate) return;
+  if (!params_.disparity_offset.estimate) return;
   const DisparityOffsetObservation obs = observeDisparityOffset(stereo_, corr, est.inliers, est.motion, params_.motion);
   if (!obs.valid) return;
-  // The pairs' corrections since the offset in use was set, averaged with their inverse variances. A pair's
-  // correction comes out somewhat short of the whole (its disparities are noisy, which dilutes the near/far
-  // contrast the offset is seen in), so the average is applied and the average begins anew against it: each round
-  // takes the rest of the way.
-  const double mean = offset_weight_ > 0 ? offset_weighted_sum_ / offset_weight_ : 0.0;
-  const double mean_var = offset_weight_ > 0 ? offset_variance_px2_ : std::numeric_limits<double>::infinity();
-  const double innovation = obs.correction_px - mean;
-  if (innovation * innovation / (obs.variance_px2 + mean_var) > p.gate_chi2) {
-    res.disparity_offset_rejected = true;
-    return;
-  }
-  const double w = 1.0 / obs.variance_px2;
-  offset_weighted_sum_ += w * obs.correction_px;
-  offset_weight_ += w;
-  offset_w2_ += w * w;
-  offset_w2_sum_ += w * w * obs.correction_px;
-  offset_w2_sum2_ += w * w * obs.correction_px * obs.correction_px;
-  ++offset_observations_;
-  ++offset_round_observations_;
-  res.disparity_offset_observed = true;
-  const double correction = offset_weighted_sum_ / offset_weight_;
-  // The average's variance from the pairs' own variances, or from the corrections' scatter where that is larger
-  // (sum w^2 (c - mean)^2 / (sum w)^2): on a real head the pairs' variances can be too small, and a right offset
-  // must not be moved on their word.
-  const double n = offset_round_observations_;
-  const double scatter =
-      n > 1 ? (offset_w2_sum2_ - 2 * correction * offset_w2_sum_ + correction * correction * offset_w2_) /
-                  (offset_weight_ * offset_weight_) * n / (n - 1)
-            : 0.0;
-  const double sigma = std::sqrt(std::max(1.0 / offset_weight_, scatter));
-  offset_estimate_px_ = stereo_.disparity_offset + correction;
-  offset_variance_px2_ = sigma * sigma;
-  if (offset_round_observations_ >= p.min_observations && std::abs(correction) > p.apply_sigmas * sigma) {
-    stereo_.disparity_offset = offset_estimate_px_;
-    offset_weighted_sum_ = offset_weight_ = offset_w2_ = offset_w2_sum_ = offset_w2_sum2_ = 0;
-    offset_round_observations_ = 0;
-    res.disparity_offset_applied = true;
-  }
+  const DisparityOffsetEstimator::Outcome o = offset_.add(obs.correction_px, obs.variance_px2);
+  res.disparity_offset_observed = o.observed;
+  res.disparity_offset_rejected = o.refused;
+  res.disparity_offset_applied = o.applied;
+  stereo_.disparity_offset = offset_.inUse();
 }
 
 TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const cv::Mat& right_raw,
@@ -275,9 +240,6 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
   } else {
     cur_->features = matchAlongRows(cur_->left, cur_->right, corners, params_.matcher);
   }
-  cur_->points.resize(cur_->features.size());
-  for (size_t i = 0; i < cur_->features.size(); ++i)
-    cur_->points[i] = stereo_.triangulate(cur_->features.xl[i], cur_->features.y[i], cur_->features.xr[i]);
   cur_->valid = true;
   res.num_intra_matches = int(cur_->features.size());
   res.times.intra = msSince(t0);
@@ -402,8 +364,8 @@ TrackResult StereoTracker::process(int64_t utime, const cv::Mat& left_raw, const
     res.prediction_ok_ratio = double(res.num_predictions_ok) / double(est.inliers.size());
     updateDisparityOffset(used_corr, est, res);
   }
-  res.disparity_offset_px = offset_estimate_px_;
-  res.disparity_offset_sigma_px = disparityOffsetSigma();
+  res.disparity_offset_px = offset_.estimate();
+  res.disparity_offset_sigma_px = offset_.sigma();
   res.prior_ok = have_prior && est.valid && res.prediction_ok_ratio >= params_.matcher.prior_ok_fraction;
   if (have_prior) {
     stats_.frames_with_prior++;

@@ -8,13 +8,12 @@
 // Knows nothing of LCM; TrackResult maps one to one onto ips_tracker_delta_t.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
-#include <cmath>
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <opencv2/core.hpp>
 
 #include "ips/calibration.hpp"
+#include "ips/tracker/disparity_offset.hpp"
 #include "ips/tracker/matching.hpp"
 #include "ips/tracker/motion.hpp"
 #include "ips/tracker/params.hpp"
@@ -136,9 +135,8 @@ class StereoTracker {
   // The disparity offset in use [px], its estimate and the estimate's 1-sigma (infinite before the first
   // observation).
   double disparityOffset() const { return stereo_.disparity_offset; }
-  double disparityOffsetEstimate() const { return offset_estimate_px_; }
-  double disparityOffsetSigma() const { return std::sqrt(offset_variance_px2_); }
-  int disparityOffsetObservations() const { return offset_observations_; }
+  double disparityOffsetEstimate() const { return offset_.estimate(); }
+  double disparityOffsetSigma() const { return offset_.sigma(); }
   const TrackerParams& params() const { return params_; }
 
   // The last processed rectified pair and its stereo features (for tools and tests).
@@ -155,7 +153,6 @@ class StereoTracker {
     cv::Mat left, right;  // rectified
     std::vector<Corner> corners;
     StereoFeatures features;
-    std::vector<Eigen::Vector3d> points;  // rectified left camera
     bool valid = false;
   };
   std::vector<Prediction> predict(const RigidMotion& m_rect, const Matrix6d& cov_rect, bool have_prior) const;
@@ -176,14 +173,7 @@ class StereoTracker {
   RigidMotion last_delta_;  // camera 0 frame
   double last_dt_s_ = 0;
   PredictionStats stats_;
-  // The disparity offset's estimate (a constant of the head) and its variance (infinite before any observation);
-  // the weighted corrections since stereo_.disparity_offset was last set.
-  double offset_estimate_px_ = 0;
-  double offset_variance_px2_ = std::numeric_limits<double>::infinity();
-  int offset_observations_ = 0;
-  double offset_weighted_sum_ = 0, offset_weight_ = 0;             // sum w c, sum w (w = 1 / a pair's variance)
-  double offset_w2_ = 0, offset_w2_sum_ = 0, offset_w2_sum2_ = 0;  // sum w^2, sum w^2 c, sum w^2 c^2
-  int offset_round_observations_ = 0;
+  DisparityOffsetEstimator offset_;  // its inUse() is stereo_.disparity_offset
   void updateDisparityOffset(const std::vector<Correspondence>& corr, const MotionEstimate& est, TrackResult& res);
 };
 

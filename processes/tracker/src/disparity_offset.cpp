@@ -1,0 +1,42 @@
+#include "ips/tracker/disparity_offset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace ips::tracker {
+
+double DisparityOffsetEstimator::sigma() const {
+  if (!(weight_ > 0)) return std::numeric_limits<double>::infinity();
+  const double c = mean(), n = count_;
+  // sum w^2 (c_i - mean)^2 / (sum w)^2, unbiased by n / (n - 1).
+  const double scatter = n > 1 ? (w2_sum2_ - 2 * c * w2_sum_ + c * c * w2_) / (weight_ * weight_) * n / (n - 1) : 0.0;
+  return std::sqrt(std::max(1.0 / weight_, scatter));
+}
+
+DisparityOffsetEstimator::Outcome DisparityOffsetEstimator::add(double correction_px, double variance_px2) {
+  Outcome out;
+  const double s = sigma();
+  const double innovation = correction_px - mean();
+  if (innovation * innovation / (variance_px2 + s * s) > params_.gate_chi2) {
+    out.refused = true;
+    return out;
+  }
+  const double w = 1.0 / variance_px2;
+  weighted_sum_ += w * correction_px;
+  weight_ += w;
+  w2_ += w * w;
+  w2_sum_ += w * w * correction_px;
+  w2_sum2_ += w * w * correction_px * correction_px;
+  ++count_;
+  out.observed = true;
+  if (count_ >= params_.min_observations && std::abs(mean()) > params_.apply_sigmas * sigma()) {
+    in_use_ = estimate();
+    count_ = 0;
+    weighted_sum_ = weight_ = w2_ = w2_sum_ = w2_sum2_ = 0;
+    out.applied = true;
+  }
+  return out;
+}
+
+}  // namespace ips::tracker
