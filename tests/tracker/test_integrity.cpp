@@ -155,16 +155,31 @@ TEST(Integrity, RectificationWithARightCorrectionKeepsTheLeftAndTurnsTheRight) {
   EXPECT_EQ(cv::norm(plain.map0y, turned.map0y, cv::NORM_INF), 0.0);
   EXPECT_EQ(plain.f, turned.f);
   EXPECT_EQ(plain.baseline, turned.baseline);
+  // wx and wz turn the camera; the yaw wy moves rows only.
+  const Eigen::Vector3d turn(c.rotation.x(), 0, c.rotation.z());
   const Eigen::Matrix3d expected =
-      Eigen::AngleAxisd(c.rotation.norm(), c.rotation.normalized()).toRotationMatrix() * plain.R_rect1_cam1;
+      Eigen::AngleAxisd(turn.norm(), turn.normalized()).toRotationMatrix() * plain.R_rect1_cam1;
   EXPECT_LT((turned.R_rect1_cam1 - expected).norm(), 1e-12);
-  // The rectified right pixel on the optical axis now samples the raw image where the turned and scaled ray lands.
+  // A rectified right pixel (x, y) samples the raw image where the turned and scaled ray through (x, y - f u v wy)
+  // lands: on the optical axis the keystone is zero, in a corner it is f u v wy.
   const double fx = 500 * (1 + c.focal_scale);
-  const int u = int(std::lround(plain.cx)), v = int(std::lround(plain.cy));
-  const Eigen::Vector3d r_px =
-      turned.R_rect1_cam1.transpose() * Eigen::Vector3d((u - turned.cx) / turned.f, (v - turned.cy) / turned.f, 1.0);
-  EXPECT_NEAR(turned.map1x.at<float>(v, u), 319.5 + fx * r_px.x() / r_px.z(), 1e-3);
-  EXPECT_NEAR(turned.map1y.at<float>(v, u), 239.5 + fx * r_px.y() / r_px.z(), 1e-3);
+  auto ray = [&](double x, double y) {
+    const Eigen::Vector3d r =
+        turned.R_rect1_cam1.transpose() * Eigen::Vector3d((x - turned.cx) / turned.f, (y - turned.cy) / turned.f, 1.0);
+    return Eigen::Vector2d(319.5 + fx * r.x() / r.z(), 239.5 + fx * r.y() / r.z());
+  };
+  for (const cv::Point px :
+       {cv::Point(int(std::lround(plain.cx)), int(std::lround(plain.cy))), cv::Point(40, 30), cv::Point(600, 450)}) {
+    const double u = (px.x - turned.cx) / turned.f, v = (px.y - turned.cy) / turned.f;
+    const Eigen::Vector2d raw = ray(px.x, px.y - turned.f * u * v * c.rotation.y());
+    EXPECT_NEAR(turned.map1x.at<float>(px), raw.x(), 2e-3) << px;
+    EXPECT_NEAR(turned.map1y.at<float>(px), raw.y(), 2e-3) << px;
+  }
+  // The yaw's keystone is there in a corner (f u v wy is 0.12 px at (40, 30)).
+  RightCameraCorrection no_yaw = c;
+  no_yaw.rotation.y() = 0;
+  const StereoRectification without = computeRectification(calib, 0.0, no_yaw);
+  EXPECT_GT(std::abs(turned.map1y.at<float>(30, 40) - without.map1y.at<float>(30, 40)), 0.08);
 }
 
 TEST(Integrity, ScheduleGivesEachPairTheCorrectionDecidedBeforeIt) {

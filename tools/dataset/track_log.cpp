@@ -6,6 +6,9 @@
 // is printed apart and not counted in ms_per_pair (it runs anyway, as its own process).
 // --far-out FILE.tum: also the chain of the increments fused with the rotation from far points (fuseFarRotation), the
 // tracker-only use of paper section 6's points at infinity, for traj_eval beside --out.
+// The epipolar monitor runs after each pair when the config enables it (integrity/enabled), as in the tracker
+// process, and its corrections rectify the following pairs (E3D's map with --e3d-config keeps the calibration's); its
+// time is printed apart.
 // Last line: "pairs=N valid=V ms_per_pair=X".
 #include <chrono>
 #include <fstream>
@@ -23,6 +26,7 @@
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/tracker/delta_chain.hpp"
+#include "ips/tracker/epipolar_integrity.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
 namespace {
@@ -51,7 +55,11 @@ int main(int argc, char** argv) {
     const std::string log_path = args.get("--log");
     const ips::StereoCalibration calib =
         ips::loadCalibration(args.has("--calib") ? args.get("--calib") : log_path + ".calib.yaml");
-    ips::tracker::StereoTracker tracker(calib, ips::tracker::loadTrackerParams(args.get("--config")));
+    const ips::Config cfg(args.get("--config"));
+    ips::tracker::StereoTracker tracker(calib, ips::tracker::loadTrackerParams(cfg));
+    // The epipolar monitor as the tracker process runs it (config integrity/enabled): its corrections change the
+    // rectification of the following pairs, so the trajectory is the deployed one.
+    ips::tracker::EpipolarMonitor monitor(tracker.rectification(), ips::tracker::loadIntegrityParams(cfg));
 
     std::unique_ptr<ips::eval::E3dGuide> e3d;
     if (args.has("--e3d-config"))
@@ -65,7 +73,7 @@ int main(int argc, char** argv) {
     ips::tracker::DeltaChain chain, far_chain;
     int64_t pairs = 0, valid = 0, far_valid = 0, far_used = 0;
     double far_matches = 0, far_inliers = 0;
-    double total_ms = 0;
+    double total_ms = 0, integrity_ms = 0;
     ips::tracker::StageTimes stages;  // sums [ms]
     int64_t guided = 0, wide = 0, offset_observed = 0, offset_rejected = 0;
     while (log.next(&event)) {
@@ -93,6 +101,14 @@ int main(int argc, char** argv) {
         const ips::tracker::TrackResult r =
             tracker.process(m.utime, ips::fw::leftImage(m), ips::fw::rightImage(m), nullptr, guide);
         total_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+        const auto t1 = std::chrono::steady_clock::now();
+        const ips::tracker::IntegrityStatus& integrity = ips::tracker::monitorPair(monitor, tracker, m.utime);
+        integrity_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t1).count();
+        if (integrity.applied_now) {
+          const Eigen::Vector3d w = integrity.applied.rotation * 180 / M_PI;
+          std::printf("integrity: correction applied after pair %lld: rotation [%.4f %.4f %.4f] deg, focal %.5f\n",
+                      static_cast<long long>(m.seq), w.x(), w.y(), w.z(), integrity.applied.focal_scale);
+        }
         stages.rectify += r.times.rectify, stages.detect += r.times.detect, stages.intra += r.times.intra;
         stages.inter += r.times.inter, stages.motion += r.times.motion;
         guided += r.guided_pass ? 1 : 0, wide += r.wide_retry ? 1 : 0;
@@ -135,6 +151,13 @@ int main(int argc, char** argv) {
         "in use %.3f px\n",
         tracker.disparityOffsetEstimate(), tracker.disparityOffsetSigma(), static_cast<long long>(offset_observed),
         static_cast<long long>(offset_rejected), tracker.disparityOffset());
+    if (monitor.params().enabled)
+      std::printf(
+          "epipolar integrity: %lld alarms, %lld steps, %lld corrections, %lld pairs without measurement; %.2f ms per "
+          "pair (not in ms_per_pair)\n",
+          static_cast<long long>(monitor.status().alarms), static_cast<long long>(monitor.status().steps),
+          static_cast<long long>(monitor.status().corrections),
+          static_cast<long long>(monitor.status().pairs_without_measurement), integrity_ms / n);
     std::printf("pairs=%lld valid=%lld ms_per_pair=%.2f\n", static_cast<long long>(pairs),
                 static_cast<long long>(valid), pairs ? total_ms / pairs : 0.0);
     return 0;

@@ -1,5 +1,6 @@
 #include "ips/calibration.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
@@ -143,7 +144,7 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
   cv::cv2eigen(R2, out.R_rect1_cam1);
   CameraIntrinsics cam1 = c.cam1;
   if (!right_correction.isZero()) {
-    const Eigen::Vector3d& w = right_correction.rotation;
+    const Eigen::Vector3d w(right_correction.rotation.x(), 0.0, right_correction.rotation.z());
     if (w.norm() > 0)
       out.R_rect1_cam1 = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * out.R_rect1_cam1;
     R2 = toCv(out.R_rect1_cam1);
@@ -158,6 +159,25 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
   };
   maps(c.cam0, R1, P1, out.map0x, out.map0y);
   maps(cam1, R2, P2, out.map1x, out.map1y);
+  const double yaw = right_correction.rotation.y();
+  if (yaw != 0) {
+    // The yaw's keystone in rows only (RightCameraCorrection): right pixel (x, y) samples where (x, y - f u v wy)
+    // did, interpolated along the column in double (cv::remap would quantise the position to 1/32 px).
+    const int last_row = out.size.height - 1;
+    for (cv::Mat* map : {&out.map1x, &out.map1y}) {
+      cv::Mat moved(out.size, CV_32FC1);
+      for (int y = 0; y < out.size.height; ++y)
+        for (int x = 0; x < out.size.width; ++x) {
+          const double u = (x - out.cx) / out.f, v = (y - out.cy) / out.f;
+          const double at = std::clamp(y - out.f * u * v * yaw, 0.0, double(last_row));
+          const int y0 = std::min(static_cast<int>(at), last_row - 1);
+          const double a = at - y0;
+          moved.at<float>(y, x) =
+              static_cast<float>((1 - a) * map->at<float>(y0, x) + a * map->at<float>(std::min(y0 + 1, last_row), x));
+        }
+      *map = moved;
+    }
+  }
   return out;
 }
 

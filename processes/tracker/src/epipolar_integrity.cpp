@@ -108,6 +108,29 @@ double EpipolarMonitor::largestSigma(const Eigen::Matrix4d& P) const {
   return m;
 }
 
+Eigen::Matrix<double, 1, 4> EpipolarMonitor::column(double x, double y) const {
+  const double u = (x - rect_.cx) / rect_.f, v = (y - rect_.cy) / rect_.f;
+  // The yaw moves rows only (RightCameraCorrection), so it has no column term.
+  return rect_.f * Eigen::Matrix<double, 1, 4>(u * v, 0.0, v, u);
+}
+
+double EpipolarMonitor::columnOffset(const Eigen::Vector4d& c, double x, double y) const { return column(x, y) * c; }
+
+double EpipolarMonitor::largestImageSigma(const Eigen::Matrix4d& P) const {
+  double m = largestSigma(P);
+  for (const Eigen::Vector2d& b : border_) {
+    const Eigen::Matrix<double, 1, 4> h = column(b.x(), b.y());
+    m = std::max(m, std::sqrt(std::max(0.0, double(h * P * h.transpose()))));
+  }
+  return m;
+}
+
+double EpipolarMonitor::largestImageOffset(const Eigen::Vector4d& c) const {
+  double m = largestOffset(c);
+  for (const Eigen::Vector2d& b : border_) m = std::max(m, std::abs(columnOffset(c, b.x(), b.y())));
+  return m;
+}
+
 const IntegrityStatus& EpipolarMonitor::update(int64_t utime, const std::vector<VerticalMatch>& matches,
                                                int num_probes) {
   if (utime <= last_utime_) return status_;
@@ -239,9 +262,11 @@ const IntegrityStatus& EpipolarMonitor::update(int64_t utime, const std::vector<
   s.estimate = toCorrection(x_);
   s.covariance = P_;
   s.estimate_offset_px = largestOffset(x_ - applied);
-  s.estimate_sigma_px = largestSigma(P_);
+  // A correction moves the right image's columns as well as its rows (the yaw excepted, RightCameraCorrection), and a
+  // column is a disparity: the estimate is certain when its effect on both is known to certain_px everywhere.
+  s.estimate_sigma_px = largestImageSigma(P_);
   s.certain = s.estimate_sigma_px < params_.certain_px && outside_run_ == 0;
-  if (s.certain && s.estimate_offset_px > params_.apply_px) {
+  if (s.certain && largestImageOffset(x_ - applied) > params_.apply_px) {
     s.applied = s.estimate;
     s.applied_utime = utime;
     s.applied_now = true;

@@ -72,7 +72,13 @@ struct StereoRectification {
 // A correction of the right camera for a head that has changed since calibration (a knock, temperature), as the
 // epipolar integrity monitor estimates it from the vertical disparity of matched points.
 struct RightCameraCorrection {
-  // Rotation vector [rad] in the rectified right frame: R_rect1_cam1 becomes exp(rotation) * R_rect1_cam1.
+  // Rotation vector [rad] in the rectified right frame. Its x and z turn the right camera: R_rect1_cam1 becomes
+  // exp([wx 0 wz]) * R_rect1_cam1. Its y, the yaw, moves rows only: the right rectified image is warped vertically
+  // by the yaw's row effect, right pixel (x, y) sampling where (x, y - f u v wy) did (u = (x - cx) / f,
+  // v = (y - cy) / f), its columns left as they were. Rows see a yaw only through that u v keystone, and a keystone
+  // in rows need not come from a yaw (KITTI's rectified pairs carry 0.75 px of it in their corners, while their
+  // disparities show nothing of the 6 px a yaw of that size would add); a yaw's column part, nearly a constant
+  // disparity, is what the tracker's disparity offset observes from motion.
   Eigen::Vector3d rotation = Eigen::Vector3d::Zero();
   // Relative error of the right camera's focal length: its fx and fy become (1 + focal_scale) times the file's.
   double focal_scale = 0;

@@ -15,7 +15,9 @@
 // slow drift, a run of pairs outside its gate is a step (a knock) and restarts it from the newest pair. The monitor
 // raises an alarm while the rectification in use leaves rows apart by more than alarm_px somewhere in the image, and
 // hands out a new correction when its estimate is certain and differs from the one in use by more than apply_px;
-// the tracker and E3D then rectify with it (ips::computeRectification's right_correction).
+// the tracker and E3D then rectify with it (ips::computeRectification's right_correction). A correction moves columns
+// too, and a column is a disparity, so certain means known in rows and columns; the yaw, seen in rows only through a
+// keystone, corrects that keystone and no column (RightCameraCorrection).
 //
 // Knows nothing of LCM; IntegrityStatus maps one to one onto ips_integrity_t.
 #include <Eigen/Core>
@@ -54,7 +56,7 @@ struct IntegrityParams {
   // Decisions.
   double alarm_px = 0.5;     // rows apart by more than this somewhere in the image: alarm (half the row spacing)
   int alarm_pairs = 8;       // ... by the mean of this many last pairs (and beyond its noise, gate_chi2)
-  double certain_px = 0.05;  // the estimate is certain when its offset std is below this everywhere in the image
+  double certain_px = 0.05;  // certain: the estimate's row and column offsets' std below this everywhere
   double apply_px = 0.1;     // a certain estimate this far from the correction in use replaces it
 };
 
@@ -95,8 +97,8 @@ struct IntegrityStatus {
   RightCameraCorrection estimate;
   Eigen::Matrix4d covariance = Eigen::Matrix4d::Zero();
   double estimate_offset_px = 0;  // largest row offset the correction in use leaves, by the estimate
-  double estimate_sigma_px = 0;   // the estimate's offset std, largest in the image
-  bool certain = false;
+  double estimate_sigma_px = 0;   // the estimate's std of row and column offsets, largest in the image
+  bool certain = false;           // estimate_sigma_px below certain_px (and no step under way)
   // The correction the tracker and E3D rectify with, and the stamp of the pair that decided it (it applies to pairs
   // after that one).
   RightCameraCorrection applied;
@@ -122,9 +124,17 @@ class EpipolarMonitor {
   // Largest |rowOffset| over the image's border points, and the largest std of it under covariance P.
   double largestOffset(const Eigen::Vector4d& c) const;
   double largestSigma(const Eigen::Matrix4d& P) const;
+  // Column offset [px] the correction c leaves at (x, y): the same rotation and focal error moving columns,
+  //   dx = f (u v wx + v wz + u s)
+  // (the yaw moves rows only, RightCameraCorrection), which is a change of disparity. Largest over the border of
+  // rows and columns together, and its std under P.
+  double columnOffset(const Eigen::Vector4d& c, double x, double y) const;
+  double largestImageOffset(const Eigen::Vector4d& c) const;
+  double largestImageSigma(const Eigen::Matrix4d& P) const;
 
  private:
   Eigen::Matrix<double, 1, 4> row(double x, double y) const;
+  Eigen::Matrix<double, 1, 4> column(double x, double y) const;
   void kalmanUpdate(const Eigen::Vector4d& z, const Eigen::Matrix4d& S);
   // The mean of the last `pairs` pairs' estimates (fewer when fewer are held) and their mean covariance.
   void recentMean(int pairs, Eigen::Vector4d& z, Eigen::Matrix4d& S) const;
