@@ -2,7 +2,8 @@
 // device; DISPARITY out. Matching runs in a worker thread: live, it always takes the newest pair and counts
 // the ones it skipped; for replay, --every-nth N picks pairs by sequence number and --queue keeps all of
 // them, so that a log replayed twice gives the same maps. With process/apply_integrity, the right camera's correction
-// from the tracker's epipolar integrity monitor (INTEGRITY) rectifies the pairs after the one that decided it.
+// from the tracker's epipolar integrity monitor (INTEGRITY) rectifies the pairs after the one that decided it, and
+// so does the tracker's disparity offset, which comes in the same message.
 // With mono/enabled, depth from one camera: the left images of a pair and of the pair mono/gap_pairs before it,
 // polar-rectified for the filter's relative pose (FILTER_STATE) and matched, go out as points on MONO_POINTS.
 #include <memory>

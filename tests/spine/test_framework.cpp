@@ -123,6 +123,17 @@ TEST(Framework, ValidateIntegrity) {
   m.applied[3] = 0;
   m.applied_utime = 3000;  // decided after its own pair
   EXPECT_EQ(ips::fw::validate(m).reason, "bad_time");
+  m.applied_utime = 1000;
+  m.disparity_offset_px = -0.4f;  // a principal point a few tenths of a pixel off
+  m.disparity_offset_utime = 1500;
+  EXPECT_TRUE(ips::fw::validate(m).ok());
+  m.disparity_offset_px = 35.0f;
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_value");
+  m.disparity_offset_px = std::nanf("");
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_value");
+  m.disparity_offset_px = 0.3f;
+  m.disparity_offset_utime = 2500;
+  EXPECT_EQ(ips::fw::validate(m).reason, "bad_time");
 }
 
 TEST(Framework, StreamOrderCountsGapsAndRejectsBackwards) {

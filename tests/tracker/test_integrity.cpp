@@ -180,6 +180,18 @@ TEST(Integrity, RectificationWithARightCorrectionKeepsTheLeftAndTurnsTheRight) {
   no_yaw.rotation.y() = 0;
   const StereoRectification without = computeRectification(calib, 0.0, no_yaw);
   EXPECT_GT(std::abs(turned.map1y.at<float>(30, 40) - without.map1y.at<float>(30, 40)), 0.08);
+  // A disparity offset reads the right image that much further right: pixel (x, y) samples where (x + offset, y)
+  // did (on this undistorted head the map is linear along a row there), and the left stays.
+  RightCameraCorrection shifted = c;
+  shifted.disparity_offset_px = 0.37;
+  const StereoRectification moved = computeRectification(calib, 0.0, shifted);
+  EXPECT_EQ(cv::norm(plain.map0x, moved.map0x, cv::NORM_INF), 0.0);
+  for (const cv::Point px : {cv::Point(320, 240), cv::Point(40, 30), cv::Point(600, 450)}) {
+    const double u = (px.x + shifted.disparity_offset_px - moved.cx) / moved.f, v = (px.y - moved.cy) / moved.f;
+    const Eigen::Vector2d raw = ray(px.x + shifted.disparity_offset_px, px.y - moved.f * u * v * c.rotation.y());
+    EXPECT_NEAR(moved.map1x.at<float>(px), raw.x(), 5e-3) << px;
+    EXPECT_NEAR(moved.map1y.at<float>(px), raw.y(), 5e-3) << px;
+  }
 }
 
 TEST(Integrity, ScheduleGivesEachPairTheCorrectionDecidedBeforeIt) {

@@ -178,6 +178,24 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
       *map = moved;
     }
   }
+  if (right_correction.disparity_offset_px != 0) {
+    // Right pixel (x, y) samples where (x + offset, y) did, interpolated along the row in double.
+    const int last_col = out.size.width - 1;
+    for (cv::Mat* map : {&out.map1x, &out.map1y}) {
+      cv::Mat moved(out.size, CV_32FC1);
+      for (int y = 0; y < out.size.height; ++y) {
+        const float* in = map->ptr<float>(y);
+        float* row = moved.ptr<float>(y);
+        for (int x = 0; x < out.size.width; ++x) {
+          const double at = std::clamp(x + right_correction.disparity_offset_px, 0.0, double(last_col));
+          const int x0 = std::min(static_cast<int>(at), last_col - 1);
+          const double a = at - x0;
+          row[x] = static_cast<float>((1 - a) * in[x0] + a * in[std::min(x0 + 1, last_col)]);
+        }
+      }
+      *map = moved;
+    }
+  }
   return out;
 }
 

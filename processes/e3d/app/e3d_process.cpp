@@ -134,14 +134,14 @@ void E3dProcess::onIntegrity(const integrity_t& m) {
   RightCameraCorrection c;
   c.rotation = fw::vectorFromArray(m.applied);
   c.focal_scale = m.applied[3];
+  c.disparity_offset_px = m.disparity_offset_px;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     jobs_.integritySeen(m.utime);
-    // Every INTEGRITY message repeats the correction in use: only a newly decided one is news.
-    if (m.applied_utime > corrections_newest_) {
-      corrections_newest_ = m.applied_utime;
-      corrections_.add(m.applied_utime, c);
-    }
+    // Every INTEGRITY message repeats the correction and the disparity offset in use: only a change is news, in use
+    // after the newer of the two pairs that decided them (an older message arriving late is refused by the schedule).
+    if (c != corrections_told_ && corrections_.add(std::max(m.applied_utime, m.disparity_offset_utime), c))
+      corrections_told_ = c;
   }
   cv_.notify_all();
 }
@@ -158,8 +158,9 @@ void E3dProcess::rectifyFor(int64_t utime) {
   matcher_.setRectification(rect_, cv::Size(calib_.cam0.width, calib_.cam0.height));
   in_use_ = c;
   node_.health().count("integrity_corrections_applied");
-  IPS_INFO("rectifying with the right camera's correction (rotation " << c.rotation.norm() * 180 / M_PI
-                                                                      << " deg) from pair " << utime << " on");
+  IPS_INFO("rectifying with the right camera's correction (rotation "
+           << c.rotation.norm() * 180 / M_PI << " deg, disparity offset " << c.disparity_offset_px << " px) from pair "
+           << utime << " on");
 }
 
 void E3dProcess::work() {

@@ -48,10 +48,10 @@ class E3dProcess {
   StereoCalibration calib_;
   double scale_;
   StereoRectification rect_;
-  RightCorrectionSchedule corrections_;  // guarded by mutex_
-  int64_t corrections_newest_ = 0;       // guarded by mutex_
-  int64_t last_stereo_utime_ = 0;        // LCM thread only
-  RightCameraCorrection in_use_;         // worker only
+  RightCorrectionSchedule corrections_;     // guarded by mutex_
+  RightCameraCorrection corrections_told_;  // guarded by mutex_: the newest in the schedule
+  int64_t last_stereo_utime_ = 0;           // LCM thread only
+  RightCameraCorrection in_use_;            // worker only
   fw::StereoAdmission admission_;
   e3d::MonoDepth* mono_;                     // null: no depth from one camera
   std::optional<e3d::MonoPairing> pairing_;  // LCM thread; with mono_

@@ -152,6 +152,11 @@ Verdict validate(const ips::integrity_t& m) {
     return bad("bad_value", "integrity message with an applied correction beyond 5 deg or 10 % of focal length");
   if (m.applied_utime < 0 || m.applied_utime > m.utime)
     return bad("bad_time", "integrity message whose correction was decided after its own pair");
+  constexpr double kMaxDisparityOffsetPx = 20;  // a principal point tens of pixels off is no calibration at all
+  if (!std::isfinite(m.disparity_offset_px) || std::fabs(m.disparity_offset_px) > kMaxDisparityOffsetPx)
+    return bad("bad_value", "integrity message with a disparity offset beyond 20 px or not finite");
+  if (m.disparity_offset_utime < 0 || m.disparity_offset_utime > m.utime)
+    return bad("bad_time", "integrity message whose disparity offset was applied after its own pair");
   return {};
 }
 

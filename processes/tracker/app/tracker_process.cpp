@@ -42,7 +42,8 @@ tracker::DisparityGuide fromMessage(const disparity_map_t& m, double scale) {
   return guide;
 }
 
-integrity_t toMessage(const tracker::IntegrityStatus& s, int64_t seq) {
+integrity_t toMessage(const tracker::IntegrityStatus& s, int64_t seq, double disparity_offset_px,
+                      int64_t disparity_offset_utime) {
   integrity_t m{};
   m.utime = s.utime;
   m.seq = seq;
@@ -65,6 +66,8 @@ integrity_t toMessage(const tracker::IntegrityStatus& s, int64_t seq) {
   m.estimate_sigma_px = static_cast<float>(s.estimate_sigma_px);
   m.certain = s.certain;
   m.applied_utime = s.applied_utime;
+  m.disparity_offset_px = static_cast<float>(disparity_offset_px);
+  m.disparity_offset_utime = disparity_offset_utime;
   m.alarms = static_cast<int32_t>(s.alarms);
   m.steps = static_cast<int32_t>(s.steps);
   m.corrections = static_cast<int32_t>(s.corrections);
@@ -196,6 +199,7 @@ void TrackerProcess::processOldest() {
     return;
   }
   node_.health().latency(r.times.total);
+  if (r.disparity_offset_applied) disparity_offset_utime_ = r.utime;
   if (monitor_.params().enabled) checkIntegrity(p);
   pairs_.tracked(p.utime);
   if (r.intra_guided) {
@@ -235,7 +239,7 @@ void TrackerProcess::checkIntegrity(const tracker::PendingPair& p) {
   if (s.applied_now)
     IPS_WARN("epipolar integrity: the right camera has turned; pairs after "
              << s.utime << " are rectified with the new correction (corrections so far: " << s.corrections << ")");
-  node_.publish(channels::kIntegrity, toMessage(s, p.seq));
+  node_.publish(channels::kIntegrity, toMessage(s, p.seq, tracker_.disparityOffset(), disparity_offset_utime_));
 }
 
 }  // namespace ips::tracker_app

@@ -82,9 +82,13 @@ struct RightCameraCorrection {
   Eigen::Vector3d rotation = Eigen::Vector3d::Zero();
   // Relative error of the right camera's focal length: its fx and fy become (1 + focal_scale) times the file's.
   double focal_scale = 0;
-  bool isZero() const { return rotation.isZero(0) && focal_scale == 0; }
+  // The disparity offset [px] (the tracker's self-calibration of the right rectified principal point against the
+  // left's, StereoTracker): a point the calibration puts at column x of the right rectified image shows at
+  // x + disparity_offset_px, so the right image is read that much further right and disparities regain their zero.
+  double disparity_offset_px = 0;
+  bool isZero() const { return rotation.isZero(0) && focal_scale == 0 && disparity_offset_px == 0; }
   bool operator==(const RightCameraCorrection& o) const {
-    return rotation == o.rotation && focal_scale == o.focal_scale;
+    return rotation == o.rotation && focal_scale == o.focal_scale && disparity_offset_px == o.disparity_offset_px;
   }
   bool operator!=(const RightCameraCorrection& o) const { return !(*this == o); }
 };

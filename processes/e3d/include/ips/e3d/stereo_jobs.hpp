@@ -23,7 +23,8 @@ struct ProcessParams {
   int every_nth = 1;            // process/every_nth (or --every-nth), at least 1
   bool queue_all = false;       // process/queue_all (or --queue)
   size_t max_queue = 16;        // process/max_queue, in [1, kMaxQueueLimit]
-  bool apply_integrity = true;  // process/apply_integrity: rectify with the tracker's correction (INTEGRITY)
+  bool apply_integrity = true;  // process/apply_integrity: rectify with the tracker's correction and disparity offset
+                                // (INTEGRITY)
 };
 
 // The process/ keys, every_nth and queue_all overridden by the command line where given. Throws ConfigError on a
