@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <random>
 
+#include "ips/tracker/disparity_offset.hpp"
 #include "ips/tracker/motion.hpp"
 
 using namespace ips::tracker;
@@ -273,4 +274,32 @@ TEST(Motion, DisparityOffsetObservedByOnePairAndTheTranslationRightWithIt) {
   EXPECT_LT(err_after, 0.5 * err_before);
   std::printf("[ OFFSET   ] observed %.3f +- %.3f px (truth 0.4); translation error %.2f mm -> %.2f mm\n",
               first.correction_px, sigma, 1000 * err_before, 1000 * err_after);
+}
+
+// The average over pairs: consistent corrections of 0.3 +- 0.1 px are applied after min_observations pairs, and wild
+// first pairs (-64.6 +- 10.4 px, as a still head gave one on the hard walk's seed 2 and locked the average: every
+// pair after it refused) do not make the average refuse the pairs after them.
+TEST(Motion, DisparityOffsetAverageAppliesConsistentPairsAndSurvivesAWildFirstPair) {
+  DisparityOffsetParams params;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> noise(0.0, 0.1);
+  for (bool wild_first : {false, true}) {
+    DisparityOffsetEstimator estimator(params);
+    if (wild_first) {
+      // Two kinds: far off with a huge sigma (enters with no weight), and 2.5 +- 0.5 px (wrong, but believable alone).
+      estimator.add(-64.6, 10.4 * 10.4);
+      estimator.add(2.5, 0.5 * 0.5);
+    }
+    int refused = 0, applied_after = 0;
+    for (int i = 1; i <= 100 && applied_after == 0; ++i) {
+      const DisparityOffsetEstimator::Outcome o = estimator.add(0.3 + noise(rng), 0.1 * 0.1);
+      refused += o.refused;
+      if (o.applied) applied_after = i;
+    }
+    EXPECT_LE(refused, 1) << "wild first pair: " << wild_first;
+    // Applied as soon as the round holds min_observations pairs (the wild ones count, and widen the scatter a little).
+    EXPECT_GE(applied_after, params.min_observations - (wild_first ? 2 : 0)) << "wild first pair: " << wild_first;
+    EXPECT_LE(applied_after, params.min_observations) << "wild first pair: " << wild_first;
+    EXPECT_NEAR(estimator.inUse(), 0.3, 0.1) << "wild first pair: " << wild_first;
+  }
 }

@@ -39,6 +39,7 @@ TEST(Params, ConfigFileWritesOutTheDefaults) {
   EXPECT_DOUBLE_EQ(file.disparity_offset.gate_chi2, def.disparity_offset.gate_chi2);
   EXPECT_DOUBLE_EQ(file.disparity_offset.apply_sigmas, def.disparity_offset.apply_sigmas);
   EXPECT_EQ(file.disparity_offset.min_observations, def.disparity_offset.min_observations);
+  EXPECT_DOUBLE_EQ(file.disparity_offset.prior_sigma_px, def.disparity_offset.prior_sigma_px);
 }
 
 TEST(Params, PartialFileOverridesOnlyItsKeys) {

@@ -85,6 +85,7 @@ TrackerParams loadTrackerParams(const Config& c) {
   readDouble(c, "disparity_offset/gate_chi2", dof.gate_chi2, 0.0);
   readDouble(c, "disparity_offset/apply_sigmas", dof.apply_sigmas, 0.0);
   readInt(c, "disparity_offset/min_observations", dof.min_observations, 0);
+  readDouble(c, "disparity_offset/prior_sigma_px", dof.prior_sigma_px, 1e-6);
 
   PriorParams& pr = p.prior;
   readDouble(c, "prior/cv_rotation_sigma_per_s", pr.cv_rotation_sigma_per_s, 0.0);
