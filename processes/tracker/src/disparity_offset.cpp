@@ -16,12 +16,12 @@ double DisparityOffsetEstimator::sigma() const {
 
 DisparityOffsetEstimator::Outcome DisparityOffsetEstimator::add(double correction_px, double variance_px2) {
   Outcome out;
-  // Against the average once its scatter can be judged (three pairs); before that against the prior, zero correction
-  // within prior_sigma_px: a round's first pair alone must not become the average every later pair is judged by.
-  constexpr int kPairsForScatter = 3;
-  const bool judged_by_average = count_ >= kPairsForScatter;
-  const double s = judged_by_average ? std::min(sigma(), params_.prior_sigma_px) : params_.prior_sigma_px;
-  const double innovation = correction_px - (judged_by_average ? mean() : 0.0);
+  // Gated against the prior, zero correction within prior_sigma_px, not against the round's average: a few alike
+  // pairs of a still head (sigmas of 10-20 px, values tens of pixels off) or one wrong but believable pair would
+  // otherwise become the average that refuses every pair after them. Pairs that pass enter with their weights, and
+  // the average's sigma takes their scatter, so a stray pair delays an application rather than steering it.
+  const double s = params_.prior_sigma_px;
+  const double innovation = correction_px;
   if (innovation * innovation / (variance_px2 + s * s) > params_.gate_chi2) {
     out.refused = true;
     return out;

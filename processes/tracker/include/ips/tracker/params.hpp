@@ -86,12 +86,12 @@ struct FarRotationParams {
 struct DisparityOffsetParams {
   bool estimate = true;
   double initial_px = 0;      // the offset known beforehand (an earlier run's estimate); 0: the calibration's
-  double gate_chi2 = 10.83;   // a pair's correction against the average (1 dof, 99.9 %)
+  double gate_chi2 = 10.83;   // a pair's correction against zero within prior_sigma_px (1 dof, 99.9 %)
   double apply_sigmas = 4.0;  // applied when the average is this many sigmas from zero (tested on every pair) ...
   int min_observations = 20;  // ... and has this many pairs (their points are not independent)
-  // How far a calibrated head's offset can be from the one in use [px, 1 sigma]: a round's first pairs are gated
-  // against zero correction with it (later ones against the average, with at most this sigma), so that one wild pair
-  // (a still head observes nothing and may say -60 +- 10 px) cannot become an average that refuses every pair after.
+  // How far a calibrated head's offset can be from the one in use [px, 1 sigma]: each pair's correction is gated
+  // against zero with it, not against the round's average, so that a few wild pairs (a still head observes nothing
+  // and may say -60 +- 10 px) cannot become an average that refuses every pair after them.
   double prior_sigma_px = 1.0;
 };
 
