@@ -30,6 +30,17 @@ static const char* distortionModelName(DistortionModel m) {
 
 namespace {
 
+// A CV_32FC1 map at (x, y), bilinear in double, the position clamped into the map (at least 2x2).
+float bilinearClamped(const cv::Mat& map, double x, double y) {
+  x = std::clamp(x, 0.0, double(map.cols - 1));
+  y = std::clamp(y, 0.0, double(map.rows - 1));
+  const int x0 = std::min(static_cast<int>(x), map.cols - 2), y0 = std::min(static_cast<int>(y), map.rows - 2);
+  const double a = x - x0, b = y - y0;
+  const float* r0 = map.ptr<float>(y0);
+  const float* r1 = map.ptr<float>(y0 + 1);
+  return static_cast<float>((1 - b) * ((1 - a) * r0[x0] + a * r0[x0 + 1]) + b * ((1 - a) * r1[x0] + a * r1[x0 + 1]));
+}
+
 CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
   CameraIntrinsics cam;
   cam.width = cfg.getInt(name + "/width");
@@ -159,42 +170,22 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
   };
   maps(c.cam0, R1, P1, out.map0x, out.map0y);
   maps(cam1, R2, P2, out.map1x, out.map1y);
-  const double yaw = right_correction.rotation.y();
-  if (yaw != 0) {
-    // The yaw's keystone in rows only (RightCameraCorrection): right pixel (x, y) samples where (x, y - f u v wy)
-    // did, interpolated along the column in double (cv::remap would quantise the position to 1/32 px).
-    const int last_row = out.size.height - 1;
-    for (cv::Mat* map : {&out.map1x, &out.map1y}) {
-      cv::Mat moved(out.size, CV_32FC1);
-      for (int y = 0; y < out.size.height; ++y)
-        for (int x = 0; x < out.size.width; ++x) {
-          const double u = (x - out.cx) / out.f, v = (y - out.cy) / out.f;
-          const double at = std::clamp(y - out.f * u * v * yaw, 0.0, double(last_row));
-          const int y0 = std::min(static_cast<int>(at), last_row - 1);
-          const double a = at - y0;
-          moved.at<float>(y, x) =
-              static_cast<float>((1 - a) * map->at<float>(y0, x) + a * map->at<float>(std::min(y0 + 1, last_row), x));
-        }
-      *map = moved;
-    }
-  }
-  if (right_correction.disparity_offset_px != 0) {
-    // Right pixel (x, y) samples where (x + offset, y) did, interpolated along the row in double.
-    const int last_col = out.size.width - 1;
-    for (cv::Mat* map : {&out.map1x, &out.map1y}) {
-      cv::Mat moved(out.size, CV_32FC1);
-      for (int y = 0; y < out.size.height; ++y) {
-        const float* in = map->ptr<float>(y);
-        float* row = moved.ptr<float>(y);
-        for (int x = 0; x < out.size.width; ++x) {
-          const double at = std::clamp(x + right_correction.disparity_offset_px, 0.0, double(last_col));
-          const int x0 = std::min(static_cast<int>(at), last_col - 1);
-          const double a = at - x0;
-          row[x] = static_cast<float>((1 - a) * in[x0] + a * in[std::min(x0 + 1, last_col)]);
-        }
+  const double yaw = right_correction.rotation.y(), offset = right_correction.disparity_offset_px;
+  if (yaw != 0 || offset != 0) {
+    // The yaw's keystone in rows only and the disparity offset (RightCameraCorrection): right pixel (x, y) samples
+    // where (x + offset, y - f u v wy) did, u and v at (x + offset, y); bilinear in double (cv::remap would quantise
+    // the position to 1/32 px).
+    cv::Mat moved_x(out.size, CV_32FC1), moved_y(out.size, CV_32FC1);
+    for (int y = 0; y < out.size.height; ++y)
+      for (int x = 0; x < out.size.width; ++x) {
+        const double at_x = x + offset;
+        const double u = (at_x - out.cx) / out.f, v = (y - out.cy) / out.f;
+        const double at_y = y - out.f * u * v * yaw;
+        moved_x.at<float>(y, x) = bilinearClamped(out.map1x, at_x, at_y);
+        moved_y.at<float>(y, x) = bilinearClamped(out.map1y, at_x, at_y);
       }
-      *map = moved;
-    }
+    out.map1x = moved_x;
+    out.map1y = moved_y;
   }
   return out;
 }
