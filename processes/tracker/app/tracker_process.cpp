@@ -199,7 +199,6 @@ void TrackerProcess::processOldest() {
     return;
   }
   node_.health().latency(r.times.total);
-  if (r.disparity_offset_applied) disparity_offset_utime_ = r.utime;
   if (monitor_.params().enabled) checkIntegrity(p);
   pairs_.tracked(p.utime);
   if (r.intra_guided) {
@@ -239,7 +238,8 @@ void TrackerProcess::checkIntegrity(const tracker::PendingPair& p) {
   if (s.applied_now)
     IPS_WARN("epipolar integrity: the right camera has turned; pairs after "
              << s.utime << " are rectified with the new correction (corrections so far: " << s.corrections << ")");
-  node_.publish(channels::kIntegrity, toMessage(s, p.seq, tracker_.disparityOffset(), disparity_offset_utime_));
+  node_.publish(channels::kIntegrity,
+                toMessage(s, p.seq, tracker_.disparityOffset(), tracker_.disparityOffsetAppliedUtime()));
 }
 
 }  // namespace ips::tracker_app

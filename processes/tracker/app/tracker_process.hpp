@@ -43,7 +43,6 @@ class TrackerProcess {
   fw::StereoAdmission admission_;
   tracker::PairScheduler pairs_;
   fw::StreamOrder disparity_order_;
-  int64_t disparity_offset_utime_ = 0;  // the pair after which the disparity offset in use was applied
 };
 
 }  // namespace ips::tracker_app

@@ -20,9 +20,8 @@ DisparityOffsetEstimator::Outcome DisparityOffsetEstimator::add(double correctio
   // pairs of a still head (sigmas of 10-20 px, values tens of pixels off) or one wrong but believable pair would
   // otherwise become the average that refuses every pair after them. Pairs that pass enter with their weights, and
   // the average's sigma takes their scatter, so a stray pair delays an application rather than steering it.
-  const double s = params_.prior_sigma_px;
-  const double innovation = correction_px;
-  if (innovation * innovation / (variance_px2 + s * s) > params_.gate_chi2) {
+  const double prior_px2 = params_.prior_sigma_px * params_.prior_sigma_px;
+  if (correction_px * correction_px / (variance_px2 + prior_px2) > params_.gate_chi2) {
     out.refused = true;
     return out;
   }

@@ -108,26 +108,27 @@ double EpipolarMonitor::largestSigma(const Eigen::Matrix4d& P) const {
   return m;
 }
 
-Eigen::Matrix<double, 1, 4> EpipolarMonitor::column(double x, double y) const {
+Eigen::Matrix<double, 2, 4> EpipolarMonitor::rowAndColumn(double x, double y) const {
   const double u = (x - rect_.cx) / rect_.f, v = (y - rect_.cy) / rect_.f;
+  Eigen::Matrix<double, 2, 4> h;
+  h.row(0) = row(x, y);
   // The yaw moves rows only (RightCameraCorrection), so it has no column term.
-  return rect_.f * Eigen::Matrix<double, 1, 4>(u * v, 0.0, v, u);
-}
-
-double EpipolarMonitor::columnOffset(const Eigen::Vector4d& c, double x, double y) const { return column(x, y) * c; }
-
-double EpipolarMonitor::largestImageSigma(const Eigen::Matrix4d& P) const {
-  double m = largestSigma(P);
-  for (const Eigen::Vector2d& b : border_) {
-    const Eigen::Matrix<double, 1, 4> h = column(b.x(), b.y());
-    m = std::max(m, std::sqrt(std::max(0.0, double(h * P * h.transpose()))));
-  }
-  return m;
+  h.row(1) = rect_.f * Eigen::Matrix<double, 1, 4>(u * v, 0.0, v, u);
+  return h;
 }
 
 double EpipolarMonitor::largestImageOffset(const Eigen::Vector4d& c) const {
-  double m = largestOffset(c);
-  for (const Eigen::Vector2d& b : border_) m = std::max(m, std::abs(columnOffset(c, b.x(), b.y())));
+  double m = 0;
+  for (const Eigen::Vector2d& b : border_) m = std::max(m, (rowAndColumn(b.x(), b.y()) * c).cwiseAbs().maxCoeff());
+  return m;
+}
+
+double EpipolarMonitor::largestImageSigma(const Eigen::Matrix4d& P) const {
+  double m = 0;
+  for (const Eigen::Vector2d& b : border_) {
+    const Eigen::Matrix<double, 2, 4> h = rowAndColumn(b.x(), b.y());
+    m = std::max(m, (h * P * h.transpose()).diagonal().cwiseMax(0.0).cwiseSqrt().maxCoeff());
+  }
   return m;
 }
 

@@ -205,6 +205,7 @@ void StereoTracker::updateDisparityOffset(const std::vector<Correspondence>& cor
   res.disparity_offset_observed = o.observed;
   res.disparity_offset_rejected = o.refused;
   res.disparity_offset_applied = o.applied;
+  if (o.applied) offset_applied_utime_ = res.utime;
   stereo_.disparity_offset = offset_.inUse();
 }
 

@@ -124,17 +124,14 @@ class EpipolarMonitor {
   // Largest |rowOffset| over the image's border points, and the largest std of it under covariance P.
   double largestOffset(const Eigen::Vector4d& c) const;
   double largestSigma(const Eigen::Matrix4d& P) const;
-  // Column offset [px] the correction c leaves at (x, y): the same rotation and focal error moving columns,
-  //   dx = f (u v wx + v wz + u s)
-  // (the yaw moves rows only, RightCameraCorrection), which is a change of disparity. Largest over the border of
-  // rows and columns together, and its std under P.
-  double columnOffset(const Eigen::Vector4d& c, double x, double y) const;
+  // The same over rows and columns together: the correction moves columns too, dx = f (u v wx + v wz + u s) (the yaw
+  // moves rows only, RightCameraCorrection), which is a change of disparity.
   double largestImageOffset(const Eigen::Vector4d& c) const;
   double largestImageSigma(const Eigen::Matrix4d& P) const;
 
  private:
   Eigen::Matrix<double, 1, 4> row(double x, double y) const;
-  Eigen::Matrix<double, 1, 4> column(double x, double y) const;
+  Eigen::Matrix<double, 2, 4> rowAndColumn(double x, double y) const;  // row offset, column offset per term
   void kalmanUpdate(const Eigen::Vector4d& z, const Eigen::Matrix4d& S);
   // The mean of the last `pairs` pairs' estimates (fewer when fewer are held) and their mean covariance.
   void recentMean(int pairs, Eigen::Vector4d& z, Eigen::Matrix4d& S) const;

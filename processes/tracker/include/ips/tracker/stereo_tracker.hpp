@@ -135,6 +135,8 @@ class StereoTracker {
   // The disparity offset in use [px], its estimate and the estimate's 1-sigma (infinite before the first
   // observation).
   double disparityOffset() const { return stereo_.disparity_offset; }
+  // The stamp of the pair after which the offset in use was applied (0: in use from the start).
+  int64_t disparityOffsetAppliedUtime() const { return offset_applied_utime_; }
   double disparityOffsetEstimate() const { return offset_.estimate(); }
   double disparityOffsetSigma() const { return offset_.sigma(); }
   const TrackerParams& params() const { return params_; }
@@ -174,6 +176,7 @@ class StereoTracker {
   double last_dt_s_ = 0;
   PredictionStats stats_;
   DisparityOffsetEstimator offset_;  // its inUse() is stereo_.disparity_offset
+  int64_t offset_applied_utime_ = 0;
   void updateDisparityOffset(const std::vector<Correspondence>& corr, const MotionEstimate& est, TrackResult& res);
 };
 
