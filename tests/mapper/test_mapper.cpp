@@ -90,6 +90,39 @@ TEST(MapperGeometry, RangeCutFollowsTheDepthPrecision) {
   EXPECT_TRUE(centre_found);
 }
 
+TEST(MapperGeometry, AlignmentPointsAreThoseWithTextureOfTheirOwn) {
+  MapperParams params;
+  params.pixel_step = 1;
+  params.texture_window_px = 5;
+  params.alignment_min_grey_spread = 3.0;
+  DisparityImage img;
+  img.focal_px = 500, img.cx = 10, img.cy = 5, img.baseline_m = 0.2;
+  img.disparity = cv::Mat(10, 20, CV_32FC1, cv::Scalar(40.0f));  // z = 2.5 m everywhere
+  // Columns 0-9 a plain grey (no texture), columns 10-19 a checkerboard of 90 and 110 (spread 10).
+  img.grey = cv::Mat(10, 20, CV_8UC1, cv::Scalar(100));
+  for (int r = 0; r < 10; ++r)
+    for (int c = 10; c < 20; ++c) img.grey.at<uint8_t>(r, c) = (r + c) % 2 ? 110 : 90;
+  const cv::Mat spread = greySpread(img.grey, params.texture_window_px);
+  EXPECT_NEAR(spread.at<float>(5, 3), 0.0, 1e-3) << "a plain window";
+  // A 5 x 5 checker window: 13 of one grey, 12 of the other, mean 0.4 off 100: sqrt(100 - 0.4^2).
+  EXPECT_NEAR(spread.at<float>(5, 15), std::sqrt(100.0 - 0.16), 1e-3);
+  // Column 8's window reaches one checker column: 5 pixels of +-10 among 25 (spread about 4.5 >= 3); column 7's none.
+  EXPECT_GT(spread.at<float>(5, 8), 3.0);
+  EXPECT_NEAR(spread.at<float>(5, 7), 0.0, 1e-3);
+
+  const PointSet set = triangulate(img, HeadGeometry{}, Eigen::Isometry3d::Identity(), params);
+  EXPECT_EQ(set.points.size(), 200u) << "the map keeps every point";
+  ASSERT_EQ(set.alignment_points.size(), 10u * 12u) << "columns 8-19 have texture of their own";
+  // Identity head and pose: x = (u - cx) z / f; the leftmost alignment point is column 8.
+  double min_x = INFINITY;
+  for (const auto& p : set.alignment_points) min_x = std::min(min_x, p.x());
+  EXPECT_NEAR(min_x, (8 - 10) * 2.5 / 500, 1e-12);
+
+  img.grey.release();
+  EXPECT_EQ(triangulate(img, HeadGeometry{}, Eigen::Isometry3d::Identity(), params).alignment_points.size(), 200u)
+      << "without its grey image a map's points all go to the alignment";
+}
+
 TEST(VoxelMap, FusesPerVoxelStaysWithinItsBoundAndRoundTrips) {
   // A 1 m x 1 m wall sampled every 1 cm: 10 000 points, 20 x 20 voxels of 5 cm.
   std::vector<Eigen::Vector3d> wall;

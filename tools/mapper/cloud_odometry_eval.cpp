@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "ips/args.hpp"
@@ -125,7 +126,13 @@ int main(int argc, char** argv) {
       const Eigen::Isometry3d T_world_body = rig.trajectory.pose((f.utime_true - sc.start_utime) * 1e-6);
       const Eigen::Isometry3d cam_true = rig.head.cam0InWorld(T_world_body);
       mapper::DisparityImage image;
-      image.disparity = truth_disparity ? f.gt_disparity : toPixels(matcher->matchRaw(f.left, f.right).disparity);
+      // The grey image rectified as the mapper does, for the points' texture (MapperParams::alignment_min_grey_spread).
+      if (truth_disparity) {
+        cv::remap(f.left, image.grey, rect.map0x, rect.map0y, cv::INTER_LINEAR);
+        image.disparity = f.gt_disparity;
+      } else {
+        image.disparity = toPixels(matcher->matchRaw(f.left, f.right, &image.grey).disparity);
+      }
       image.focal_px = rect.f, image.cx = rect.cx, image.cy = rect.cy, image.baseline_m = rect.baseline;
       // The map is placed with a pose whose change since the previous map has the prior's error, as the filter's.
       Eigen::Isometry3d placed = cam_true;
@@ -138,7 +145,7 @@ int main(int argc, char** argv) {
       const Eigen::Isometry3d placed_body = placed * calib.T_imu_cam0.inverse();
       mapper::PointSet set = mapper::triangulate(image, geometry, placed_body, mp);
       const mapper::CloudDelta d =
-          odometry.add(f.utime_stamp, set.points, placed, mp.disparity_sigma_px / (rect.f * rect.baseline));
+          odometry.add(f.utime_stamp, set.alignment_points, placed, mp.disparity_sigma_px / (rect.f * rect.baseline));
       if (k > 0) {
         ++pairs;
         const Eigen::Isometry3d truth = prev_true.inverse() * cam_true;

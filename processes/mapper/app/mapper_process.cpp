@@ -131,7 +131,7 @@ void MapperProcess::publish(const std::vector<ips::mapper::MappedFrame>& frames)
 void MapperProcess::align(const ips::mapper::MappedFrame& f) {
   const auto t0 = std::chrono::steady_clock::now();
   const ips::mapper::CloudDelta d =
-      odometry_->add(f.utime, f.points, f.pose.T_world_body * T_body_cam0_, f.depth_sigma_per_m2);
+      odometry_->add(f.utime, f.alignment_points, f.pose.T_world_body * T_body_cam0_, f.depth_sigma_per_m2);
   node_.health().set(
       "cloud_align_ms",
       static_cast<int64_t>(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count()));

@@ -81,6 +81,7 @@ MappedFrame Mapper::place(const DisparityInput& map, const Pose& pose) {
   frame.points = std::move(set.points);
   frame.intensity = std::move(set.intensity);
   frame.has_grey = !image.grey.empty();
+  frame.alignment_points = std::move(set.alignment_points);
   frame.depth_sigma_per_m2 = params_.disparity_sigma_px / (map.focal_px * map.baseline_m);
   return frame;
 }

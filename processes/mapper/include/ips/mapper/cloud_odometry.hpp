@@ -40,11 +40,15 @@ struct CloudOdometryParams {
   // Below this share of the current map's points with a partner, the maps see too little of the same structure
   // (a turn into a new corridor between them): no measurement.
   double min_overlap = 0.3;
-  int min_correspondences = 500;
+  // Fewer pairs than this: no measurement. Only textured points are aligned (MapperParams::alignment_min_grey_spread),
+  // a few hundred 10 cm voxels on plain walls, where furniture, doors and corners carry the shape; 100 pairs still
+  // fix the 6 unknowns many times over, and the test of the constrained directions drops what they leave open.
+  int min_correspondences = 100;
   // Neighbouring points of one disparity map are not independent (SGM's aggregation and smoothing spread one
   // matching error over many pixels): the covariance from the residuals, which treats every pair as independent,
   // is multiplied by this (roughly the pixels one SGM error spans, 5 x 5). cloud_odometry_eval finds the result
-  // conservative on the simulated walk (NEES 1.2 of 6) and overconfident on plain walls (16.6): see the README.
+  // conservative on the simulated walk (NEES 1.3 of 6) and on plain walls (1.6) with textured points only: see the
+  // README.
   double covariance_inflation = 25.0;
   // Sigma of a point-to-plane residual besides the points' depth errors along their rays [m]: the thinning to voxels
   // and the normals' own error; also keeps a perfect fit from claiming infinite information.

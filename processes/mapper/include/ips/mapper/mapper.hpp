@@ -34,6 +34,8 @@ struct MappedFrame {
   std::vector<Eigen::Vector3d> points;
   std::vector<uint8_t> intensity;
   bool has_grey = false;  // the raw left image of that pair was still held
+  // The map's points with texture of their own, not fused (PointSet::alignment_points): what CloudOdometry aligns.
+  std::vector<Eigen::Vector3d> alignment_points;
   // Depth precision of the map's points: sigma_z = depth_sigma_per_m2 * z^2 (sigma_d / (f b)).
   double depth_sigma_per_m2 = 0;
 };

@@ -24,12 +24,18 @@ struct DisparityImage {
 struct PointSet {
   std::vector<Eigen::Vector3d> points;  // world frame [m]
   std::vector<uint8_t> intensity;
+  // The points whose pixel has texture of its own (MapperParams::alignment_min_grey_spread), for the alignment of
+  // maps; all points when the map came without its grey image.
+  std::vector<Eigen::Vector3d> alignment_points;
   // Depth [m] beyond which points were cut by precision (for the figures).
   double max_range_m = 0;
 };
 
 // The range at which the depth error reaches params.max_depth_sigma_m for this camera pair.
 double rangeForDepthSigma(const MapperParams& params, double focal_px, double baseline_m);
+
+// Standard deviation of the grey values in a window x window square around each pixel (CV_32FC1).
+cv::Mat greySpread(const cv::Mat& grey, int window);
 
 PointSet triangulate(const DisparityImage& map, const HeadGeometry& head, const Eigen::Isometry3d& T_world_body,
                      const MapperParams& params);
