@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
-# The main job on the built system: simulates the default walk (sim writes an LCM log), starts a procman
+# The main job on the built system: simulates the hard walk (sim writes an LCM log), starts a procman
 # deputy on this machine and has the sheriff run procman/main_job.pmd (tracker, EKF and UKF filters, e3d and
 # lcm-logger, with lcm-logplayer playing the walk through them), then writes the report to out/<run>/
 # (out/latest points at it).
 # Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario
-# file instead of the built-in walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
+# file instead of config/sim_hard.yaml, e.g. config/sim_walk.yaml for the easy walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
 # replaces filter_sim.yaml), IPS_REPLAY_SPEED (default 1), IPS_CONFIG (the config folder; default config/),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), IPS_CALIB (a calibration file the
 # processes run on instead of the log's; the log's is then the truth the report compares with), IPS_SEEDS (the
@@ -19,6 +19,12 @@ cd "$(dirname "$0")/.."
 ROOT=$PWD
 BIN=$ROOT/build/bin
 export PATH="$BIN:$PATH"
+# The walk is simulated as a real head meets it (config/sim_hard.yaml: a perturbed calibration, unknown stamp
+# offsets, motion blur, auto exposure, people; processes/sim/README.md) unless another scenario is named;
+# IPS_SCENARIO=config/sim_walk.yaml is the easy walk on the true head. A reused log or a recording keeps its own.
+if [ -z "${IPS_DATASET:-}" ] && [ -z "${IPS_SIM_LOG:-}" ]; then
+  export IPS_SCENARIO=${IPS_SCENARIO:-$ROOT/config/sim_hard.yaml}
+fi
 # IPS_SEEDS=N: the job once per seed 1..N (each its own out/<run>), then ips_seeds summarises them into
 # out/<time>-seeds/seeds.json (end error mean, worst and spread per filter, NEES averaged over the seeds).
 if [ "${IPS_SEEDS:-1}" -gt 1 ]; then
@@ -48,7 +54,7 @@ started=$(date +%s)
 say() { printf '[main job %4ds] %s\n' $(( $(date +%s) - started )) "$*"; }
 say "output in $run"
 
-# 1. The sensor head: the simulator's default walk, as fast as it can render it, or a recording.
+# 1. The sensor head: the simulated walk, as fast as the simulator can render it, or a recording.
 export IPS_CONFIG=${IPS_CONFIG:-$ROOT/config}
 report_args=()
 if [ -n "${IPS_DATASET:-}" ]; then

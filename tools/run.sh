@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The main job: sets up and builds when needed, then runs the system on the built-in default (the simulated
-# sensor head's default walk) and writes a report to out/latest/.
+# The main job: sets up and builds when needed, then runs the system on the simulated sensor head's hard walk
+# (tools/main_job.sh) and writes a report to out/latest/.
 # Until every stage exists it runs the stages that do, and says which ones ran.
 set -euo pipefail
 cd "$(dirname "$0")/.."

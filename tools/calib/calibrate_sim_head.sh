@@ -3,8 +3,8 @@
 # truth the simulator keeps: the head as designed, then the stereo cameras from a chart seen from 28 positions, the
 # tilt sensor from eight static positions in front of it, and camera to IMU from the head waved for a minute with
 # the tracker running (the main job's processes on the wave). Each tool updates one file, head.calib.yaml; at the
-# end calib_compare says how far it is from the truth. Then `IPS_CALIB=OUT/head.calib.yaml ./tools/run.sh` runs the
-# walk on it. Usage: tools/calib/calibrate_sim_head.sh [OUT_DIR] (default out/calib); IPS_SEED picks the head
+# end calib_compare says how far it is from the truth. Then
+# `IPS_SCENARIO=config/sim_walk.yaml IPS_CALIB=OUT/head.calib.yaml ./tools/run.sh` runs the walk on it. Usage: tools/calib/calibrate_sim_head.sh [OUT_DIR] (default out/calib); IPS_SEED picks the head
 # (default 1, the main job's).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -43,4 +43,4 @@ last "$out/camera_imu.txt"
 
 say "against the truth (calib_compare; the truth file leaves out the tilt sensor's zero offsets, which the estimate takes up)"
 "$BIN/calib_compare" --a "$out/truth.calib.yaml" --b "$out/head.calib.yaml" | tee "$out/compare.txt" | sed 's/^/    /'
-say "done: $out/head.calib.yaml (IPS_CALIB=$out/head.calib.yaml ./tools/run.sh runs the walk on it)"
+say "done: $out/head.calib.yaml (IPS_SCENARIO=config/sim_walk.yaml IPS_CALIB=$out/head.calib.yaml ./tools/run.sh runs the walk on it)"
