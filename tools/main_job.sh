@@ -3,8 +3,9 @@
 # deputy on this machine and has the sheriff run procman/main_job.pmd (tracker, EKF and UKF filters, e3d and
 # lcm-logger, with lcm-logplayer playing the walk through them), then writes the report to out/<run>/
 # (out/latest points at it).
-# Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario
-# file instead of config/sim_hard.yaml, e.g. config/sim_walk.yaml for the easy walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
+# Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the
+# walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario file instead of config/sim_hard.yaml, e.g.
+# config/sim_walk.yaml for the easy walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
 # replaces filter_sim.yaml), IPS_REPLAY_SPEED (default 1), IPS_CONFIG (the config folder; default config/),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), IPS_CALIB (a calibration file the
 # processes run on instead of the log's; the log's is then the truth the report compares with), IPS_SEEDS (the

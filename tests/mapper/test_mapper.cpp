@@ -110,7 +110,9 @@ TEST(MapperGeometry, AlignmentPointsAreThoseWithTextureOfTheirOwn) {
   EXPECT_GT(spread.at<float>(5, 8), 3.0);
   EXPECT_NEAR(spread.at<float>(5, 7), 0.0, 1e-3);
 
-  const PointSet set = triangulate(img, HeadGeometry{}, Eigen::Isometry3d::Identity(), params);
+  EXPECT_TRUE(triangulate(img, HeadGeometry{}, Eigen::Isometry3d::Identity(), params).alignment_points.empty())
+      << "selected only when asked for";
+  const PointSet set = triangulate(img, HeadGeometry{}, Eigen::Isometry3d::Identity(), params, true);
   EXPECT_EQ(set.points.size(), 200u) << "the map keeps every point";
   ASSERT_EQ(set.alignment_points.size(), 10u * 12u) << "columns 8-19 have texture of their own";
   // Identity head and pose: x = (u - cx) z / f; the leftmost alignment point is column 8.
@@ -119,7 +121,7 @@ TEST(MapperGeometry, AlignmentPointsAreThoseWithTextureOfTheirOwn) {
   EXPECT_NEAR(min_x, (8 - 10) * 2.5 / 500, 1e-12);
 
   img.grey.release();
-  EXPECT_EQ(triangulate(img, HeadGeometry{}, Eigen::Isometry3d::Identity(), params).alignment_points.size(), 200u)
+  EXPECT_EQ(triangulate(img, HeadGeometry{}, Eigen::Isometry3d::Identity(), params, true).alignment_points.size(), 200u)
       << "without its grey image a map's points all go to the alignment";
 }
 

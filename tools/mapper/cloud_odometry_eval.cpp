@@ -143,7 +143,7 @@ int main(int argc, char** argv) {
         placed = prev_placed * noisy_delta;
       }
       const Eigen::Isometry3d placed_body = placed * calib.T_imu_cam0.inverse();
-      mapper::PointSet set = mapper::triangulate(image, geometry, placed_body, mp);
+      mapper::PointSet set = mapper::triangulate(image, geometry, placed_body, mp, true);
       const mapper::CloudDelta d =
           odometry.add(f.utime_stamp, set.alignment_points, placed, mp.disparity_sigma_px / (rect.f * rect.baseline));
       if (k > 0) {

@@ -33,7 +33,10 @@ MapperProcess::MapperProcess(fw::Node& node, const StereoCalibration& calib, con
           calib, params, [this](const std::string& name, int64_t n) { node_.health().dropped(name, n); },
           [this](const std::string& name, int64_t n) { node_.health().count(name, n); }),
       stereo_admission_(calib.cam0.width, calib.cam0.height) {
-  if (!cloud_delta_channel_.empty()) odometry_.emplace(cloud_params);
+  if (!cloud_delta_channel_.empty()) {
+    odometry_.emplace(cloud_params);
+    mapper_.keepAlignmentPoints();
+  }
   if (source == PoseSource::kTracker) tracker_poses_.emplace(calib.T_imu_cam0);
   node_.subscribe<ips::stereo_pair_t>(ips::channels::kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
   node_.subscribe<ips::disparity_map_t>(ips::channels::kDisparity,

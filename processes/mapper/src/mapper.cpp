@@ -70,7 +70,7 @@ MappedFrame Mapper::place(const DisparityInput& map, const Pose& pose) {
   image.focal_px = map.focal_px, image.cx = map.cx, image.cy = map.cy, image.baseline_m = map.baseline_m;
   const auto left = lefts_.find(map.seq);
   if (left != lefts_.end()) image.grey = rectifiedLeft(left->second, map.disparity.cols);
-  PointSet set = triangulate(image, head_, pose.T_world_body, params_);
+  PointSet set = triangulate(image, head_, pose.T_world_body, params_, alignment_points_);
   VoxelMap::downsample(params_.voxel_size_m, &set.points, &set.intensity);
   const int64_t dropped = map_.insert(set.points, set.intensity, pose.T_world_body.translation());
   if (dropped > 0) counted_("voxels_dropped_far_from_head", dropped);

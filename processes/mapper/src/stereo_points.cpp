@@ -23,7 +23,7 @@ cv::Mat greySpread(const cv::Mat& grey, int window) {
 }
 
 PointSet triangulate(const DisparityImage& map, const HeadGeometry& head, const Eigen::Isometry3d& T_world_body,
-                     const MapperParams& params) {
+                     const MapperParams& params, bool alignment_points) {
   PointSet out;
   out.max_range_m = rangeForDepthSigma(params, map.focal_px, map.baseline_m);
   // Disparity below which a point is cut: z = f b / d <= max_range.
@@ -35,7 +35,7 @@ PointSet triangulate(const DisparityImage& map, const HeadGeometry& head, const 
   T_body_rect.linear() = head.T_body_cam0.linear() * head.R_rect0_cam0.transpose();
   const Eigen::Isometry3d T_world_rect = T_world_body * T_body_rect;
   const bool has_grey = !map.grey.empty() && map.grey.size() == map.disparity.size();
-  const cv::Mat spread = has_grey ? greySpread(map.grey, params.texture_window_px) : cv::Mat();
+  const cv::Mat spread = alignment_points && has_grey ? greySpread(map.grey, params.texture_window_px) : cv::Mat();
   for (int v = 0; v < map.disparity.rows; v += params.pixel_step) {
     const float* row = map.disparity.ptr<float>(v);
     for (int u = 0; u < map.disparity.cols; u += params.pixel_step) {
@@ -46,7 +46,7 @@ PointSet triangulate(const DisparityImage& map, const HeadGeometry& head, const 
       const Eigen::Vector3d X_world = T_world_rect * X_rect;
       out.points.push_back(X_world);
       out.intensity.push_back(has_grey ? map.grey.at<uint8_t>(v, u) : 0);
-      if (!has_grey || spread.at<float>(v, u) >= params.alignment_min_grey_spread)
+      if (alignment_points && (spread.empty() || spread.at<float>(v, u) >= params.alignment_min_grey_spread))
         out.alignment_points.push_back(X_world);
     }
   }

@@ -35,6 +35,7 @@ struct MappedFrame {
   std::vector<uint8_t> intensity;
   bool has_grey = false;  // the raw left image of that pair was still held
   // The map's points with texture of their own, not fused (PointSet::alignment_points): what CloudOdometry aligns.
+  // Empty unless the mapper keeps them (Mapper::keepAlignmentPoints).
   std::vector<Eigen::Vector3d> alignment_points;
   // Depth precision of the map's points: sigma_z = depth_sigma_per_m2 * z^2 (sigma_d / (f b)).
   double depth_sigma_per_m2 = 0;
@@ -61,6 +62,8 @@ class Mapper {
 
   Mapper(const StereoCalibration& calib, const MapperParams& params, Counter dropped, Counter counted);
 
+  // Frames carry alignment_points from now on (a mapper that aligns its maps, CloudOdometry).
+  void keepAlignmentPoints() { alignment_points_ = true; }
   // The raw left image of a pair (mono8), for the grey values of its map's points.
   void addLeftImage(int64_t seq, const cv::Mat& raw_left);
   // Inputs in stamp order per stream; each returns the frames that became ready.
@@ -78,6 +81,7 @@ class Mapper {
 
   const StereoCalibration calib_;
   const MapperParams params_;
+  bool alignment_points_ = false;
   Counter dropped_, counted_;
   HeadGeometry head_;
   PoseBuffer poses_;

@@ -24,8 +24,9 @@ struct DisparityImage {
 struct PointSet {
   std::vector<Eigen::Vector3d> points;  // world frame [m]
   std::vector<uint8_t> intensity;
-  // The points whose pixel has texture of its own (MapperParams::alignment_min_grey_spread), for the alignment of
-  // maps; all points when the map came without its grey image.
+  // With alignment_points requested: the points whose pixel has texture of its own
+  // (MapperParams::alignment_min_grey_spread), for the alignment of maps; all points when the map came without its
+  // grey image. Empty otherwise.
   std::vector<Eigen::Vector3d> alignment_points;
   // Depth [m] beyond which points were cut by precision (for the figures).
   double max_range_m = 0;
@@ -37,7 +38,9 @@ double rangeForDepthSigma(const MapperParams& params, double focal_px, double ba
 // Standard deviation of the grey values in a window x window square around each pixel (CV_32FC1).
 cv::Mat greySpread(const cv::Mat& grey, int window);
 
+// `alignment_points`: also select the points for the alignment of maps (the grey spread costs a pass over the image,
+// which a mapper that aligns nothing need not make).
 PointSet triangulate(const DisparityImage& map, const HeadGeometry& head, const Eigen::Isometry3d& T_world_body,
-                     const MapperParams& params);
+                     const MapperParams& params, bool alignment_points = false);
 
 }  // namespace ips::mapper
