@@ -85,8 +85,8 @@ TiltSample SensorSim::tilt(int64_t utime) {
   const Eigen::Vector2d z = TiltMeasurement::predict(s.q, R_body_tilt, s.a + Eigen::Vector3d(0, 0, p_.gravity));
   TiltSample m;
   m.utime = utime;
-  m.angle_x = z.x() + p_.tilt_sigma * n01_(rng_);
-  m.angle_y = z.y() + p_.tilt_sigma * n01_(rng_);
+  m.angle_x = z.x() + p_.tilt_offset.x() + p_.tilt_sigma * n01_(rng_);
+  m.angle_y = z.y() + p_.tilt_offset.y() + p_.tilt_sigma * n01_(rng_);
   return m;
 }
 
@@ -99,7 +99,7 @@ TrackerDelta SensorSim::delta(int64_t utime_prev, int64_t utime) {
   TrackerDelta d;
   d.utime = utime;
   d.utime_prev = utime_prev;
-  d.translation = T.translation() + p_.tracker_sigma_t * noise3();
+  d.translation = (1.0 + p_.tracker_scale_error) * T.translation() + p_.tracker_sigma_t * noise3();
   d.rotation = Eigen::Quaterniond(expSO3(p_.tracker_sigma_r * noise3()) * T.linear()).normalized();
   d.covariance.setZero();
   d.covariance.diagonal() << Eigen::Vector3d::Constant(p_.tracker_sigma_t * p_.tracker_sigma_t),

@@ -167,6 +167,109 @@ TEST(FilterModels, DeltaJacobianWithTheLeverArmEstimatedMatchesNumeric) {
   EXPECT_LT(m.jacobian(x).middleCols(kCoreErrorDim, 3).topRows(3).norm(), 1e-12);
 }
 
+// The tracker's scale error as a state, after the lever arm: the tracker's delta (scaled) measures (1 + s) times the
+// predicted translation, a delta from the dense maps (not scaled) does not see s.
+TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
+  std::mt19937 rng(11);
+  FullState x = randomFull(rng, 3);
+  x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
+  x.delta_scale = 0.004;
+  EXPECT_EQ(x.errorDim(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim + 3 * kCloneErrorDim);
+  EXPECT_EQ(x.deltaScaleOffset(), kCoreErrorDim + kLeverArmErrorDim);
+  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
+  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
+  T_imu_cam.translation() = *x.lever_arm;
+  const Eigen::Isometry3d predicted = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_imu_cam);
+  Eigen::Isometry3d z = predicted;
+  z.translation() *= 1.0 + *x.delta_scale;
+  const DeltaMeasurement scaled(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam, true);
+  EXPECT_LT(scaled.residual(x).norm(), 1e-12);
+  const Eigen::MatrixXd H = scaled.jacobian(x);
+  EXPECT_LT((H - numericH(scaled, x)).cwiseAbs().maxCoeff(), 1e-6);
+  // d (1 + s) t / d s = t, in the translation rows only.
+  EXPECT_LT((H.col(x.deltaScaleOffset()).head<3>() - predicted.translation()).norm(), 1e-12);
+  EXPECT_EQ(H.col(x.deltaScaleOffset()).tail<3>().norm(), 0.0);
+  const DeltaMeasurement unscaled(0, 2, predicted, Matrix6d::Identity() * 1e-6, T_imu_cam);
+  EXPECT_LT(unscaled.residual(x).norm(), 1e-12);
+  EXPECT_EQ(unscaled.jacobian(x).col(x.deltaScaleOffset()).norm(), 0.0);
+  EXPECT_LT((unscaled.jacobian(x) - numericH(unscaled, x)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+// The tilt sensor's offsets as states, after the scale: they add to the predicted angles; a measurement built without
+// offset_state ignores them and stays core-only (the UKF's cheaper path).
+TEST(FilterModels, TiltJacobianWithTheOffsetEstimatedMatchesNumeric) {
+  std::mt19937 rng(13);
+  FullState x = randomFull(rng, 2);
+  x.nav.orientation = expQuat(Eigen::Vector3d(0.2, -0.3, 1.0));
+  x.nav.acceleration = Eigen::Vector3d(0.5, -0.2, 0.1);
+  x.delta_scale = 0.001;
+  x.tilt_offset = Eigen::Vector2d(0.004, -0.007);
+  EXPECT_EQ(x.tiltOffsetOffset(), kCoreErrorDim + kDeltaScaleErrorDim);
+  EXPECT_EQ(x.cloneOffset(0), kCoreErrorDim + kDeltaScaleErrorDim + kTiltOffsetErrorDim);
+  const Eigen::Matrix3d R_bt = expSO3(Eigen::Vector3d(0.01, 0.02, 0.5));
+  const TiltMeasurement with(0.1, -0.2, R_bt, 1e-3, 9.81, true, true);
+  EXPECT_FALSE(with.coreOnly());
+  const Eigen::MatrixXd H = with.jacobian(x);
+  EXPECT_LT((H - numericH(with, x)).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_TRUE((H.block<2, 2>(0, x.tiltOffsetOffset()).isIdentity(0)));
+  const TiltMeasurement without(0.1, -0.2, R_bt, 1e-3, 9.81, true, false);
+  EXPECT_TRUE(without.coreOnly());
+  EXPECT_LT((with.residual(x) - without.residual(x) + *x.tilt_offset).norm(), 1e-15);
+  EXPECT_EQ((without.jacobian(x).block<2, 2>(0, x.tiltOffsetOffset()).norm()), 0.0);
+}
+
+// The camera's alignment as states, after the others: it turns the predicted translation and conjugates the predicted
+// rotation, for the tracker's deltas (scaled) and the far points' rotations alike.
+TEST(FilterModels, DeltaAndRotationJacobiansWithTheCameraAlignmentMatchNumeric) {
+  std::mt19937 rng(14);
+  FullState x = randomFull(rng, 3);
+  x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
+  x.delta_scale = 0.003;
+  x.camera_alignment = expQuat(Eigen::Vector3d(0.002, -0.001, 0.003));
+  EXPECT_EQ(x.cameraAlignmentOffset(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim);
+  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
+  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
+  Eigen::Isometry3d T_state = T_imu_cam;
+  T_state.translation() = *x.lever_arm;
+  T_state.linear() = T_imu_cam.linear() * x.camera_alignment->toRotationMatrix();
+  const Eigen::Isometry3d predicted = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_state);
+  Eigen::Isometry3d z = predicted;
+  z.translation() *= 1.0 + *x.delta_scale;
+  const DeltaMeasurement delta(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam, true);
+  EXPECT_LT(delta.residual(x).norm(), 1e-12);
+  const Eigen::MatrixXd H = delta.jacobian(x);
+  EXPECT_LT((H - numericH(delta, x)).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_GT(H.middleCols(x.cameraAlignmentOffset(), 3).topRows(3).norm(), 0.1);  // it turns the step
+  const RotationMeasurement rotation(0, 2, predicted.linear(), Eigen::Matrix3d::Identity() * 1e-8, T_imu_cam);
+  EXPECT_LT(rotation.residual(x).norm(), 1e-12);
+  EXPECT_LT((rotation.jacobian(x) - numericH(rotation, x)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(FilterModels, BoxplusBoxminusRoundTripWithTheScale) {
+  std::mt19937 rng(12);
+  FullState x = randomFull(rng, 2);
+  x.delta_scale = -0.002;
+  Eigen::VectorXd d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
+  const FullState y = boxplus(x, d);
+  EXPECT_NEAR(*y.delta_scale - *x.delta_scale, d(kCoreErrorDim), 1e-15);
+  EXPECT_LT((boxminus(y, x) - d).norm(), 1e-12);
+  FullState without = x;
+  without.delta_scale.reset();
+  EXPECT_THROW(boxminus(x, without), std::invalid_argument);
+  x.tilt_offset = Eigen::Vector2d(0.01, -0.02);
+  d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
+  const FullState z = boxplus(x, d);
+  EXPECT_LT((*z.tilt_offset - *x.tilt_offset - d.segment<2>(x.tiltOffsetOffset())).norm(), 1e-15);
+  EXPECT_LT((boxminus(z, x) - d).norm(), 1e-12);
+  x.camera_alignment = expQuat(Eigen::Vector3d(0.01, 0.02, -0.03));
+  d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
+  const FullState w = boxplus(x, d);
+  EXPECT_LT(
+      (logQuat(x.camera_alignment->conjugate() * *w.camera_alignment) - d.segment<3>(x.cameraAlignmentOffset())).norm(),
+      1e-12);
+  EXPECT_LT((boxminus(w, x) - d).norm(), 1e-12);
+}
+
 TEST(FilterModels, BoxplusBoxminusRoundTripWithTheLeverArm) {
   std::mt19937 rng(10);
   FullState x = randomFull(rng, 2);
@@ -315,6 +418,31 @@ TEST(FilterKalman, LeverArmStatesKeepTheirPlaceAndCorrelationsAsClonesComeAndGo)
     EXPECT_NEAR(kf->covariance()(21, 21), 1e-2, 1e-9);
     EXPECT_NEAR(kf->covariance()(24, 21), 5e-3, 1e-9);
     EXPECT_TRUE(kf->state().lever_arm.has_value());
+  }
+}
+
+// The scale's random walk (ProcessNoise::delta_scale_psd) adds psd * dt to its variance, in both filters, and
+// nothing elsewhere: its correlation with the core and the clones is carried as the lever arm's is.
+TEST(FilterKalman, ScaleStateWalksByItsPsdAndKeepsItsCorrelations) {
+  FilterParams params;
+  params.process.delta_scale_psd = 2e-7;
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    params.type = type;
+    auto kf = makeKalmanFilter(params);
+    FullState x0;
+    x0.nav.velocity = Eigen::Vector3d(1, 0, 0);
+    x0.delta_scale = 0.001;
+    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(22, 22) * 1e-2;
+    P(21, 21) = 1e-5;
+    P(0, 21) = P(21, 0) = 2e-4;  // position error correlated with the scale
+    kf->reset(x0, P);
+    kf->addClone();
+    ASSERT_EQ(kf->covariance().rows(), 28);
+    EXPECT_NEAR(kf->covariance()(22, 21), 2e-4, 1e-15);  // the clone's position takes the core's correlation
+    kf->predict(0.5);
+    EXPECT_NEAR(kf->covariance()(21, 21), 1e-5 + 2e-7 * 0.5, 1e-15) << toString(type);
+    EXPECT_NEAR(kf->covariance()(22, 21), 2e-4, 1e-12) << toString(type);
+    EXPECT_NEAR(*kf->state().delta_scale, 0.001, 1e-15) << toString(type);
   }
 }
 

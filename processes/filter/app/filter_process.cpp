@@ -44,6 +44,19 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
     m.lever_arm[i] = out.lever_arm[i];
     m.lever_arm_sigma[i] = std::sqrt(std::max(0.0, out.lever_arm_covariance(i, i)));
   }
+  m.delta_scale_estimated = out.delta_scale_estimated;
+  m.delta_scale = out.delta_scale;
+  m.delta_scale_sigma = out.delta_scale_sigma;
+  m.tilt_offset_estimated = out.tilt_offset_estimated;
+  for (int i = 0; i < 2; ++i) {
+    m.tilt_offset[i] = out.tilt_offset[i];
+    m.tilt_offset_sigma[i] = out.tilt_offset_sigma[i];
+  }
+  m.camera_alignment_estimated = out.camera_alignment_estimated;
+  for (int i = 0; i < 3; ++i) {
+    m.camera_alignment[i] = out.camera_alignment[i];
+    m.camera_alignment_sigma[i] = out.camera_alignment_sigma[i];
+  }
   for (const auto& sensor : out.sensors) {
     if (!sensor.name || !*sensor.name) continue;
     m.sensor_names.push_back(sensor.name);

@@ -63,6 +63,40 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
         learnt ? Eigen::Matrix3d(kf.covariance().block<3, 3>(kf.state().leverArmOffset(), kf.state().leverArmOffset()))
                : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * params_.lever_arm_sigma * params_.lever_arm_sigma);
   }
+  if (params_.estimate_delta_scale) {
+    // Kept over a restart as the lever arm is: it belongs to the tracker's calibration, not to the motion.
+    const KalmanFilter& kf = *run_.kf;
+    const bool learnt = initialized_ && kf.state().delta_scale.has_value();
+    x.delta_scale = learnt ? *kf.state().delta_scale : 0.0;
+    const int n = int(P.rows());
+    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + kDeltaScaleErrorDim, n + kDeltaScaleErrorDim));
+    const int o = kf.state().deltaScaleOffset();
+    P(n, n) = learnt ? kf.covariance()(o, o) : params_.delta_scale_sigma * params_.delta_scale_sigma;
+  }
+  if (params_.estimate_tilt_offset) {
+    // Kept over a restart too: the sensor's offsets do not change with the navigation state.
+    const KalmanFilter& kf = *run_.kf;
+    const bool learnt = initialized_ && kf.state().tilt_offset.has_value();
+    x.tilt_offset = learnt ? *kf.state().tilt_offset : Eigen::Vector2d::Zero();
+    const int n = int(P.rows());
+    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + kTiltOffsetErrorDim, n + kTiltOffsetErrorDim));
+    const int o = kf.state().tiltOffsetOffset();
+    P.bottomRightCorner<kTiltOffsetErrorDim, kTiltOffsetErrorDim>() =
+        learnt ? Eigen::Matrix2d(kf.covariance().block<2, 2>(o, o))
+               : Eigen::Matrix2d(Eigen::Matrix2d::Identity() * params_.tilt_sigma * params_.tilt_sigma);
+  }
+  if (params_.estimate_camera_alignment) {
+    // Kept over a restart too: the head's mounting does not change with the navigation state.
+    const KalmanFilter& kf = *run_.kf;
+    const bool learnt = initialized_ && kf.state().camera_alignment.has_value();
+    x.camera_alignment = learnt ? *kf.state().camera_alignment : Eigen::Quaterniond::Identity();
+    const int n = int(P.rows());
+    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + kCameraAlignmentErrorDim, n + kCameraAlignmentErrorDim));
+    const int o = kf.state().cameraAlignmentOffset();
+    const double s2 = params_.camera_alignment_sigma * params_.camera_alignment_sigma;
+    P.bottomRightCorner<3, 3>() =
+        learnt ? Eigen::Matrix3d(kf.covariance().block<3, 3>(o, o)) : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * s2);
+  }
   run_.kf->reset(x, P);
   run_.last_imu_time = state.utime;
   run_.consecutive_rejects.fill(0);
@@ -276,8 +310,10 @@ bool Estimator::applyMeasurement(Runner& run, const Event& e, std::array<SensorC
       if (counters) ++(*counters)[kSensorTilt].rejected;
       return false;
     }
-    const TiltMeasurement m(e.tilt.angle_x, e.tilt.angle_y, R_body_tilt_, params_.tilt_sigma, params_.gravity,
-                            params_.tilt_specific_force);
+    const bool offset = kf.state().tilt_offset.has_value();
+    const TiltMeasurement m(e.tilt.angle_x, e.tilt.angle_y, R_body_tilt_,
+                            offset ? params_.tilt_offset_noise_sigma : params_.tilt_sigma, params_.gravity,
+                            params_.tilt_specific_force, offset);
     r = kf.update(m, gateFor(run, kSensorTilt, 2, params_.gate_tilt));
   } else {
     return false;
@@ -345,7 +381,7 @@ void Estimator::process(const Event& e) {
       Eigen::Matrix<double, 6, 1> min_sigma;
       min_sigma << Eigen::Vector3d::Constant(cloud ? params_.cloud_min_sigma_t : params_.tracker_min_sigma_t),
           Eigen::Vector3d::Constant(cloud ? params_.cloud_min_sigma_r : params_.tracker_min_sigma_r);
-      const DeltaMeasurement m(i0, i1, T, symmetrisedWithFloor(e.delta.covariance, min_sigma), T_imu_cam0_);
+      const DeltaMeasurement m(i0, i1, T, symmetrisedWithFloor(e.delta.covariance, min_sigma), T_imu_cam0_, !cloud);
       const UpdateResult r =
           kf.update(m, gateFor(run_, e.sensor, 6, cloud ? params_.gate_cloud : params_.gate_tracker));
       countUpdate(run_, e.sensor, r.applied, &counters_);
@@ -403,8 +439,12 @@ void Estimator::processInit(const Event& e) {
     for (const TiltSample& t : init_tilt_) mean_tilt += Eigen::Vector2d(t.angle_x, t.angle_y);
     mean_tilt /= static_cast<double>(init_tilt_.size());
     // At rest both models agree; the acceleration state is zero.
-    const TiltMeasurement m(mean_tilt.x(), mean_tilt.y(), R_body_tilt_, params_.tilt_sigma, params_.gravity,
-                            params_.tilt_specific_force);
+    // With the offsets as states the mean carries the samples' white noise alone (averaged: far below their
+    // sigma, but held at it, as the sensing element's lag and the head's sway are not white).
+    const bool offset = run_.kf->state().tilt_offset.has_value();
+    const TiltMeasurement m(mean_tilt.x(), mean_tilt.y(), R_body_tilt_,
+                            offset ? params_.tilt_offset_noise_sigma : params_.tilt_sigma, params_.gravity,
+                            params_.tilt_specific_force, offset);
     run_.kf->update(m, kInf);
   }
   IPS_INFO("filter: initialised at rest at t=" << s.utime << " us from " << init_imu_.size() << " IMU and "
@@ -470,6 +510,23 @@ FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const 
     const int l = kf.state().leverArmOffset();
     o.lever_arm = *kf.state().lever_arm;
     o.lever_arm_covariance = kf.covariance().block<kLeverArmErrorDim, kLeverArmErrorDim>(l, l);
+  }
+  o.delta_scale_estimated = kf.state().delta_scale.has_value();
+  if (o.delta_scale_estimated) {
+    o.delta_scale = *kf.state().delta_scale;
+    o.delta_scale_sigma = std::sqrt(kf.covariance()(kf.state().deltaScaleOffset(), kf.state().deltaScaleOffset()));
+  }
+  o.tilt_offset_estimated = kf.state().tilt_offset.has_value();
+  if (o.tilt_offset_estimated) {
+    const int t = kf.state().tiltOffsetOffset();
+    o.tilt_offset = *kf.state().tilt_offset;
+    o.tilt_offset_sigma = kf.covariance().block<2, 2>(t, t).diagonal().cwiseSqrt();
+  }
+  o.camera_alignment_estimated = kf.state().camera_alignment.has_value();
+  if (o.camera_alignment_estimated) {
+    const int a = kf.state().cameraAlignmentOffset();
+    o.camera_alignment = logQuat(*kf.state().camera_alignment);
+    o.camera_alignment_sigma = kf.covariance().block<3, 3>(a, a).diagonal().cwiseSqrt();
   }
   o.type = kf.type();
   o.a_priori = a_priori;

@@ -60,6 +60,10 @@ void KalmanFilter::resetErrorBlock(int offset, int size, double variance) {
   P_.diagonal().segment(offset, size).setConstant(variance);
 }
 
+void KalmanFilter::addRandomWalks(double dt, const ProcessNoise& q) {
+  if (x_.delta_scale) P_(x_.deltaScaleOffset(), x_.deltaScaleOffset()) += q.delta_scale_psd * dt;
+}
+
 // ---------------------------------------------------------------------------------------------- EKF
 
 void ExtendedKalmanFilter::predict(double dt, const ProcessNoise& q) {
@@ -76,6 +80,7 @@ void ExtendedKalmanFilter::predict(double dt, const ProcessNoise& q) {
     P_.topRightCorner(kCoreErrorDim, nc) = Pxc;
     P_.bottomLeftCorner(nc, kCoreErrorDim) = Pxc.transpose();
   }
+  addRandomWalks(dt, q);
 }
 
 UpdateResult ExtendedKalmanFilter::update(const Measurement& m, double gate) {
@@ -170,6 +175,7 @@ void UnscentedKalmanFilter::predict(double dt, const ProcessNoise& q) {
     P_.topRightCorner(kCoreErrorDim, nc) = Pxc;
     P_.bottomLeftCorner(nc, kCoreErrorDim) = Pxc.transpose();
   }
+  addRandomWalks(dt, q);
   symmetrize();
 }
 

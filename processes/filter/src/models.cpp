@@ -103,12 +103,13 @@ MeasMatrix ImuMeasurement::noise() const {
 // ---------------------------------------------------------------------------------------------- tilt
 
 TiltMeasurement::TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma,
-                                 double gravity, bool specific_force)
+                                 double gravity, bool specific_force, bool offset_state)
     : z_(angle_x, angle_y),
       R_body_tilt_(R_body_tilt),
       var_(sigma * sigma),
       gravity_(gravity),
-      specific_force_(specific_force) {}
+      specific_force_(specific_force),
+      offset_state_(offset_state) {}
 
 Eigen::Vector2d TiltMeasurement::predict(const Eigen::Quaterniond& q, const Eigen::Matrix3d& R_body_tilt,
                                          const Eigen::Vector3d& u_world) {
@@ -128,11 +129,14 @@ Eigen::Vector3d TiltMeasurement::sensed(const NavState& x) const {
 }
 
 MeasVector TiltMeasurement::residual(const FullState& x) const {
-  return MeasVector(z_ - predict(x.nav.orientation, R_body_tilt_, sensed(x.nav)));
+  Eigen::Vector2d h = predict(x.nav.orientation, R_body_tilt_, sensed(x.nav));
+  if (offset_state_ && x.tilt_offset) h += *x.tilt_offset;
+  return MeasVector(z_ - h);
 }
 
 Eigen::MatrixXd TiltMeasurement::jacobian(const FullState& x) const {
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(2, x.errorDim());
+  if (offset_state_ && x.tilt_offset) H.block<2, 2>(0, x.tiltOffsetOffset()).setIdentity();
   const Eigen::Vector3d u = sensed(x.nav);
   const Eigen::Matrix3d A = R_body_tilt_.transpose() * x.nav.orientation.toRotationMatrix().transpose();
   const Eigen::Vector3d f = A * u;
@@ -162,31 +166,37 @@ MeasMatrix TiltMeasurement::noise() const {
 
 namespace {
 
+// The camera-to-IMU transformation a model uses: the calibration's, with the state's lever arm and the state's
+// camera alignment where the filter estimates them.
+Eigen::Isometry3d imuCamera(const FullState& x, const Eigen::Isometry3d& T_imu_cam0) {
+  Eigen::Isometry3d T = T_imu_cam0;
+  if (x.lever_arm) T.translation() = *x.lever_arm;
+  if (x.camera_alignment) T.linear() = T_imu_cam0.linear() * x.camera_alignment->toRotationMatrix();
+  return T;
+}
+
 // Rows `row`..`row`+2 of H for the relative rotation of camera 0 between clones i0 and i1 (DeltaMeasurement's
 // rotation part, RotationMeasurement whole): R_pred = R_ci R0^T R1 R_ic, perturbed from the left by
-// Exp(A (dth1 - dth0)) with A = R_ci R0^T.
-void setRotationRows(const FullState& x, int i0, int i1, const Eigen::Isometry3d& T_imu_cam0, int row,
+// Exp(A (dth1 - dth0)) with A = R_ci R0^T. The camera alignment's error dphi turns R_ic into R_ic Exp(dphi), and
+// R_pred into Exp(-dphi) R_pred Exp(dphi) = Exp((R_pred - I) dphi) R_pred.
+void setRotationRows(const FullState& x, int i0, int i1, const Eigen::Isometry3d& T_imu_cam0_calibration, int row,
                      Eigen::MatrixXd& H) {
+  const Eigen::Isometry3d T_imu_cam0 = imuCamera(x, T_imu_cam0_calibration);
   const Eigen::Matrix3d A =
       T_imu_cam0.linear().transpose() * x.clones.at(i0).orientation.toRotationMatrix().transpose();
   H.block<3, 3>(row, x.cloneOffset(i1) + 3) = A;
   H.block<3, 3>(row, x.cloneOffset(i0) + 3) = -A;
-}
-
-// The camera-to-IMU transformation a model uses: the calibration's rotation, and the state's lever arm when the
-// filter estimates it (the calibration's translation otherwise).
-Eigen::Isometry3d imuCamera(const FullState& x, const Eigen::Isometry3d& T_imu_cam0) {
-  if (!x.lever_arm) return T_imu_cam0;
-  Eigen::Isometry3d T = T_imu_cam0;
-  T.translation() = *x.lever_arm;
-  return T;
+  if (x.camera_alignment) {
+    const Eigen::Matrix3d R_pred = A * x.clones.at(i1).orientation.toRotationMatrix() * T_imu_cam0.linear();
+    H.block<3, 3>(row, x.cameraAlignmentOffset()) = R_pred - Eigen::Matrix3d::Identity();
+  }
 }
 
 }  // namespace
 
 DeltaMeasurement::DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
-                                   const Eigen::Isometry3d& T_imu_cam0)
-    : i0_(clone0), i1_(clone1), z_(T_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0) {}
+                                   const Eigen::Isometry3d& T_imu_cam0, bool scaled)
+    : i0_(clone0), i1_(clone1), z_(T_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0), scaled_(scaled) {}
 
 Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone& c1,
                                             const Eigen::Isometry3d& T_imu_cam0) {
@@ -201,7 +211,7 @@ Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone
 MeasVector DeltaMeasurement::residual(const FullState& x) const {
   const Eigen::Isometry3d T = predict(x.clones.at(i0_), x.clones.at(i1_), imuCamera(x, T_imu_cam0_));
   MeasVector r(6);
-  r.head<3>() = z_.translation() - T.translation();
+  r.head<3>() = z_.translation() - scaleOf(x) * T.translation();
   r.tail<3>() = logSO3(z_.linear() * T.linear().transpose());
   return r;
 }
@@ -226,6 +236,11 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   H.block<3, 3>(0, o0 + 3) = A * skew(d);
   // The lever arm shows only where the head turns between the two images: d t_pred / d t_ic = R_ci (R0^T R1 - I).
   if (x.lever_arm) H.block<3, 3>(0, x.leverArmOffset()) = A * R1 - R_ci;
+  // The camera alignment's error turns R_ci into Exp(-dphi) R_ci: t_pred into t_pred + [t_pred]x dphi.
+  if (x.camera_alignment) H.block<3, 3>(0, x.cameraAlignmentOffset()) = skew(A * d - R_ci * t_ic);
+  // Measured: (1 + s) t_pred.
+  H.topRows<3>() *= scaleOf(x);
+  if (scaled_ && x.delta_scale) H.block<3, 1>(0, x.deltaScaleOffset()) = A * d - R_ci * t_ic;
   setRotationRows(x, i0_, i1_, T_imu_cam0_, 3, H);
   return H;
 }
@@ -237,7 +252,7 @@ RotationMeasurement::RotationMeasurement(int clone0, int clone1, const Eigen::Ma
     : i0_(clone0), i1_(clone1), z_(R_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0) {}
 
 MeasVector RotationMeasurement::residual(const FullState& x) const {
-  const Eigen::Isometry3d T = DeltaMeasurement::predict(x.clones.at(i0_), x.clones.at(i1_), T_imu_cam0_);
+  const Eigen::Isometry3d T = DeltaMeasurement::predict(x.clones.at(i0_), x.clones.at(i1_), imuCamera(x, T_imu_cam0_));
   return MeasVector(logSO3(z_ * T.linear().transpose()));
 }
 

@@ -43,6 +43,8 @@ FilterParams loadFilterParams(const Config& c) {
   positive(c, "process_noise/angular_accel_psd", p.process.angular_accel_psd);
   nonNegative(c, "process_noise/accel_bias_psd", p.process.accel_bias_psd);
   nonNegative(c, "process_noise/gyro_bias_psd", p.process.gyro_bias_psd);
+  p.process.delta_scale_psd = c.getDouble("delta_scale/psd", p.process.delta_scale_psd);
+  nonNegative(c, "delta_scale/psd", p.process.delta_scale_psd);
 
   p.imu.gyro_noise_density = c.getDouble("imu/gyro_noise_density", p.imu.gyro_noise_density);
   p.imu.accel_noise_density = c.getDouble("imu/accel_noise_density", p.imu.accel_noise_density);
@@ -88,6 +90,15 @@ FilterParams loadFilterParams(const Config& c) {
   p.estimate_lever_arm = c.getBool("lever_arm/estimate", p.estimate_lever_arm);
   p.lever_arm_sigma = c.getDouble("lever_arm/sigma", p.lever_arm_sigma);
   if (!(p.lever_arm_sigma > 0)) throw ConfigError(c.path() + ": key 'lever_arm/sigma' must be positive");
+  p.estimate_tilt_offset = c.getBool("tilt/estimate_offset", p.estimate_tilt_offset);
+  p.tilt_offset_noise_sigma = c.getDouble("tilt/offset_noise_sigma", p.tilt_offset_noise_sigma);
+  positive(c, "tilt/offset_noise_sigma", p.tilt_offset_noise_sigma);
+  p.estimate_camera_alignment = c.getBool("camera_alignment/estimate", p.estimate_camera_alignment);
+  p.camera_alignment_sigma = c.getDouble("camera_alignment/sigma", p.camera_alignment_sigma);
+  positive(c, "camera_alignment/sigma", p.camera_alignment_sigma);
+  p.estimate_delta_scale = c.getBool("delta_scale/estimate", p.estimate_delta_scale);
+  p.delta_scale_sigma = c.getDouble("delta_scale/sigma", p.delta_scale_sigma);
+  if (!(p.delta_scale_sigma > 0)) throw ConfigError(c.path() + ": key 'delta_scale/sigma' must be positive");
   p.cloud = c.getBool("cloud/enabled", p.cloud);
   p.cloud_min_sigma_t = c.getDouble("cloud/min_sigma_t", p.cloud_min_sigma_t);
   p.cloud_min_sigma_r = c.getDouble("cloud/min_sigma_r", p.cloud_min_sigma_r);
@@ -126,6 +137,7 @@ FilterParams loadFilterParams(const Config& c) {
   positive(c, "gap/angular_accel_psd", p.gap_process.angular_accel_psd);
   p.gap_process.accel_bias_psd = p.process.accel_bias_psd;
   p.gap_process.gyro_bias_psd = p.process.gyro_bias_psd;
+  p.gap_process.delta_scale_psd = p.process.delta_scale_psd;
   p.output_decimation = c.getInt("output_decimation", p.output_decimation);
   if (p.output_decimation < 1) throw ConfigError(c.path() + ": key 'output_decimation' must be >= 1");
 

@@ -61,6 +61,14 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
   out.nav = boxplus(x.nav, dx.head<kCoreErrorDim>());
   out.lever_arm = x.lever_arm;
   if (x.lever_arm) *out.lever_arm += dx.segment<kLeverArmErrorDim>(x.leverArmOffset());
+  out.delta_scale = x.delta_scale;
+  if (x.delta_scale) *out.delta_scale += dx(x.deltaScaleOffset());
+  out.tilt_offset = x.tilt_offset;
+  if (x.tilt_offset) *out.tilt_offset += dx.segment<kTiltOffsetErrorDim>(x.tiltOffsetOffset());
+  out.camera_alignment = x.camera_alignment;
+  if (x.camera_alignment)
+    *out.camera_alignment =
+        (*x.camera_alignment * expQuat(dx.segment<kCameraAlignmentErrorDim>(x.cameraAlignmentOffset()))).normalized();
   for (size_t i = 0; i < x.clones.size(); ++i) {
     const int o = x.cloneOffset(static_cast<int>(i));
     out.clones[i].utime = x.clones[i].utime;
@@ -76,11 +84,19 @@ FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& d
 }
 
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
-  if (a.clones.size() != b.clones.size() || a.lever_arm.has_value() != b.lever_arm.has_value())
+  if (a.clones.size() != b.clones.size() || a.lever_arm.has_value() != b.lever_arm.has_value() ||
+      a.delta_scale.has_value() != b.delta_scale.has_value() ||
+      a.tilt_offset.has_value() != b.tilt_offset.has_value() ||
+      a.camera_alignment.has_value() != b.camera_alignment.has_value())
     throw std::invalid_argument("boxminus: state layouts differ");
   Eigen::VectorXd d(a.errorDim());
   d.head<kCoreErrorDim>() = boxminus(a.nav, b.nav);
   if (a.lever_arm) d.segment<kLeverArmErrorDim>(a.leverArmOffset()) = *a.lever_arm - *b.lever_arm;
+  if (a.delta_scale) d(a.deltaScaleOffset()) = *a.delta_scale - *b.delta_scale;
+  if (a.tilt_offset) d.segment<kTiltOffsetErrorDim>(a.tiltOffsetOffset()) = *a.tilt_offset - *b.tilt_offset;
+  if (a.camera_alignment)
+    d.segment<kCameraAlignmentErrorDim>(a.cameraAlignmentOffset()) =
+        logQuat(b.camera_alignment->conjugate() * *a.camera_alignment);
   for (size_t i = 0; i < a.clones.size(); ++i) {
     const int o = a.cloneOffset(static_cast<int>(i));
     d.segment<3>(o) = a.clones[i].position - b.clones[i].position;

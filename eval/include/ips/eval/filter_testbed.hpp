@@ -33,10 +33,12 @@ struct SensorSimParams {
   Eigen::Vector3d gyro_bias = Eigen::Vector3d(0.002, -0.001, 0.0015);  // [rad/s] constant truth
   Eigen::Vector3d accel_bias = Eigen::Vector3d(0.02, -0.015, 0.01);    // [m/s^2]
   double tilt_rate_hz = 14.0;
-  double tilt_sigma = 1.75e-3;  // [rad]
+  double tilt_sigma = 1.75e-3;                            // [rad] white noise per angle
+  Eigen::Vector2d tilt_offset = Eigen::Vector2d::Zero();  // [rad] constant offsets of the two angles
   double image_rate_hz = 8.0;
   double tracker_sigma_t = 0.002;  // [m] per axis per delta
   double tracker_sigma_r = 1e-4;   // [rad] per axis per delta
+  double tracker_scale_error = 0;  // the deltas' translations are (1 + this) times the true ones
   double gravity = 9.81;
 };
 

@@ -84,6 +84,19 @@ struct FilterOutput {
   bool lever_arm_estimated = false;
   Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
   Eigen::Matrix3d lever_arm_covariance = Eigen::Matrix3d::Zero();
+  // The tracker's scale error (its translations are 1 + delta_scale times the true ones) and its sigma, when the
+  // filter estimates it (FilterParams::estimate_delta_scale); zero otherwise.
+  bool delta_scale_estimated = false;
+  double delta_scale = 0, delta_scale_sigma = 0;
+  // The tilt sensor's constant offsets [rad] and their sigmas, when the filter estimates them
+  // (FilterParams::estimate_tilt_offset); zero otherwise.
+  bool tilt_offset_estimated = false;
+  Eigen::Vector2d tilt_offset = Eigen::Vector2d::Zero(), tilt_offset_sigma = Eigen::Vector2d::Zero();
+  // The camera's rotation against the calibration's (rotation vector in camera 0 [rad]: T_imu_cam0's rotation is the
+  // calibration's times Exp(camera_alignment)) and its sigmas, when the filter estimates it
+  // (FilterParams::estimate_camera_alignment); zero otherwise.
+  bool camera_alignment_estimated = false;
+  Eigen::Vector3d camera_alignment = Eigen::Vector3d::Zero(), camera_alignment_sigma = Eigen::Vector3d::Zero();
   FilterType type = FilterType::Ekf;
   bool a_priori = false;
   std::array<SensorCounters, kNumSensors> sensors;

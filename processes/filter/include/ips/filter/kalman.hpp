@@ -46,6 +46,8 @@ class KalmanFilter {
  protected:
   explicit KalmanFilter(const FilterParams& params) : params_(params) {}
   void symmetrize();
+  // The random walks of the states besides the core (the tracker's scale error) over dt.
+  void addRandomWalks(double dt, const ProcessNoise& q);
 
   FilterParams params_;
   FullState x_;

@@ -60,11 +60,12 @@ class ImuMeasurement : public Measurement {
 // to the vector it senses, angle_x = asin(f_x / |f|) with f in the tilt frame (positive when the x axis points
 // up). An accelerometer-type inclinometer senses the specific force f = R^T (a + g e_z), so while the head
 // accelerates it does not measure the attitude alone; with `specific_force` false it is modelled as sensing
-// gravity only (f = R^T g e_z). R_body_tilt = R_imu_cam0 * R_tilt_cam0^T.
+// gravity only (f = R^T g e_z). R_body_tilt = R_imu_cam0 * R_tilt_cam0^T. `offset_state`: the state holds the
+// sensor's constant offsets (FullState::tilt_offset), which add to the angles; sigma is then its white noise alone.
 class TiltMeasurement : public Measurement {
  public:
   TiltMeasurement(double angle_x, double angle_y, const Eigen::Matrix3d& R_body_tilt, double sigma,
-                  double gravity = 9.81, bool specific_force = true);
+                  double gravity = 9.81, bool specific_force = true, bool offset_state = false);
   int dim() const override { return 2; }
   // Angles of a sensor at rest (gravity only).
   static Eigen::Vector2d predict(const Eigen::Quaterniond& q_world_body, const Eigen::Matrix3d& R_body_tilt);
@@ -74,6 +75,7 @@ class TiltMeasurement : public Measurement {
   MeasVector residual(const FullState& x) const override;
   Eigen::MatrixXd jacobian(const FullState& x) const override;
   MeasMatrix noise() const override;
+  bool coreOnly() const override { return !offset_state_; }
 
  private:
   Eigen::Vector3d sensed(const NavState& x) const;
@@ -82,16 +84,19 @@ class TiltMeasurement : public Measurement {
   double var_;
   double gravity_;
   bool specific_force_;
+  bool offset_state_;
 };
 
 // Relative pose of camera 0 between clone i0 (older) and clone i1: X_c0(t0) = R * X_c0(t1) + t. Residual
 // [t_meas - t_pred; Log(R_meas R_pred^T)] (rotation error in camera 0 at t0), covariance order [t, rotvec].
-// T_imu_cam0's rotation is the calibration's; its translation (the lever arm) the state's when the filter estimates
-// it, the calibration's otherwise.
+// T_imu_cam0 is the calibration's, with the state's translation (the lever arm) and the state's camera alignment
+// where the filter estimates them. `scaled`: the measured translation is (1 + delta_scale) t when the state holds the
+// tracker's scale error (a disparity offset the tracker has not found in full scales every step alike); a delta from
+// elsewhere (the dense maps' alignment) is not scaled.
 class DeltaMeasurement : public Measurement {
  public:
   DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
-                   const Eigen::Isometry3d& T_imu_cam0);
+                   const Eigen::Isometry3d& T_imu_cam0, bool scaled = false);
   int dim() const override { return 6; }
   static Eigen::Isometry3d predict(const PoseClone& c0, const PoseClone& c1, const Eigen::Isometry3d& T_imu_cam0);
   MeasVector residual(const FullState& x) const override;
@@ -100,10 +105,12 @@ class DeltaMeasurement : public Measurement {
   bool coreOnly() const override { return false; }
 
  private:
+  double scaleOf(const FullState& x) const { return scaled_ && x.delta_scale ? 1.0 + *x.delta_scale : 1.0; }
   int i0_, i1_;
   Eigen::Isometry3d z_;
   Matrix6d cov_;
   Eigen::Isometry3d T_imu_cam0_;
+  bool scaled_;
 };
 
 // Relative rotation of camera 0 between clone i0 (older) and clone i1, alone: the tracker's rotation from far

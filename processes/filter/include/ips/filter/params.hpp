@@ -18,6 +18,9 @@ struct ProcessNoise {
   double angular_accel_psd = 20.0;  // [rad^2/s^3] spectral density of the angular acceleration (head motion)
   double accel_bias_psd = 1e-8;     // [m^2/s^5] accelerometer bias random walk
   double gyro_bias_psd = 1e-12;     // [rad^2/s^3] gyro bias random walk
+  double delta_scale_psd = 1e-7;    // [1/s] random walk of the tracker's scale error, when estimated: the tracker's
+                                    // disparity offset changes in steps (each application) and the scale it leaves
+                                    // with the scene's depths (offset / disparity): 0.2 % in a minute
 };
 
 struct ImuNoise {
@@ -117,6 +120,33 @@ struct FilterParams {
   // give the components across the vertical, and the vertical one follows only as the head nods and rolls.
   bool estimate_lever_arm = false;
   double lever_arm_sigma = 0.03;  // [m] per axis: a tape measure against centres hidden inside two housings
+
+  // The tracker's scale error as a further filter state: its translations are (1 + s) times the true ones. A
+  // calibration leaves the right rectified principal point a few tenths of a pixel off the left's; the tracker finds
+  // most of that disparity offset while walking, but what it misses (a few hundredths of a pixel, against disparities
+  // of tens of pixels indoors) makes every step too long or too short alike, an error no white noise on the deltas
+  // represents. The IMU's accelerations observe s; where they do not, its variance keeps the position's covariance
+  // honest. delta_scale_sigma: the start's uncertainty, 0.1 px of offset at a mean disparity of 20 px.
+  bool estimate_delta_scale = false;
+  double delta_scale_sigma = 0.005;
+
+  // The tilt sensor's constant offsets as two further filter states. Off, they are part of its white noise
+  // (tilt_sigma, the sensor's whole accuracy): then hundreds of samples average to a roll and pitch the filter holds
+  // far too certain, while the offset stays in every one of them, and each step of the tracker is put into the world
+  // with that pitch: a height error growing with the distance walked that the covariance does not show. On, the
+  // offsets start at zero with tilt_sigma, and each sample carries its white noise alone (tilt_offset_noise_sigma:
+  // the PEI Z260's resolution of 0.1 deg).
+  bool estimate_tilt_offset = false;
+  double tilt_offset_noise_sigma = 1.75e-3;  // [rad]
+
+  // The camera's rotation against the IMU as three further filter states, correcting the calibration's. The tracker's
+  // steps are put into the world through it: an error of e turns every step by e, a drift of e times the distance
+  // walked (across the path, or in height) that the deltas' own noise does not show. What the calibration leaves: the
+  // camera-to-IMU rotation within 0.05 deg, and the left camera's principal point within 0.3 px, which turns the
+  // rectified frame by 0.3 / f (0.4 mrad at f = 744 px). On: the calibration's rotation is the start with
+  // camera_alignment_sigma per axis; the IMU's accelerations and turns seen by both observe it.
+  bool estimate_camera_alignment = false;
+  double camera_alignment_sigma = 1.0e-3;  // [rad] per axis
 
   // Latencies subtracted from message stamps [us] (zero when drivers already remove them).
   int64_t imu_latency_us = 0;

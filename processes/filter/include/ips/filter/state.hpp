@@ -2,8 +2,9 @@
 // The navigation state of the IPS filter (paper section 4.2): position, velocity, acceleration, accelerometer
 // bias, angular rate, gyro bias (three each) and the attitude quaternion = 22 elements. The covariance is kept
 // over a 21-dimensional error state in which the attitude error is a 3-vector (rotation vector in world).
-// The lever arm (camera 0's origin in the IMU frame), when estimated online, extends it by 3, and stochastic clones
-// of the body pose at image times by 6 each (see FullState).
+// The lever arm (camera 0's origin in the IMU frame), when estimated online, extends it by 3, the tracker's scale
+// error by 1, the tilt sensor's constant offsets by 2 and the camera's alignment against the IMU by 3 (each when
+// estimated), and stochastic clones of the body pose at image times by 6 each (see FullState).
 //
 // Frames: world = local level, z up, gravity (0, 0, -g). Body = the IMU frame. The quaternion maps body to
 // world. This is one to one the content of lcmtypes/ips_filter_state_t.lcm.
@@ -25,8 +26,11 @@ enum ErrorIndex : int {
   kErrBg = 15,  // gyro bias [rad/s], body
   kErrTh = 18,  // attitude error, rotation vector in world: R_true = Exp(dtheta) * R_est
   kCoreErrorDim = 21,
-  kCloneErrorDim = 6,     // per clone: position, attitude error (same conventions)
-  kLeverArmErrorDim = 3,  // the lever arm, when estimated: camera 0's origin in the IMU frame [m]
+  kCloneErrorDim = 6,            // per clone: position, attitude error (same conventions)
+  kLeverArmErrorDim = 3,         // the lever arm, when estimated: camera 0's origin in the IMU frame [m]
+  kDeltaScaleErrorDim = 1,       // the tracker's scale error, when estimated [1]
+  kTiltOffsetErrorDim = 2,       // the tilt sensor's constant offsets of its two angles, when estimated [rad]
+  kCameraAlignmentErrorDim = 3,  // the camera's rotation against the calibration's, when estimated [rad]
 };
 constexpr int kStateElements = 22;
 
@@ -58,19 +62,37 @@ struct PoseClone {
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
 };
 
-// Mean of the estimator: the navigation state, the lever arm when it is estimated, then the clones (oldest first).
-// Error-state layout: [21 core | 3 lever arm, if any | 6 per clone].
+// Mean of the estimator: the navigation state, the lever arm, the tracker's scale error, the tilt sensor's offsets and
+// the camera's alignment when they are estimated, then the clones (oldest first). Error-state layout:
+// [21 core | 3 lever arm | 1 scale | 2 tilt offset | 3 camera alignment (each if estimated) | 6 per clone].
 struct FullState {
   NavState nav;
   // Camera 0's origin in the IMU frame (T_imu_cam0's translation) [m], when the filter estimates it; otherwise the
   // measurement models take the calibration's.
   std::optional<Eigen::Vector3d> lever_arm;
+  // The tracker's translations are (1 + delta_scale) times the true ones, when the filter estimates it
+  // (FilterParams::estimate_delta_scale); otherwise they are taken as true to scale.
+  std::optional<double> delta_scale;
+  // The tilt sensor's constant offsets [rad]: it reads (angle_x, angle_y) + tilt_offset, when the filter estimates
+  // them (FilterParams::estimate_tilt_offset); otherwise they are part of its white noise.
+  std::optional<Eigen::Vector2d> tilt_offset;
+  // The camera's rotation against the calibration's, when the filter estimates it
+  // (FilterParams::estimate_camera_alignment): T_imu_cam0's rotation is R_calibration * camera_alignment. Its error
+  // acts from the right, in camera 0: camera_alignment_true = camera_alignment * Exp(dphi).
+  std::optional<Eigen::Quaterniond> camera_alignment;
   std::vector<PoseClone> clones;
 
   int leverArmDim() const { return lever_arm ? kLeverArmErrorDim : 0; }
-  // Offset of the lever arm's error (valid only when it is estimated) and of clone i's.
+  int deltaScaleDim() const { return delta_scale ? kDeltaScaleErrorDim : 0; }
+  int tiltOffsetDim() const { return tilt_offset ? kTiltOffsetErrorDim : 0; }
+  int cameraAlignmentDim() const { return camera_alignment ? kCameraAlignmentErrorDim : 0; }
+  // Offsets of the lever arm's error, the scale's, the tilt offset's and the camera alignment's (each valid only when
+  // it is estimated) and of clone i's.
   int leverArmOffset() const { return kCoreErrorDim; }
-  int cloneOffset(int i) const { return kCoreErrorDim + leverArmDim() + kCloneErrorDim * i; }
+  int deltaScaleOffset() const { return kCoreErrorDim + leverArmDim(); }
+  int tiltOffsetOffset() const { return deltaScaleOffset() + deltaScaleDim(); }
+  int cameraAlignmentOffset() const { return tiltOffsetOffset() + tiltOffsetDim(); }
+  int cloneOffset(int i) const { return cameraAlignmentOffset() + cameraAlignmentDim() + kCloneErrorDim * i; }
   int errorDim() const { return cloneOffset(static_cast<int>(clones.size())); }
   // Index of the clone taken at utime, or -1.
   int findClone(int64_t utime) const;
@@ -84,7 +106,7 @@ Vector21d boxminus(const NavState& a, const NavState& b);
 FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx);
 // The same, written into `out`, which must already have x's clone layout (no allocation).
 void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx, FullState& out);
-// a (-) b: the error-state vector taking b to a (same layout required: lever arm and clones).
+// a (-) b: the error-state vector taking b to a (same layout required: the optional states and the clones).
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b);
 
 // SO(3) helpers.
