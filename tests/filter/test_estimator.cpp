@@ -566,3 +566,45 @@ TEST(FilterEstimator, CloudDeltaBetweenKeyframesSecondsApartIsFusedAndSharpensTh
                 toString(type).c_str(), end_error[0], end_error[1]);
   }
 }
+
+// The calibration's states (lever arm, the tracker's scale, the tilt sensor's offsets, the camera's alignment) keep
+// what they have learnt over a restart of the filter, each in its place of the error state, with its variance; the
+// navigation state starts anew with the given covariance and no clones (EKF and UKF).
+TEST(FilterEstimator, CalibrationStatesKeepWhatTheyLearntOverARestart) {
+  ips::setLogLevel(ips::LogLevel::Error);
+  const AnalyticWalk walk;
+  SensorSimParams sp;
+  sp.tracker_scale_error = 0.003;
+  sp.tilt_offset = Eigen::Vector2d(0.006, -0.004);
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    SensorSim sim(walk, sp, testbedCalibration(), 37);
+    FilterParams p;
+    p.type = type;
+    p.estimate_lever_arm = p.estimate_delta_scale = p.estimate_tilt_offset = p.estimate_camera_alignment = true;
+    Estimator est(p, testbedCalibration());
+    runSimulation(est, sim, 0.0, 20.0, true, true, Matrix21d::Zero());
+    const FilterOutput before = est.current();
+    ASSERT_TRUE(before.lever_arm_estimated && before.delta_scale_estimated && before.tilt_offset_estimated &&
+                before.camera_alignment_estimated);
+    // Learnt something: the start's sigmas have shrunk.
+    EXPECT_LT(before.tilt_offset_sigma.maxCoeff(), p.tilt_sigma) << toString(type);
+    EXPECT_LT(before.delta_scale_sigma, p.delta_scale_sigma) << toString(type);
+    const int64_t t = before.state.utime;
+    const Matrix21d P0 = initialCovariance(p.init);
+    est.initialize(sim.truth(t), P0);
+    const FilterOutput after = est.current();
+    EXPECT_EQ(after.lever_arm, before.lever_arm) << toString(type);
+    EXPECT_EQ(after.lever_arm_covariance, before.lever_arm_covariance) << toString(type);
+    EXPECT_EQ(after.delta_scale, before.delta_scale) << toString(type);
+    EXPECT_EQ(after.delta_scale_sigma, before.delta_scale_sigma) << toString(type);
+    EXPECT_EQ(after.tilt_offset, before.tilt_offset) << toString(type);
+    EXPECT_EQ(after.tilt_offset_sigma, before.tilt_offset_sigma) << toString(type);
+    EXPECT_LT((after.camera_alignment - before.camera_alignment).norm(), 1e-12) << toString(type);
+    EXPECT_EQ(after.camera_alignment_sigma, before.camera_alignment_sigma) << toString(type);
+    EXPECT_EQ(after.covariance, P0) << toString(type);
+    EXPECT_EQ(est.filter().covariance().rows(),
+              kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim + kTiltOffsetErrorDim + kCameraAlignmentErrorDim)
+        << toString(type);
+    EXPECT_TRUE(est.filter().state().clones.empty()) << toString(type);
+  }
+}

@@ -52,50 +52,38 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
   FullState x;
   x.nav = state;
   Eigen::MatrixXd P = covariance;
+  // The states of the head's calibration (lever arm, the tracker's scale, the tilt sensor's offsets, the camera's
+  // alignment) keep over a restart what they have learnt: they do not change with the navigation state.
+  const KalmanFilter& kf = *run_.kf;
+  auto extend = [&](bool learnt, int learnt_offset, const Eigen::MatrixXd& prior) {
+    const int n = int(P.rows()), d = int(prior.rows());
+    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + d, n + d));
+    P.bottomRightCorner(d, d) =
+        learnt ? Eigen::MatrixXd(kf.covariance().block(learnt_offset, learnt_offset, d, d)) : prior;
+  };
+  auto priorOf = [](int dim, double sigma) {
+    return Eigen::MatrixXd(Eigen::MatrixXd::Identity(dim, dim) * sigma * sigma);
+  };
   if (params_.estimate_lever_arm) {
-    // A restart keeps what the lever arm's states have learnt (it does not change with the navigation state).
-    const KalmanFilter& kf = *run_.kf;
     const bool learnt = initialized_ && kf.state().lever_arm.has_value();
     x.lever_arm = learnt ? *kf.state().lever_arm : Eigen::Vector3d(T_imu_cam0_.translation());
-    P.conservativeResizeLike(
-        Eigen::MatrixXd::Zero(kCoreErrorDim + kLeverArmErrorDim, kCoreErrorDim + kLeverArmErrorDim));
-    P.bottomRightCorner<kLeverArmErrorDim, kLeverArmErrorDim>() =
-        learnt ? Eigen::Matrix3d(kf.covariance().block<3, 3>(kf.state().leverArmOffset(), kf.state().leverArmOffset()))
-               : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * params_.lever_arm_sigma * params_.lever_arm_sigma);
+    extend(learnt, kf.state().leverArmOffset(), priorOf(kLeverArmErrorDim, params_.lever_arm_sigma));
   }
   if (params_.estimate_delta_scale) {
-    // Kept over a restart as the lever arm is: it belongs to the tracker's calibration, not to the motion.
-    const KalmanFilter& kf = *run_.kf;
     const bool learnt = initialized_ && kf.state().delta_scale.has_value();
     x.delta_scale = learnt ? *kf.state().delta_scale : 0.0;
-    const int n = int(P.rows());
-    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + kDeltaScaleErrorDim, n + kDeltaScaleErrorDim));
-    const int o = kf.state().deltaScaleOffset();
-    P(n, n) = learnt ? kf.covariance()(o, o) : params_.delta_scale_sigma * params_.delta_scale_sigma;
+    extend(learnt, kf.state().deltaScaleOffset(), priorOf(kDeltaScaleErrorDim, params_.delta_scale_sigma));
   }
   if (params_.estimate_tilt_offset) {
-    // Kept over a restart too: the sensor's offsets do not change with the navigation state.
-    const KalmanFilter& kf = *run_.kf;
     const bool learnt = initialized_ && kf.state().tilt_offset.has_value();
     x.tilt_offset = learnt ? *kf.state().tilt_offset : Eigen::Vector2d::Zero();
-    const int n = int(P.rows());
-    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + kTiltOffsetErrorDim, n + kTiltOffsetErrorDim));
-    const int o = kf.state().tiltOffsetOffset();
-    P.bottomRightCorner<kTiltOffsetErrorDim, kTiltOffsetErrorDim>() =
-        learnt ? Eigen::Matrix2d(kf.covariance().block<2, 2>(o, o))
-               : Eigen::Matrix2d(Eigen::Matrix2d::Identity() * params_.tilt_sigma * params_.tilt_sigma);
+    extend(learnt, kf.state().tiltOffsetOffset(), priorOf(kTiltOffsetErrorDim, params_.tilt_sigma));
   }
   if (params_.estimate_camera_alignment) {
-    // Kept over a restart too: the head's mounting does not change with the navigation state.
-    const KalmanFilter& kf = *run_.kf;
     const bool learnt = initialized_ && kf.state().camera_alignment.has_value();
     x.camera_alignment = learnt ? *kf.state().camera_alignment : Eigen::Quaterniond::Identity();
-    const int n = int(P.rows());
-    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + kCameraAlignmentErrorDim, n + kCameraAlignmentErrorDim));
-    const int o = kf.state().cameraAlignmentOffset();
-    const double s2 = params_.camera_alignment_sigma * params_.camera_alignment_sigma;
-    P.bottomRightCorner<3, 3>() =
-        learnt ? Eigen::Matrix3d(kf.covariance().block<3, 3>(o, o)) : Eigen::Matrix3d(Eigen::Matrix3d::Identity() * s2);
+    extend(learnt, kf.state().cameraAlignmentOffset(),
+           priorOf(kCameraAlignmentErrorDim, params_.camera_alignment_sigma));
   }
   run_.kf->reset(x, P);
   run_.last_imu_time = state.utime;
