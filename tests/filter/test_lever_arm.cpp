@@ -13,6 +13,21 @@
 using namespace ips::filter;
 using namespace ips::eval;
 
+namespace {
+
+// The whole analytic walk through an estimator given `told` (the sensors are simulated on `sim`'s true head).
+std::vector<FilterOutput> runWalk(const AnalyticWalk& walk, SensorSim& sim, const FilterParams& params,
+                                  const ips::StereoCalibration& told) {
+  Estimator est(params, told);
+  return runSimulation(est, sim, 0.0, walk.params().duration_s, true, true, Matrix21d::Zero());
+}
+
+double endError(const std::vector<FilterOutput>& out, const SensorSim& sim) {
+  return (out.back().state.position - sim.truth(out.back().state.utime).position).norm();
+}
+
+}  // namespace
+
 // The lever arm as filter states (FilterParams::estimate_lever_arm): the estimator is given a calibration whose
 // camera-to-IMU translation is 3 cm off on every axis (a rough mechanical measurement), the simulated sensors use the
 // true one. Over the 2-minute walk the tracker's deltas at the head's turns determine it: the walk turns about the
@@ -30,9 +45,7 @@ TEST(FilterEstimator, LeverArmEstimatedOnlineConvergesToTheTruthOverTheWalk) {
     FilterParams p;
     p.type = type;
     p.estimate_lever_arm = true;
-    Estimator est(p, rough);
-    const std::vector<FilterOutput> out =
-        runSimulation(est, sim, 0.0, walk.params().duration_s, true, true, Matrix21d::Zero());
+    const std::vector<FilterOutput> out = runWalk(walk, sim, p, rough);
     ASSERT_FALSE(out.empty());
     const FilterOutput& last = out.back();
     ASSERT_TRUE(last.lever_arm_estimated) << toString(type);
@@ -67,12 +80,10 @@ TEST(FilterEstimator, TrackerScaleErrorEstimatedOnlineOverTheWalk) {
       FilterParams p;
       p.type = type;
       p.estimate_delta_scale = estimate;
-      Estimator est(p, calib);
-      const std::vector<FilterOutput> out =
-          runSimulation(est, sim, 0.0, walk.params().duration_s, true, true, Matrix21d::Zero());
+      const std::vector<FilterOutput> out = runWalk(walk, sim, p, calib);
       ASSERT_FALSE(out.empty());
       const FilterOutput& last = out.back();
-      end_error[estimate] = (last.state.position - sim.truth(last.state.utime).position).norm();
+      end_error[estimate] = endError(out, sim);
       ASSERT_EQ(last.delta_scale_estimated, estimate) << toString(type);
       if (!estimate) continue;
       std::printf("%s scale %.5f sigma %.5f (truth %.5f); end error %.3f m without, %.3f m with\n",
@@ -102,9 +113,7 @@ TEST(FilterEstimator, TiltOffsetEstimatedOnlineOverTheWalk) {
       FilterParams p;
       p.type = type;
       p.estimate_tilt_offset = estimate;
-      Estimator est(p, calib);
-      const std::vector<FilterOutput> out =
-          runSimulation(est, sim, 0.0, walk.params().duration_s, true, true, Matrix21d::Zero());
+      const std::vector<FilterOutput> out = runWalk(walk, sim, p, calib);
       ASSERT_FALSE(out.empty());
       // Roll and pitch: the attitude error's horizontal components (world x, y), NEES of 2 dof.
       double sum = 0;
@@ -153,12 +162,10 @@ TEST(FilterEstimator, CameraAlignmentEstimatedOnlineOverTheWalk) {
       FilterParams p;
       p.type = type;
       p.estimate_camera_alignment = estimate;
-      Estimator est(p, told);
-      const std::vector<FilterOutput> out =
-          runSimulation(est, sim, 0.0, walk.params().duration_s, true, true, Matrix21d::Zero());
+      const std::vector<FilterOutput> out = runWalk(walk, sim, p, told);
       ASSERT_FALSE(out.empty());
       const FilterOutput& last = out.back();
-      end_error[estimate] = (last.state.position - sim.truth(last.state.utime).position).norm();
+      end_error[estimate] = endError(out, sim);
       ASSERT_EQ(last.camera_alignment_estimated, estimate);
       if (!estimate) continue;
       const Eigen::Vector3d error = last.camera_alignment - misalignment;

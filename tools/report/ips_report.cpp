@@ -583,44 +583,40 @@ int main(int argc, char** argv) {
          << ", \"end_error_pct\": " << jsonNumber(end_pct) << ", \"ate_rmse_m\": " << jsonNumber(ate)
          << ", \"nees_position_mean\": " << jsonNumber(err.nees_mean)
          << ", \"nees_position_in_95_band_pct\": " << jsonNumber(err.nees_in_band_pct);
-      // The lever arm the filter estimated online (config lever_arm/estimate), at the end, beside the truth.
-      if (!run.states.empty() && run.states.back().lever_arm_estimated) {
+      // The head's calibration as the filter estimated it online, at the end, where it did (config lever_arm,
+      // delta_scale, tilt/estimate_offset, camera_alignment), beside the truth where the head is simulated.
+      if (!run.states.empty()) {
         const ips::filter_state_t& last = run.states.back();
-        const std::vector<double> lever(last.lever_arm, last.lever_arm + 3);
-        const std::vector<double> sigma(last.lever_arm_sigma, last.lever_arm_sigma + 3);
-        js << ", \"lever_arm_m\": " << ips::report::jsonArray(lever, 5)
-           << ", \"lever_arm_sigma_m\": " << ips::report::jsonArray(sigma, 5);
-        if (truth_calib) {
-          std::vector<double> error(3);
-          for (int k = 0; k < 3; ++k) error[k] = lever[k] - truth_calib->T_imu_cam0.translation()(k);
-          js << ", \"lever_arm_error_m\": " << ips::report::jsonArray(error, 5);
+        if (last.lever_arm_estimated) {
+          const std::vector<double> lever(last.lever_arm, last.lever_arm + 3);
+          const std::vector<double> sigma(last.lever_arm_sigma, last.lever_arm_sigma + 3);
+          js << ", \"lever_arm_m\": " << ips::report::jsonArray(lever, 5)
+             << ", \"lever_arm_sigma_m\": " << ips::report::jsonArray(sigma, 5);
+          if (truth_calib) {
+            std::vector<double> error(3);
+            for (int k = 0; k < 3; ++k) error[k] = lever[k] - truth_calib->T_imu_cam0.translation()(k);
+            js << ", \"lever_arm_error_m\": " << ips::report::jsonArray(error, 5);
+          }
         }
-      }
-      // The tracker's scale error the filter estimated online (config delta_scale/estimate), at the end.
-      if (!run.states.empty() && run.states.back().delta_scale_estimated)
-        js << ", \"delta_scale\": " << jsonNumber(run.states.back().delta_scale)
-           << ", \"delta_scale_sigma\": " << jsonNumber(run.states.back().delta_scale_sigma);
-      // The tilt sensor's offsets the filter estimated online (config tilt/estimate_offset), at the end [rad].
-      if (!run.states.empty() && run.states.back().tilt_offset_estimated) {
-        const ips::filter_state_t& last = run.states.back();
-        js << ", \"tilt_offset_rad\": " << ips::report::jsonArray({last.tilt_offset[0], last.tilt_offset[1]}, 6)
-           << ", \"tilt_offset_sigma_rad\": "
-           << ips::report::jsonArray({last.tilt_offset_sigma[0], last.tilt_offset_sigma[1]}, 6);
-      }
-      // The camera's alignment against the calibration's the filter estimated online (config
-      // camera_alignment/estimate), at the end, beside what the calibration's error was (a simulated head).
-      if (!run.states.empty() && run.states.back().camera_alignment_estimated) {
-        const ips::filter_state_t& last = run.states.back();
-        const std::vector<double> est(last.camera_alignment, last.camera_alignment + 3);
-        const std::vector<double> sigma(last.camera_alignment_sigma, last.camera_alignment_sigma + 3);
-        js << ", \"camera_alignment_rad\": " << ips::report::jsonArray(est, 6)
-           << ", \"camera_alignment_sigma_rad\": " << ips::report::jsonArray(sigma, 6);
-        // The camera-to-IMU rotation's own error in the calibration the processes ran on (the principal points' part
-        // of the alignment is not in it).
-        if (truth_calib && ran_on) {
-          const Eigen::AngleAxisd err(ran_on->T_imu_cam0.linear().transpose() * truth_calib->T_imu_cam0.linear());
-          const Eigen::Vector3d v = err.angle() * err.axis();
-          js << ", \"camera_alignment_calibration_error_rad\": " << ips::report::jsonArray({v.x(), v.y(), v.z()}, 6);
+        if (last.delta_scale_estimated)
+          js << ", \"delta_scale\": " << jsonNumber(last.delta_scale)
+             << ", \"delta_scale_sigma\": " << jsonNumber(last.delta_scale_sigma);
+        if (last.tilt_offset_estimated)
+          js << ", \"tilt_offset_rad\": " << ips::report::jsonArray({last.tilt_offset[0], last.tilt_offset[1]}, 6)
+             << ", \"tilt_offset_sigma_rad\": "
+             << ips::report::jsonArray({last.tilt_offset_sigma[0], last.tilt_offset_sigma[1]}, 6);
+        if (last.camera_alignment_estimated) {
+          const std::vector<double> est(last.camera_alignment, last.camera_alignment + 3);
+          const std::vector<double> sigma(last.camera_alignment_sigma, last.camera_alignment_sigma + 3);
+          js << ", \"camera_alignment_rad\": " << ips::report::jsonArray(est, 6)
+             << ", \"camera_alignment_sigma_rad\": " << ips::report::jsonArray(sigma, 6);
+          // The camera-to-IMU rotation's own error in the file the processes ran on (the principal points' part of
+          // the alignment is not in it).
+          if (truth_calib && ran_on) {
+            const Eigen::AngleAxisd err(ran_on->T_imu_cam0.linear().transpose() * truth_calib->T_imu_cam0.linear());
+            const Eigen::Vector3d v = err.angle() * err.axis();
+            js << ", \"camera_alignment_calibration_error_rad\": " << ips::report::jsonArray({v.x(), v.y(), v.z()}, 6);
+          }
         }
       }
       js << "}";
