@@ -55,36 +55,29 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
   // The states of the head's calibration (lever arm, the tracker's scale, the tilt sensor's offsets, the camera's
   // alignment) keep over a restart what they have learnt: they do not change with the navigation state.
   const KalmanFilter& kf = *run_.kf;
-  auto extend = [&](bool learnt, int learnt_offset, const Eigen::MatrixXd& prior) {
-    const int n = int(P.rows()), d = int(prior.rows());
-    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + d, n + d));
-    P.bottomRightCorner(d, d) =
-        learnt ? Eigen::MatrixXd(kf.covariance().block(learnt_offset, learnt_offset, d, d)) : prior;
+  // One state of `dim` error dimensions: its value and covariance block from the running filter where it has one,
+  // else `start` with sigma on each dimension; appended to P in the error state's order.
+  auto keep = [&](auto& value, const auto& learnt_value, const auto& start, int learnt_offset, int dim, double sigma) {
+    const bool learnt = initialized_ && learnt_value.has_value();
+    value = learnt ? *learnt_value : start;
+    const int n = int(P.rows());
+    P.conservativeResizeLike(Eigen::MatrixXd::Zero(n + dim, n + dim));
+    P.bottomRightCorner(dim, dim) = learnt
+                                        ? Eigen::MatrixXd(kf.covariance().block(learnt_offset, learnt_offset, dim, dim))
+                                        : Eigen::MatrixXd(Eigen::MatrixXd::Identity(dim, dim) * sigma * sigma);
   };
-  auto priorOf = [](int dim, double sigma) {
-    return Eigen::MatrixXd(Eigen::MatrixXd::Identity(dim, dim) * sigma * sigma);
-  };
-  if (params_.estimate_lever_arm) {
-    const bool learnt = initialized_ && kf.state().lever_arm.has_value();
-    x.lever_arm = learnt ? *kf.state().lever_arm : Eigen::Vector3d(T_imu_cam0_.translation());
-    extend(learnt, kf.state().leverArmOffset(), priorOf(kLeverArmErrorDim, params_.lever_arm_sigma));
-  }
-  if (params_.estimate_delta_scale) {
-    const bool learnt = initialized_ && kf.state().delta_scale.has_value();
-    x.delta_scale = learnt ? *kf.state().delta_scale : 0.0;
-    extend(learnt, kf.state().deltaScaleOffset(), priorOf(kDeltaScaleErrorDim, params_.delta_scale_sigma));
-  }
-  if (params_.estimate_tilt_offset) {
-    const bool learnt = initialized_ && kf.state().tilt_offset.has_value();
-    x.tilt_offset = learnt ? *kf.state().tilt_offset : Eigen::Vector2d::Zero();
-    extend(learnt, kf.state().tiltOffsetOffset(), priorOf(kTiltOffsetErrorDim, params_.tilt_sigma));
-  }
-  if (params_.estimate_camera_alignment) {
-    const bool learnt = initialized_ && kf.state().camera_alignment.has_value();
-    x.camera_alignment = learnt ? *kf.state().camera_alignment : Eigen::Quaterniond::Identity();
-    extend(learnt, kf.state().cameraAlignmentOffset(),
-           priorOf(kCameraAlignmentErrorDim, params_.camera_alignment_sigma));
-  }
+  const FullState& was = kf.state();
+  if (params_.estimate_lever_arm)
+    keep(x.lever_arm, was.lever_arm, Eigen::Vector3d(T_imu_cam0_.translation()), was.leverArmOffset(),
+         kLeverArmErrorDim, params_.lever_arm_sigma);
+  if (params_.estimate_delta_scale)
+    keep(x.delta_scale, was.delta_scale, 0.0, was.deltaScaleOffset(), kDeltaScaleErrorDim, params_.delta_scale_sigma);
+  if (params_.estimate_tilt_offset)
+    keep(x.tilt_offset, was.tilt_offset, Eigen::Vector2d::Zero().eval(), was.tiltOffsetOffset(), kTiltOffsetErrorDim,
+         params_.tilt_sigma);
+  if (params_.estimate_camera_alignment)
+    keep(x.camera_alignment, was.camera_alignment, Eigen::Quaterniond::Identity(), was.cameraAlignmentOffset(),
+         kCameraAlignmentErrorDim, params_.camera_alignment_sigma);
   run_.kf->reset(x, P);
   run_.last_imu_time = state.utime;
   run_.consecutive_rejects.fill(0);
