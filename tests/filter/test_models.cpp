@@ -195,6 +195,56 @@ TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
   EXPECT_LT((unscaled.jacobian(x) - numericH(unscaled, x)).cwiseAbs().maxCoeff(), 1e-6);
 }
 
+// The turn of the tracker's steps as states, after the scale: the tracker's delta (scaled) measures
+// (1 + s) (I + [b]x) times the predicted translation and an untouched rotation; a delta from the dense maps does not
+// see b. With every state before the clones present, so that the offsets are checked in their order.
+TEST(FilterModels, DeltaJacobianWithTheStepDirectionEstimatedMatchesNumeric) {
+  std::mt19937 rng(15);
+  FullState x = randomFull(rng, 3);
+  x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
+  x.delta_scale = 0.004;
+  x.delta_direction = Eigen::Vector3d(0.002, -0.003, 0.001);
+  x.tilt_offset = Eigen::Vector2d(0.004, -0.007);
+  x.camera_alignment = expQuat(Eigen::Vector3d(0.002, -0.001, 0.003));
+  EXPECT_EQ(x.deltaDirectionOffset(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim);
+  EXPECT_EQ(x.tiltOffsetOffset(), x.deltaDirectionOffset() + kDeltaDirectionErrorDim);
+  EXPECT_EQ(x.cloneOffset(0), x.cameraAlignmentOffset() + kCameraAlignmentErrorDim);
+  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
+  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
+  Eigen::Isometry3d T_state = T_imu_cam;
+  T_state.translation() = *x.lever_arm;
+  T_state.linear() = T_imu_cam.linear() * x.camera_alignment->toRotationMatrix();
+  const Eigen::Isometry3d predicted = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_state);
+  Eigen::Isometry3d z = predicted;
+  z.translation() =
+      (1.0 + *x.delta_scale) * (predicted.translation() + x.delta_direction->cross(predicted.translation()));
+  const DeltaMeasurement scaled(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam, true);
+  EXPECT_LT(scaled.residual(x).norm(), 1e-12);
+  const Eigen::MatrixXd H = scaled.jacobian(x);
+  EXPECT_LT((H - numericH(scaled, x)).cwiseAbs().maxCoeff(), 1e-6);
+  // d (1 + s) (t + b x t) / d b = -(1 + s) [t]x, in the translation rows only.
+  const Eigen::Matrix3d expected = -(1.0 + *x.delta_scale) * skew(predicted.translation());
+  EXPECT_LT((H.block<3, 3>(0, x.deltaDirectionOffset()) - expected).norm(), 1e-12);
+  EXPECT_EQ((H.block<3, 3>(3, x.deltaDirectionOffset()).norm()), 0.0);
+  const DeltaMeasurement unscaled(0, 2, predicted, Matrix6d::Identity() * 1e-6, T_imu_cam);
+  EXPECT_LT(unscaled.residual(x).norm(), 1e-12);
+  EXPECT_EQ(unscaled.jacobian(x).middleCols(x.deltaDirectionOffset(), 3).norm(), 0.0);
+}
+
+TEST(FilterModels, BoxplusBoxminusRoundTripWithTheStepDirection) {
+  std::mt19937 rng(16);
+  FullState x = randomFull(rng, 2);
+  x.delta_scale = -0.002;
+  x.delta_direction = Eigen::Vector3d(0.001, 0.002, -0.003);
+  const Eigen::VectorXd d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
+  const FullState y = boxplus(x, d);
+  EXPECT_LT((*y.delta_direction - *x.delta_direction - d.segment<3>(x.deltaDirectionOffset())).norm(), 1e-15);
+  EXPECT_LT((boxminus(y, x) - d).norm(), 1e-12);
+  FullState without = x;
+  without.delta_direction.reset();
+  EXPECT_THROW(boxminus(x, without), std::invalid_argument);
+}
+
 // The tilt sensor's offsets as states, after the scale: they add to the predicted angles; a measurement built without
 // offset_state ignores them and stays core-only (the UKF's cheaper path).
 TEST(FilterModels, TiltJacobianWithTheOffsetEstimatedMatchesNumeric) {
@@ -443,6 +493,31 @@ TEST(FilterKalman, ScaleStateWalksByItsPsdAndKeepsItsCorrelations) {
     EXPECT_NEAR(kf->covariance()(21, 21), 1e-5 + 2e-7 * 0.5, 1e-15) << toString(type);
     EXPECT_NEAR(kf->covariance()(22, 21), 2e-4, 1e-12) << toString(type);
     EXPECT_NEAR(*kf->state().delta_scale, 0.001, 1e-15) << toString(type);
+  }
+}
+
+// The step direction's random walk (ProcessNoise::delta_direction_psd) adds psd * dt to each of its three variances,
+// in both filters, and keeps its correlations with the core and the clones.
+TEST(FilterKalman, StepDirectionStateWalksByItsPsdAndKeepsItsCorrelations) {
+  FilterParams params;
+  params.process.delta_direction_psd = 3e-8;
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    params.type = type;
+    auto kf = makeKalmanFilter(params);
+    FullState x0;
+    x0.nav.velocity = Eigen::Vector3d(1, 0, 0);
+    x0.delta_direction = Eigen::Vector3d(0.001, -0.002, 0.0);
+    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(24, 24) * 1e-2;
+    P.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-6;
+    P(1, 22) = P(22, 1) = 5e-5;  // position error across the path correlated with the turn
+    kf->reset(x0, P);
+    kf->addClone();
+    ASSERT_EQ(kf->covariance().rows(), 30);
+    EXPECT_NEAR(kf->covariance()(25, 22), 5e-5, 1e-15);  // the clone's position takes the core's correlation
+    kf->predict(0.5);
+    for (int i = 21; i < 24; ++i) EXPECT_NEAR(kf->covariance()(i, i), 1e-6 + 3e-8 * 0.5, 1e-15) << toString(type);
+    EXPECT_NEAR(kf->covariance()(25, 22), 5e-5, 1e-12) << toString(type);
+    EXPECT_LT((*kf->state().delta_direction - Eigen::Vector3d(0.001, -0.002, 0.0)).norm(), 1e-15) << toString(type);
   }
 }
 

@@ -584,7 +584,8 @@ int main(int argc, char** argv) {
          << ", \"nees_position_mean\": " << jsonNumber(err.nees_mean)
          << ", \"nees_position_in_95_band_pct\": " << jsonNumber(err.nees_in_band_pct);
       // The head's calibration as the filter estimated it online, at the end, where it did (config lever_arm,
-      // delta_scale, tilt/estimate_offset, camera_alignment), beside the truth where the head is simulated.
+      // delta_scale, delta_direction, tilt/estimate_offset, camera_alignment), beside the truth where the head is
+      // simulated.
       if (!run.states.empty()) {
         const ips::filter_state_t& last = run.states.back();
         if (last.lever_arm_estimated) {
@@ -601,6 +602,12 @@ int main(int argc, char** argv) {
         if (last.delta_scale_estimated)
           js << ", \"delta_scale\": " << jsonNumber(last.delta_scale)
              << ", \"delta_scale_sigma\": " << jsonNumber(last.delta_scale_sigma);
+        if (last.delta_direction_estimated)
+          js << ", \"delta_direction_rad\": "
+             << ips::report::jsonArray({last.delta_direction[0], last.delta_direction[1], last.delta_direction[2]}, 6)
+             << ", \"delta_direction_sigma_rad\": "
+             << ips::report::jsonArray(
+                    {last.delta_direction_sigma[0], last.delta_direction_sigma[1], last.delta_direction_sigma[2]}, 6);
         if (last.tilt_offset_estimated)
           js << ", \"tilt_offset_rad\": " << ips::report::jsonArray({last.tilt_offset[0], last.tilt_offset[1]}, 6)
              << ", \"tilt_offset_sigma_rad\": "

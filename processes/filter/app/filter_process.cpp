@@ -47,6 +47,11 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   m.delta_scale_estimated = out.delta_scale_estimated;
   m.delta_scale = out.delta_scale;
   m.delta_scale_sigma = out.delta_scale_sigma;
+  m.delta_direction_estimated = out.delta_direction_estimated;
+  for (int i = 0; i < 3; ++i) {
+    m.delta_direction[i] = out.delta_direction[i];
+    m.delta_direction_sigma[i] = out.delta_direction_sigma[i];
+  }
   m.tilt_offset_estimated = out.tilt_offset_estimated;
   for (int i = 0; i < 2; ++i) {
     m.tilt_offset[i] = out.tilt_offset[i];

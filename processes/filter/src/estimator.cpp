@@ -72,6 +72,9 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
          kLeverArmErrorDim, params_.lever_arm_sigma);
   if (params_.estimate_delta_scale)
     keep(x.delta_scale, was.delta_scale, 0.0, was.deltaScaleOffset(), kDeltaScaleErrorDim, params_.delta_scale_sigma);
+  if (params_.estimate_delta_direction)
+    keep(x.delta_direction, was.delta_direction, Eigen::Vector3d::Zero().eval(), was.deltaDirectionOffset(),
+         kDeltaDirectionErrorDim, params_.delta_direction_sigma);
   if (params_.estimate_tilt_offset)
     keep(x.tilt_offset, was.tilt_offset, Eigen::Vector2d::Zero().eval(), was.tiltOffsetOffset(), kTiltOffsetErrorDim,
          params_.tilt_sigma);
@@ -496,6 +499,12 @@ FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const 
   if (o.delta_scale_estimated) {
     o.delta_scale = *kf.state().delta_scale;
     o.delta_scale_sigma = std::sqrt(kf.covariance()(kf.state().deltaScaleOffset(), kf.state().deltaScaleOffset()));
+  }
+  o.delta_direction_estimated = kf.state().delta_direction.has_value();
+  if (o.delta_direction_estimated) {
+    const int b = kf.state().deltaDirectionOffset();
+    o.delta_direction = *kf.state().delta_direction;
+    o.delta_direction_sigma = kf.covariance().block<3, 3>(b, b).diagonal().cwiseSqrt();
   }
   o.tilt_offset_estimated = kf.state().tilt_offset.has_value();
   if (o.tilt_offset_estimated) {

@@ -62,6 +62,8 @@ void KalmanFilter::resetErrorBlock(int offset, int size, double variance) {
 
 void KalmanFilter::addRandomWalks(double dt, const ProcessNoise& q) {
   if (x_.delta_scale) P_(x_.deltaScaleOffset(), x_.deltaScaleOffset()) += q.delta_scale_psd * dt;
+  if (x_.delta_direction)
+    P_.diagonal().segment<kDeltaDirectionErrorDim>(x_.deltaDirectionOffset()).array() += q.delta_direction_psd * dt;
 }
 
 // ---------------------------------------------------------------------------------------------- EKF

@@ -208,10 +208,15 @@ Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone
   return T_imu_cam0.inverse() * T_w_b0.inverse() * T_w_b1 * T_imu_cam0;
 }
 
+Eigen::Matrix3d DeltaMeasurement::turnOf(const FullState& x) const {
+  return scaled_ && x.delta_direction ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() + skew(*x.delta_direction))
+                                      : Eigen::Matrix3d::Identity();
+}
+
 MeasVector DeltaMeasurement::residual(const FullState& x) const {
   const Eigen::Isometry3d T = predict(x.clones.at(i0_), x.clones.at(i1_), imuCamera(x, T_imu_cam0_));
   MeasVector r(6);
-  r.head<3>() = z_.translation() - scaleOf(x) * T.translation();
+  r.head<3>() = z_.translation() - scaleOf(x) * turnOf(x) * T.translation();
   r.tail<3>() = logSO3(z_.linear() * T.linear().transpose());
   return r;
 }
@@ -238,9 +243,12 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   if (x.lever_arm) H.block<3, 3>(0, x.leverArmOffset()) = A * R1 - R_ci;
   // The camera alignment's error turns R_ci into Exp(-dphi) R_ci: t_pred into t_pred + [t_pred]x dphi.
   if (x.camera_alignment) H.block<3, 3>(0, x.cameraAlignmentOffset()) = skew(A * d - R_ci * t_ic);
-  // Measured: (1 + s) t_pred.
-  H.topRows<3>() *= scaleOf(x);
-  if (scaled_ && x.delta_scale) H.block<3, 1>(0, x.deltaScaleOffset()) = A * d - R_ci * t_ic;
+  // Measured: (1 + s) (I + [b]x) t_pred.
+  const Eigen::Vector3d t_pred = A * d - R_ci * t_ic;
+  const Eigen::Matrix3d turn = turnOf(x);
+  H.topRows<3>() = (scaleOf(x) * turn * H.topRows<3>()).eval();
+  if (scaled_ && x.delta_scale) H.block<3, 1>(0, x.deltaScaleOffset()) = turn * t_pred;
+  if (scaled_ && x.delta_direction) H.block<3, 3>(0, x.deltaDirectionOffset()) = -scaleOf(x) * skew(t_pred);
   setRotationRows(x, i0_, i1_, T_imu_cam0_, 3, H);
   return H;
 }

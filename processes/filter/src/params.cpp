@@ -45,6 +45,8 @@ FilterParams loadFilterParams(const Config& c) {
   nonNegative(c, "process_noise/gyro_bias_psd", p.process.gyro_bias_psd);
   p.process.delta_scale_psd = c.getDouble("delta_scale/psd", p.process.delta_scale_psd);
   nonNegative(c, "delta_scale/psd", p.process.delta_scale_psd);
+  p.process.delta_direction_psd = c.getDouble("delta_direction/psd", p.process.delta_direction_psd);
+  nonNegative(c, "delta_direction/psd", p.process.delta_direction_psd);
 
   p.imu.gyro_noise_density = c.getDouble("imu/gyro_noise_density", p.imu.gyro_noise_density);
   p.imu.accel_noise_density = c.getDouble("imu/accel_noise_density", p.imu.accel_noise_density);
@@ -99,6 +101,9 @@ FilterParams loadFilterParams(const Config& c) {
   p.estimate_delta_scale = c.getBool("delta_scale/estimate", p.estimate_delta_scale);
   p.delta_scale_sigma = c.getDouble("delta_scale/sigma", p.delta_scale_sigma);
   if (!(p.delta_scale_sigma > 0)) throw ConfigError(c.path() + ": key 'delta_scale/sigma' must be positive");
+  p.estimate_delta_direction = c.getBool("delta_direction/estimate", p.estimate_delta_direction);
+  p.delta_direction_sigma = c.getDouble("delta_direction/sigma", p.delta_direction_sigma);
+  positive(c, "delta_direction/sigma", p.delta_direction_sigma);
   p.cloud = c.getBool("cloud/enabled", p.cloud);
   p.cloud_min_sigma_t = c.getDouble("cloud/min_sigma_t", p.cloud_min_sigma_t);
   p.cloud_min_sigma_r = c.getDouble("cloud/min_sigma_r", p.cloud_min_sigma_r);
@@ -138,6 +143,7 @@ FilterParams loadFilterParams(const Config& c) {
   p.gap_process.accel_bias_psd = p.process.accel_bias_psd;
   p.gap_process.gyro_bias_psd = p.process.gyro_bias_psd;
   p.gap_process.delta_scale_psd = p.process.delta_scale_psd;
+  p.gap_process.delta_direction_psd = p.process.delta_direction_psd;
   p.output_decimation = c.getInt("output_decimation", p.output_decimation);
   if (p.output_decimation < 1) throw ConfigError(c.path() + ": key 'output_decimation' must be >= 1");
 

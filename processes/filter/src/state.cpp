@@ -63,6 +63,8 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
   if (x.lever_arm) *out.lever_arm += dx.segment<kLeverArmErrorDim>(x.leverArmOffset());
   out.delta_scale = x.delta_scale;
   if (x.delta_scale) *out.delta_scale += dx(x.deltaScaleOffset());
+  out.delta_direction = x.delta_direction;
+  if (x.delta_direction) *out.delta_direction += dx.segment<kDeltaDirectionErrorDim>(x.deltaDirectionOffset());
   out.tilt_offset = x.tilt_offset;
   if (x.tilt_offset) *out.tilt_offset += dx.segment<kTiltOffsetErrorDim>(x.tiltOffsetOffset());
   out.camera_alignment = x.camera_alignment;
@@ -86,6 +88,7 @@ FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& d
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
   if (a.clones.size() != b.clones.size() || a.lever_arm.has_value() != b.lever_arm.has_value() ||
       a.delta_scale.has_value() != b.delta_scale.has_value() ||
+      a.delta_direction.has_value() != b.delta_direction.has_value() ||
       a.tilt_offset.has_value() != b.tilt_offset.has_value() ||
       a.camera_alignment.has_value() != b.camera_alignment.has_value())
     throw std::invalid_argument("boxminus: state layouts differ");
@@ -93,6 +96,8 @@ Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
   d.head<kCoreErrorDim>() = boxminus(a.nav, b.nav);
   if (a.lever_arm) d.segment<kLeverArmErrorDim>(a.leverArmOffset()) = *a.lever_arm - *b.lever_arm;
   if (a.delta_scale) d(a.deltaScaleOffset()) = *a.delta_scale - *b.delta_scale;
+  if (a.delta_direction)
+    d.segment<kDeltaDirectionErrorDim>(a.deltaDirectionOffset()) = *a.delta_direction - *b.delta_direction;
   if (a.tilt_offset) d.segment<kTiltOffsetErrorDim>(a.tiltOffsetOffset()) = *a.tilt_offset - *b.tilt_offset;
   if (a.camera_alignment)
     d.segment<kCameraAlignmentErrorDim>(a.cameraAlignmentOffset()) =

@@ -88,6 +88,10 @@ struct FilterOutput {
   // filter estimates it (FilterParams::estimate_delta_scale); zero otherwise.
   bool delta_scale_estimated = false;
   double delta_scale = 0, delta_scale_sigma = 0;
+  // The turn of the tracker's steps (rotation vector in camera 0 [rad]) and its sigmas, when the filter estimates it
+  // (FilterParams::estimate_delta_direction); zero otherwise.
+  bool delta_direction_estimated = false;
+  Eigen::Vector3d delta_direction = Eigen::Vector3d::Zero(), delta_direction_sigma = Eigen::Vector3d::Zero();
   // The tilt sensor's constant offsets [rad] and their sigmas, when the filter estimates them
   // (FilterParams::estimate_tilt_offset); zero otherwise.
   bool tilt_offset_estimated = false;

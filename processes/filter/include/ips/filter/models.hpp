@@ -90,9 +90,9 @@ class TiltMeasurement : public Measurement {
 // Relative pose of camera 0 between clone i0 (older) and clone i1: X_c0(t0) = R * X_c0(t1) + t. Residual
 // [t_meas - t_pred; Log(R_meas R_pred^T)] (rotation error in camera 0 at t0), covariance order [t, rotvec].
 // T_imu_cam0 is the calibration's, with the state's translation (the lever arm) and the state's camera alignment
-// where the filter estimates them. `scaled`: the measured translation is (1 + delta_scale) t when the state holds the
-// tracker's scale error (a disparity offset the tracker has not found in full scales every step alike); a delta from
-// elsewhere (the dense maps' alignment) is not scaled.
+// where the filter estimates them. `scaled`: the measured translation is (1 + delta_scale) (I + [delta_direction]x) t
+// where the state holds the tracker's scale error and the turn of its steps (the disparity errors the tracker has not
+// found scale and turn every step alike); a delta from elsewhere (the dense maps' alignment) is taken as it is.
 class DeltaMeasurement : public Measurement {
  public:
   DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
@@ -106,6 +106,8 @@ class DeltaMeasurement : public Measurement {
 
  private:
   double scaleOf(const FullState& x) const { return scaled_ && x.delta_scale ? 1.0 + *x.delta_scale : 1.0; }
+  // I + [delta_direction]x for the tracker's deltas, else I.
+  Eigen::Matrix3d turnOf(const FullState& x) const;
   int i0_, i1_;
   Eigen::Isometry3d z_;
   Matrix6d cov_;
