@@ -471,52 +471,37 @@ TEST(FilterKalman, LeverArmStatesKeepTheirPlaceAndCorrelationsAsClonesComeAndGo)
   }
 }
 
-// The scale's random walk (ProcessNoise::delta_scale_psd) adds psd * dt to its variance, in both filters, and
-// nothing elsewhere: its correlation with the core and the clones is carried as the lever arm's is.
-TEST(FilterKalman, ScaleStateWalksByItsPsdAndKeepsItsCorrelations) {
+// The tracker's scale and step direction walk by their psds (ProcessNoise::delta_scale_psd, delta_direction_psd):
+// psd * dt onto each of their variances, in both filters, and nothing elsewhere: their correlations with the core and
+// the clones are carried as the lever arm's are. Layout [21 core | 1 scale (21) | 3 direction (22-24) | clone (25-30)].
+TEST(FilterKalman, ScaleAndStepDirectionStatesWalkByTheirPsdsAndKeepTheirCorrelations) {
   FilterParams params;
   params.process.delta_scale_psd = 2e-7;
-  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
-    params.type = type;
-    auto kf = makeKalmanFilter(params);
-    FullState x0;
-    x0.nav.velocity = Eigen::Vector3d(1, 0, 0);
-    x0.delta_scale = 0.001;
-    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(22, 22) * 1e-2;
-    P(21, 21) = 1e-5;
-    P(0, 21) = P(21, 0) = 2e-4;  // position error correlated with the scale
-    kf->reset(x0, P);
-    kf->addClone();
-    ASSERT_EQ(kf->covariance().rows(), 28);
-    EXPECT_NEAR(kf->covariance()(22, 21), 2e-4, 1e-15);  // the clone's position takes the core's correlation
-    kf->predict(0.5);
-    EXPECT_NEAR(kf->covariance()(21, 21), 1e-5 + 2e-7 * 0.5, 1e-15) << toString(type);
-    EXPECT_NEAR(kf->covariance()(22, 21), 2e-4, 1e-12) << toString(type);
-    EXPECT_NEAR(*kf->state().delta_scale, 0.001, 1e-15) << toString(type);
-  }
-}
-
-// The step direction's random walk (ProcessNoise::delta_direction_psd) adds psd * dt to each of its three variances,
-// in both filters, and keeps its correlations with the core and the clones.
-TEST(FilterKalman, StepDirectionStateWalksByItsPsdAndKeepsItsCorrelations) {
-  FilterParams params;
   params.process.delta_direction_psd = 3e-8;
   for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
     params.type = type;
     auto kf = makeKalmanFilter(params);
     FullState x0;
     x0.nav.velocity = Eigen::Vector3d(1, 0, 0);
+    x0.delta_scale = 0.001;
     x0.delta_direction = Eigen::Vector3d(0.001, -0.002, 0.0);
-    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(24, 24) * 1e-2;
+    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(25, 25) * 1e-2;
+    P(21, 21) = 1e-5;
     P.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-6;
-    P(1, 22) = P(22, 1) = 5e-5;  // position error across the path correlated with the turn
+    P(0, 21) = P(21, 0) = 2e-4;  // position error along the path correlated with the scale
+    P(1, 23) = P(23, 1) = 5e-5;  // position error across the path correlated with the turn
     kf->reset(x0, P);
     kf->addClone();
-    ASSERT_EQ(kf->covariance().rows(), 30);
-    EXPECT_NEAR(kf->covariance()(25, 22), 5e-5, 1e-15);  // the clone's position takes the core's correlation
+    ASSERT_EQ(kf->covariance().rows(), 31);
+    // The clone's position takes the core's correlations.
+    EXPECT_NEAR(kf->covariance()(25, 21), 2e-4, 1e-15);
+    EXPECT_NEAR(kf->covariance()(26, 23), 5e-5, 1e-15);
     kf->predict(0.5);
-    for (int i = 21; i < 24; ++i) EXPECT_NEAR(kf->covariance()(i, i), 1e-6 + 3e-8 * 0.5, 1e-15) << toString(type);
-    EXPECT_NEAR(kf->covariance()(25, 22), 5e-5, 1e-12) << toString(type);
+    EXPECT_NEAR(kf->covariance()(21, 21), 1e-5 + 2e-7 * 0.5, 1e-15) << toString(type);
+    for (int i = 22; i < 25; ++i) EXPECT_NEAR(kf->covariance()(i, i), 1e-6 + 3e-8 * 0.5, 1e-15) << toString(type);
+    EXPECT_NEAR(kf->covariance()(25, 21), 2e-4, 1e-12) << toString(type);
+    EXPECT_NEAR(kf->covariance()(26, 23), 5e-5, 1e-12) << toString(type);
+    EXPECT_NEAR(*kf->state().delta_scale, 0.001, 1e-15) << toString(type);
     EXPECT_LT((*kf->state().delta_direction - Eigen::Vector3d(0.001, -0.002, 0.0)).norm(), 1e-15) << toString(type);
   }
 }

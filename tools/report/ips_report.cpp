@@ -604,10 +604,10 @@ int main(int argc, char** argv) {
              << ", \"delta_scale_sigma\": " << jsonNumber(last.delta_scale_sigma);
         if (last.delta_direction_estimated)
           js << ", \"delta_direction_rad\": "
-             << ips::report::jsonArray({last.delta_direction[0], last.delta_direction[1], last.delta_direction[2]}, 6)
+             << ips::report::jsonArray(std::vector<double>(last.delta_direction, last.delta_direction + 3), 6)
              << ", \"delta_direction_sigma_rad\": "
-             << ips::report::jsonArray(
-                    {last.delta_direction_sigma[0], last.delta_direction_sigma[1], last.delta_direction_sigma[2]}, 6);
+             << ips::report::jsonArray(std::vector<double>(last.delta_direction_sigma, last.delta_direction_sigma + 3),
+                                       6);
         if (last.tilt_offset_estimated)
           js << ", \"tilt_offset_rad\": " << ips::report::jsonArray({last.tilt_offset[0], last.tilt_offset[1]}, 6)
              << ", \"tilt_offset_sigma_rad\": "
