@@ -231,18 +231,64 @@ TEST(FilterModels, DeltaJacobianWithTheStepDirectionEstimatedMatchesNumeric) {
   EXPECT_EQ(unscaled.jacobian(x).middleCols(x.deltaDirectionOffset(), 3).norm(), 0.0);
 }
 
-TEST(FilterModels, BoxplusBoxminusRoundTripWithTheStepDirection) {
+// The tracker's rotation drift as states, after the step direction: the tracker's delta measures Exp(|t_meas| r) times
+// the predicted rotation, its translation untouched; a delta from the dense maps does not see r. Every state before
+// the clones present, with a drift far larger than the tracker's so that its second-order terms count.
+TEST(FilterModels, DeltaJacobianWithTheRotationDriftEstimatedMatchesNumeric) {
+  std::mt19937 rng(17);
+  FullState x = randomFull(rng, 3);
+  x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
+  x.delta_scale = 0.004;
+  x.delta_direction = Eigen::Vector3d(0.002, -0.003, 0.001);
+  x.delta_rotation_drift = Eigen::Vector3d(0.03, -0.05, 0.02);
+  x.tilt_offset = Eigen::Vector2d(0.004, -0.007);
+  x.camera_alignment = expQuat(Eigen::Vector3d(0.002, -0.001, 0.003));
+  EXPECT_EQ(x.deltaRotationDriftOffset(), x.deltaDirectionOffset() + kDeltaDirectionErrorDim);
+  EXPECT_EQ(x.tiltOffsetOffset(), x.deltaRotationDriftOffset() + kDeltaRotationDriftErrorDim);
+  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
+  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
+  Eigen::Isometry3d T_state = T_imu_cam;
+  T_state.translation() = *x.lever_arm;
+  T_state.linear() = T_imu_cam.linear() * x.camera_alignment->toRotationMatrix();
+  const Eigen::Isometry3d predicted = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_state);
+  Eigen::Isometry3d z = predicted;
+  z.translation() =
+      (1.0 + *x.delta_scale) * (predicted.translation() + x.delta_direction->cross(predicted.translation()));
+  const double step = z.translation().norm();
+  ASSERT_GT(step, 0.1);
+  z.linear() = expSO3(step * *x.delta_rotation_drift) * predicted.linear();
+  const DeltaMeasurement tracker(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam, true);
+  EXPECT_LT(tracker.residual(x).norm(), 1e-12);
+  const Eigen::MatrixXd H = tracker.jacobian(x);
+  EXPECT_LT((H - numericH(tracker, x)).cwiseAbs().maxCoeff(), 1e-6);
+  EXPECT_EQ((H.block<3, 3>(0, x.deltaRotationDriftOffset()).norm()), 0.0);   // the translation does not see it
+  EXPECT_GT((H.block<3, 3>(3, x.deltaRotationDriftOffset()).norm()), step);  // about |t| J_l per axis
+  const DeltaMeasurement maps(0, 2, predicted, Matrix6d::Identity() * 1e-6, T_imu_cam);
+  EXPECT_LT(maps.residual(x).norm(), 1e-12);
+  EXPECT_EQ(maps.jacobian(x).middleCols(x.deltaRotationDriftOffset(), 3).norm(), 0.0);
+  EXPECT_LT((maps.jacobian(x) - numericH(maps, x)).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+TEST(FilterModels, BoxplusBoxminusRoundTripWithTheStepDirectionAndRotationDrift) {
   std::mt19937 rng(16);
   FullState x = randomFull(rng, 2);
   x.delta_scale = -0.002;
   x.delta_direction = Eigen::Vector3d(0.001, 0.002, -0.003);
+  x.delta_rotation_drift = Eigen::Vector3d(1e-4, -2e-4, 5e-5);
   const Eigen::VectorXd d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
   const FullState y = boxplus(x, d);
   EXPECT_LT((*y.delta_direction - *x.delta_direction - d.segment<3>(x.deltaDirectionOffset())).norm(), 1e-15);
+  EXPECT_LT((*y.delta_rotation_drift - *x.delta_rotation_drift - d.segment<3>(x.deltaRotationDriftOffset())).norm(),
+            1e-15);
   EXPECT_LT((boxminus(y, x) - d).norm(), 1e-12);
-  FullState without = x;
-  without.delta_direction.reset();
-  EXPECT_THROW(boxminus(x, without), std::invalid_argument);
+  for (int which = 0; which < 2; ++which) {
+    FullState without = x;
+    if (which == 0)
+      without.delta_direction.reset();
+    else
+      without.delta_rotation_drift.reset();
+    EXPECT_THROW(boxminus(x, without), std::invalid_argument);
+  }
 }
 
 // The tilt sensor's offsets as states, after the scale: they add to the predicted angles; a measurement built without
@@ -474,10 +520,11 @@ TEST(FilterKalman, LeverArmStatesKeepTheirPlaceAndCorrelationsAsClonesComeAndGo)
 // The tracker's scale and step direction walk by their psds (ProcessNoise::delta_scale_psd, delta_direction_psd):
 // psd * dt onto each of their variances, in both filters, and nothing elsewhere: their correlations with the core and
 // the clones are carried as the lever arm's are. Layout [21 core | 1 scale (21) | 3 direction (22-24) | clone (25-30)].
-TEST(FilterKalman, ScaleAndStepDirectionStatesWalkByTheirPsdsAndKeepTheirCorrelations) {
+TEST(FilterKalman, ScaleStepDirectionAndRotationDriftStatesWalkByTheirPsdsAndKeepTheirCorrelations) {
   FilterParams params;
   params.process.delta_scale_psd = 2e-7;
   params.process.delta_direction_psd = 3e-8;
+  params.process.delta_rotation_drift_psd = 4e-10;
   for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
     params.type = type;
     auto kf = makeKalmanFilter(params);
@@ -485,24 +532,32 @@ TEST(FilterKalman, ScaleAndStepDirectionStatesWalkByTheirPsdsAndKeepTheirCorrela
     x0.nav.velocity = Eigen::Vector3d(1, 0, 0);
     x0.delta_scale = 0.001;
     x0.delta_direction = Eigen::Vector3d(0.001, -0.002, 0.0);
-    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(25, 25) * 1e-2;
+    x0.delta_rotation_drift = Eigen::Vector3d(1e-4, 0.0, -1e-4);
+    // layout [21 core | 1 scale | 3 direction | 3 rotation drift]
+    Eigen::MatrixXd P = Eigen::MatrixXd::Identity(28, 28) * 1e-2;
     P(21, 21) = 1e-5;
-    P.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-6;
+    P.block<3, 3>(22, 22) = Eigen::Matrix3d::Identity() * 1e-6;
+    P.bottomRightCorner<3, 3>() = Eigen::Matrix3d::Identity() * 1e-8;
     P(0, 21) = P(21, 0) = 2e-4;  // position error along the path correlated with the scale
     P(1, 23) = P(23, 1) = 5e-5;  // position error across the path correlated with the turn
+    P(2, 26) = P(26, 2) = 3e-6;  // the height correlated with the rotation drift
     kf->reset(x0, P);
     kf->addClone();
-    ASSERT_EQ(kf->covariance().rows(), 31);
+    ASSERT_EQ(kf->covariance().rows(), 34);
     // The clone's position takes the core's correlations.
-    EXPECT_NEAR(kf->covariance()(25, 21), 2e-4, 1e-15);
-    EXPECT_NEAR(kf->covariance()(26, 23), 5e-5, 1e-15);
+    EXPECT_NEAR(kf->covariance()(28, 21), 2e-4, 1e-15);
+    EXPECT_NEAR(kf->covariance()(29, 23), 5e-5, 1e-15);
+    EXPECT_NEAR(kf->covariance()(30, 26), 3e-6, 1e-15);
     kf->predict(0.5);
     EXPECT_NEAR(kf->covariance()(21, 21), 1e-5 + 2e-7 * 0.5, 1e-15) << toString(type);
     for (int i = 22; i < 25; ++i) EXPECT_NEAR(kf->covariance()(i, i), 1e-6 + 3e-8 * 0.5, 1e-15) << toString(type);
-    EXPECT_NEAR(kf->covariance()(25, 21), 2e-4, 1e-12) << toString(type);
-    EXPECT_NEAR(kf->covariance()(26, 23), 5e-5, 1e-12) << toString(type);
+    for (int i = 25; i < 28; ++i) EXPECT_NEAR(kf->covariance()(i, i), 1e-8 + 4e-10 * 0.5, 1e-15) << toString(type);
+    EXPECT_NEAR(kf->covariance()(28, 21), 2e-4, 1e-12) << toString(type);
+    EXPECT_NEAR(kf->covariance()(29, 23), 5e-5, 1e-12) << toString(type);
+    EXPECT_NEAR(kf->covariance()(30, 26), 3e-6, 1e-12) << toString(type);
     EXPECT_NEAR(*kf->state().delta_scale, 0.001, 1e-15) << toString(type);
     EXPECT_LT((*kf->state().delta_direction - Eigen::Vector3d(0.001, -0.002, 0.0)).norm(), 1e-15) << toString(type);
+    EXPECT_LT((*kf->state().delta_rotation_drift - Eigen::Vector3d(1e-4, 0.0, -1e-4)).norm(), 1e-15) << toString(type);
   }
 }
 

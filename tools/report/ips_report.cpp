@@ -584,8 +584,8 @@ int main(int argc, char** argv) {
          << ", \"nees_position_mean\": " << jsonNumber(err.nees_mean)
          << ", \"nees_position_in_95_band_pct\": " << jsonNumber(err.nees_in_band_pct);
       // The head's calibration as the filter estimated it online, at the end, where it did (config lever_arm,
-      // delta_scale, delta_direction, tilt/estimate_offset, camera_alignment), beside the truth where the head is
-      // simulated.
+      // delta_scale, delta_direction, delta_rotation_drift, tilt/estimate_offset, camera_alignment), beside the truth
+      // where the head is simulated.
       if (!run.states.empty()) {
         const ips::filter_state_t& last = run.states.back();
         if (last.lever_arm_estimated) {
@@ -608,6 +608,12 @@ int main(int argc, char** argv) {
              << ", \"delta_direction_sigma_rad\": "
              << ips::report::jsonArray(std::vector<double>(last.delta_direction_sigma, last.delta_direction_sigma + 3),
                                        6);
+        if (last.delta_rotation_drift_estimated)
+          js << ", \"delta_rotation_drift_rad_per_m\": "
+             << ips::report::jsonArray(std::vector<double>(last.delta_rotation_drift, last.delta_rotation_drift + 3), 7)
+             << ", \"delta_rotation_drift_sigma_rad_per_m\": "
+             << ips::report::jsonArray(
+                    std::vector<double>(last.delta_rotation_drift_sigma, last.delta_rotation_drift_sigma + 3), 7);
         if (last.tilt_offset_estimated)
           js << ", \"tilt_offset_rad\": " << ips::report::jsonArray({last.tilt_offset[0], last.tilt_offset[1]}, 6)
              << ", \"tilt_offset_sigma_rad\": "

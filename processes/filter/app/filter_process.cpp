@@ -52,6 +52,11 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
     m.delta_direction[i] = out.delta_direction[i];
     m.delta_direction_sigma[i] = out.delta_direction_sigma[i];
   }
+  m.delta_rotation_drift_estimated = out.delta_rotation_drift_estimated;
+  for (int i = 0; i < 3; ++i) {
+    m.delta_rotation_drift[i] = out.delta_rotation_drift[i];
+    m.delta_rotation_drift_sigma[i] = out.delta_rotation_drift_sigma[i];
+  }
   m.tilt_offset_estimated = out.tilt_offset_estimated;
   for (int i = 0; i < 2; ++i) {
     m.tilt_offset[i] = out.tilt_offset[i];

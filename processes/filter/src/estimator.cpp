@@ -75,6 +75,9 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
   if (params_.estimate_delta_direction)
     keep(x.delta_direction, was.delta_direction, Eigen::Vector3d::Zero().eval(), was.deltaDirectionOffset(),
          kDeltaDirectionErrorDim, params_.delta_direction_sigma);
+  if (params_.estimate_delta_rotation_drift)
+    keep(x.delta_rotation_drift, was.delta_rotation_drift, Eigen::Vector3d::Zero().eval(),
+         was.deltaRotationDriftOffset(), kDeltaRotationDriftErrorDim, params_.delta_rotation_drift_sigma);
   if (params_.estimate_tilt_offset)
     keep(x.tilt_offset, was.tilt_offset, Eigen::Vector2d::Zero().eval(), was.tiltOffsetOffset(), kTiltOffsetErrorDim,
          params_.tilt_sigma);
@@ -505,6 +508,12 @@ FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const 
     const int b = kf.state().deltaDirectionOffset();
     o.delta_direction = *kf.state().delta_direction;
     o.delta_direction_sigma = kf.covariance().block<3, 3>(b, b).diagonal().cwiseSqrt();
+  }
+  o.delta_rotation_drift_estimated = kf.state().delta_rotation_drift.has_value();
+  if (o.delta_rotation_drift_estimated) {
+    const int r = kf.state().deltaRotationDriftOffset();
+    o.delta_rotation_drift = *kf.state().delta_rotation_drift;
+    o.delta_rotation_drift_sigma = kf.covariance().block<3, 3>(r, r).diagonal().cwiseSqrt();
   }
   o.tilt_offset_estimated = kf.state().tilt_offset.has_value();
   if (o.tilt_offset_estimated) {

@@ -64,6 +64,9 @@ void KalmanFilter::addRandomWalks(double dt, const ProcessNoise& q) {
   if (x_.delta_scale) P_(x_.deltaScaleOffset(), x_.deltaScaleOffset()) += q.delta_scale_psd * dt;
   if (x_.delta_direction)
     P_.diagonal().segment<kDeltaDirectionErrorDim>(x_.deltaDirectionOffset()).array() += q.delta_direction_psd * dt;
+  if (x_.delta_rotation_drift)
+    P_.diagonal().segment<kDeltaRotationDriftErrorDim>(x_.deltaRotationDriftOffset()).array() +=
+        q.delta_rotation_drift_psd * dt;
 }
 
 // ---------------------------------------------------------------------------------------------- EKF

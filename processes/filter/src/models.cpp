@@ -213,11 +213,16 @@ Eigen::Matrix3d DeltaMeasurement::turnOf(const FullState& x) const {
                                       : Eigen::Matrix3d::Identity();
 }
 
+Eigen::Vector3d DeltaMeasurement::rotationDriftOf(const FullState& x) const {
+  return scaled_ && x.delta_rotation_drift ? Eigen::Vector3d(z_.translation().norm() * *x.delta_rotation_drift)
+                                           : Eigen::Vector3d::Zero();
+}
+
 MeasVector DeltaMeasurement::residual(const FullState& x) const {
   const Eigen::Isometry3d T = predict(x.clones.at(i0_), x.clones.at(i1_), imuCamera(x, T_imu_cam0_));
   MeasVector r(6);
   r.head<3>() = z_.translation() - scaleOf(x) * turnOf(x) * T.translation();
-  r.tail<3>() = logSO3(z_.linear() * T.linear().transpose());
+  r.tail<3>() = logSO3(z_.linear() * (expSO3(rotationDriftOf(x)) * T.linear()).transpose());
   return r;
 }
 
@@ -250,6 +255,13 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   if (scaled_ && x.delta_scale) H.block<3, 1>(0, x.deltaScaleOffset()) = turn * t_pred;
   if (scaled_ && x.delta_direction) H.block<3, 3>(0, x.deltaDirectionOffset()) = -scaleOf(x) * skew(t_pred);
   setRotationRows(x, i0_, i1_, T_imu_cam0_, 3, H);
+  // Measured: Exp(c r) R_pred with c = |t_meas|: a perturbation Exp(e) of R_pred shows as Exp(Exp(c r) e), and one of r
+  // as Exp(c J_l(c r) dr), J_l(phi) = J_r(-phi).
+  if (scaled_ && x.delta_rotation_drift) {
+    const Eigen::Vector3d drift = rotationDriftOf(x);
+    H.middleRows<3>(3) = (expSO3(drift) * H.middleRows<3>(3)).eval();
+    H.block<3, 3>(3, x.deltaRotationDriftOffset()) = z_.translation().norm() * rightJacobianSO3(-drift);
+  }
   return H;
 }
 

@@ -47,6 +47,8 @@ FilterParams loadFilterParams(const Config& c) {
   nonNegative(c, "delta_scale/psd", p.process.delta_scale_psd);
   p.process.delta_direction_psd = c.getDouble("delta_direction/psd", p.process.delta_direction_psd);
   nonNegative(c, "delta_direction/psd", p.process.delta_direction_psd);
+  p.process.delta_rotation_drift_psd = c.getDouble("delta_rotation_drift/psd", p.process.delta_rotation_drift_psd);
+  nonNegative(c, "delta_rotation_drift/psd", p.process.delta_rotation_drift_psd);
 
   p.imu.gyro_noise_density = c.getDouble("imu/gyro_noise_density", p.imu.gyro_noise_density);
   p.imu.accel_noise_density = c.getDouble("imu/accel_noise_density", p.imu.accel_noise_density);
@@ -104,6 +106,9 @@ FilterParams loadFilterParams(const Config& c) {
   p.estimate_delta_direction = c.getBool("delta_direction/estimate", p.estimate_delta_direction);
   p.delta_direction_sigma = c.getDouble("delta_direction/sigma", p.delta_direction_sigma);
   positive(c, "delta_direction/sigma", p.delta_direction_sigma);
+  p.estimate_delta_rotation_drift = c.getBool("delta_rotation_drift/estimate", p.estimate_delta_rotation_drift);
+  p.delta_rotation_drift_sigma = c.getDouble("delta_rotation_drift/sigma", p.delta_rotation_drift_sigma);
+  positive(c, "delta_rotation_drift/sigma", p.delta_rotation_drift_sigma);
   p.cloud = c.getBool("cloud/enabled", p.cloud);
   p.cloud_min_sigma_t = c.getDouble("cloud/min_sigma_t", p.cloud_min_sigma_t);
   p.cloud_min_sigma_r = c.getDouble("cloud/min_sigma_r", p.cloud_min_sigma_r);
@@ -144,6 +149,7 @@ FilterParams loadFilterParams(const Config& c) {
   p.gap_process.gyro_bias_psd = p.process.gyro_bias_psd;
   p.gap_process.delta_scale_psd = p.process.delta_scale_psd;
   p.gap_process.delta_direction_psd = p.process.delta_direction_psd;
+  p.gap_process.delta_rotation_drift_psd = p.process.delta_rotation_drift_psd;
   p.output_decimation = c.getInt("output_decimation", p.output_decimation);
   if (p.output_decimation < 1) throw ConfigError(c.path() + ": key 'output_decimation' must be >= 1");
 

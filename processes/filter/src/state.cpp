@@ -65,6 +65,9 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
   if (x.delta_scale) *out.delta_scale += dx(x.deltaScaleOffset());
   out.delta_direction = x.delta_direction;
   if (x.delta_direction) *out.delta_direction += dx.segment<kDeltaDirectionErrorDim>(x.deltaDirectionOffset());
+  out.delta_rotation_drift = x.delta_rotation_drift;
+  if (x.delta_rotation_drift)
+    *out.delta_rotation_drift += dx.segment<kDeltaRotationDriftErrorDim>(x.deltaRotationDriftOffset());
   out.tilt_offset = x.tilt_offset;
   if (x.tilt_offset) *out.tilt_offset += dx.segment<kTiltOffsetErrorDim>(x.tiltOffsetOffset());
   out.camera_alignment = x.camera_alignment;
@@ -89,6 +92,7 @@ Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
   if (a.clones.size() != b.clones.size() || a.lever_arm.has_value() != b.lever_arm.has_value() ||
       a.delta_scale.has_value() != b.delta_scale.has_value() ||
       a.delta_direction.has_value() != b.delta_direction.has_value() ||
+      a.delta_rotation_drift.has_value() != b.delta_rotation_drift.has_value() ||
       a.tilt_offset.has_value() != b.tilt_offset.has_value() ||
       a.camera_alignment.has_value() != b.camera_alignment.has_value())
     throw std::invalid_argument("boxminus: state layouts differ");
@@ -98,6 +102,9 @@ Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
   if (a.delta_scale) d(a.deltaScaleOffset()) = *a.delta_scale - *b.delta_scale;
   if (a.delta_direction)
     d.segment<kDeltaDirectionErrorDim>(a.deltaDirectionOffset()) = *a.delta_direction - *b.delta_direction;
+  if (a.delta_rotation_drift)
+    d.segment<kDeltaRotationDriftErrorDim>(a.deltaRotationDriftOffset()) =
+        *a.delta_rotation_drift - *b.delta_rotation_drift;
   if (a.tilt_offset) d.segment<kTiltOffsetErrorDim>(a.tiltOffsetOffset()) = *a.tilt_offset - *b.tilt_offset;
   if (a.camera_alignment)
     d.segment<kCameraAlignmentErrorDim>(a.cameraAlignmentOffset()) =

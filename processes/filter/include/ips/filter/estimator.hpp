@@ -92,6 +92,10 @@ struct FilterOutput {
   // (FilterParams::estimate_delta_direction); zero otherwise.
   bool delta_direction_estimated = false;
   Eigen::Vector3d delta_direction = Eigen::Vector3d::Zero(), delta_direction_sigma = Eigen::Vector3d::Zero();
+  // The tracker's rotation drift (rotation vector per metre of its steps, camera 0 [rad/m]) and its sigmas, when the
+  // filter estimates it (FilterParams::estimate_delta_rotation_drift); zero otherwise.
+  bool delta_rotation_drift_estimated = false;
+  Eigen::Vector3d delta_rotation_drift = Eigen::Vector3d::Zero(), delta_rotation_drift_sigma = Eigen::Vector3d::Zero();
   // The tilt sensor's constant offsets [rad] and their sigmas, when the filter estimates them
   // (FilterParams::estimate_tilt_offset); zero otherwise.
   bool tilt_offset_estimated = false;

@@ -92,7 +92,8 @@ class TiltMeasurement : public Measurement {
 // T_imu_cam0 is the calibration's, with the state's translation (the lever arm) and the state's camera alignment
 // where the filter estimates them. `scaled`: the measured translation is (1 + delta_scale) (I + [delta_direction]x) t
 // where the state holds the tracker's scale error and the turn of its steps (the disparity errors the tracker has not
-// found scale and turn every step alike); a delta from elsewhere (the dense maps' alignment) is taken as it is.
+// found scale and turn every step alike), and its measured rotation is Exp(|t_meas| delta_rotation_drift) R where the
+// state holds the tracker's rotation drift; a delta from elsewhere (the dense maps' alignment) is taken as it is.
 class DeltaMeasurement : public Measurement {
  public:
   DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
@@ -108,6 +109,8 @@ class DeltaMeasurement : public Measurement {
   double scaleOf(const FullState& x) const { return scaled_ && x.delta_scale ? 1.0 + *x.delta_scale : 1.0; }
   // I + [delta_direction]x for the tracker's deltas, else I.
   Eigen::Matrix3d turnOf(const FullState& x) const;
+  // |t_meas| delta_rotation_drift for the tracker's deltas, else 0.
+  Eigen::Vector3d rotationDriftOf(const FullState& x) const;
   int i0_, i1_;
   Eigen::Isometry3d z_;
   Matrix6d cov_;

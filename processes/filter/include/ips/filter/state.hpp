@@ -26,12 +26,13 @@ enum ErrorIndex : int {
   kErrBg = 15,  // gyro bias [rad/s], body
   kErrTh = 18,  // attitude error, rotation vector in world: R_true = Exp(dtheta) * R_est
   kCoreErrorDim = 21,
-  kCloneErrorDim = 6,            // per clone: position, attitude error (same conventions)
-  kLeverArmErrorDim = 3,         // the lever arm, when estimated: camera 0's origin in the IMU frame [m]
-  kDeltaScaleErrorDim = 1,       // the tracker's scale error, when estimated [1]
-  kDeltaDirectionErrorDim = 3,   // the turn of the tracker's steps, when estimated [rad]
-  kTiltOffsetErrorDim = 2,       // the tilt sensor's constant offsets of its two angles, when estimated [rad]
-  kCameraAlignmentErrorDim = 3,  // the camera's rotation against the calibration's, when estimated [rad]
+  kCloneErrorDim = 6,               // per clone: position, attitude error (same conventions)
+  kLeverArmErrorDim = 3,            // the lever arm, when estimated: camera 0's origin in the IMU frame [m]
+  kDeltaScaleErrorDim = 1,          // the tracker's scale error, when estimated [1]
+  kDeltaDirectionErrorDim = 3,      // the turn of the tracker's steps, when estimated [rad]
+  kDeltaRotationDriftErrorDim = 3,  // the tracker's rotation error per metre of its steps, when estimated [rad/m]
+  kTiltOffsetErrorDim = 2,          // the tilt sensor's constant offsets of its two angles, when estimated [rad]
+  kCameraAlignmentErrorDim = 3,     // the camera's rotation against the calibration's, when estimated [rad]
 };
 constexpr int kStateElements = 22;
 
@@ -65,8 +66,8 @@ struct PoseClone {
 
 // Mean of the estimator: the navigation state, the lever arm, the tracker's scale error and the turn of its steps, the
 // tilt sensor's offsets and the camera's alignment when they are estimated, then the clones (oldest first). Error-state
-// layout: [21 core | 3 lever arm | 1 scale | 3 step direction | 2 tilt offset | 3 camera alignment (each if estimated)
-// | 6 per clone].
+// layout: [21 core | 3 lever arm | 1 scale | 3 step direction | 3 rotation drift | 2 tilt offset | 3 camera alignment
+// (each if estimated) | 6 per clone].
 struct FullState {
   NavState nav;
   // Camera 0's origin in the IMU frame (T_imu_cam0's translation) [m], when the filter estimates it; otherwise the
@@ -79,6 +80,9 @@ struct FullState {
   // the true ones, (1 + delta_scale) (I + [delta_direction]x) t, when the filter estimates it
   // (FilterParams::estimate_delta_direction); their rotations are not.
   std::optional<Eigen::Vector3d> delta_direction;
+  // The tracker's rotations err by Exp(|t| delta_rotation_drift) (camera 0 at the older image; |t| the step's measured
+  // length [m]) against the true ones, when the filter estimates it (FilterParams::estimate_delta_rotation_drift).
+  std::optional<Eigen::Vector3d> delta_rotation_drift;
   // The tilt sensor's constant offsets [rad]: it reads (angle_x, angle_y) + tilt_offset, when the filter estimates
   // them (FilterParams::estimate_tilt_offset); otherwise they are part of its white noise.
   std::optional<Eigen::Vector2d> tilt_offset;
@@ -91,14 +95,16 @@ struct FullState {
   int leverArmDim() const { return lever_arm ? kLeverArmErrorDim : 0; }
   int deltaScaleDim() const { return delta_scale ? kDeltaScaleErrorDim : 0; }
   int deltaDirectionDim() const { return delta_direction ? kDeltaDirectionErrorDim : 0; }
+  int deltaRotationDriftDim() const { return delta_rotation_drift ? kDeltaRotationDriftErrorDim : 0; }
   int tiltOffsetDim() const { return tilt_offset ? kTiltOffsetErrorDim : 0; }
   int cameraAlignmentDim() const { return camera_alignment ? kCameraAlignmentErrorDim : 0; }
-  // Offsets of the lever arm's error, the scale's, the step direction's, the tilt offset's and the camera alignment's
-  // (each valid only when it is estimated) and of clone i's.
+  // Offsets of the lever arm's error, the scale's, the step direction's, the rotation drift's, the tilt offset's and
+  // the camera alignment's (each valid only when it is estimated) and of clone i's.
   int leverArmOffset() const { return kCoreErrorDim; }
   int deltaScaleOffset() const { return kCoreErrorDim + leverArmDim(); }
   int deltaDirectionOffset() const { return deltaScaleOffset() + deltaScaleDim(); }
-  int tiltOffsetOffset() const { return deltaDirectionOffset() + deltaDirectionDim(); }
+  int deltaRotationDriftOffset() const { return deltaDirectionOffset() + deltaDirectionDim(); }
+  int tiltOffsetOffset() const { return deltaRotationDriftOffset() + deltaRotationDriftDim(); }
   int cameraAlignmentOffset() const { return tiltOffsetOffset() + tiltOffsetDim(); }
   int cloneOffset(int i) const { return cameraAlignmentOffset() + cameraAlignmentDim() + kCloneErrorDim * i; }
   int errorDim() const { return cloneOffset(static_cast<int>(clones.size())); }
