@@ -195,47 +195,12 @@ TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
   EXPECT_LT((unscaled.jacobian(x) - numericH(unscaled, x)).cwiseAbs().maxCoeff(), 1e-6);
 }
 
-// The turn of the tracker's steps as states, after the scale: the tracker's delta (scaled) measures
-// (1 + s) (I + [b]x) times the predicted translation and an untouched rotation; a delta from the dense maps does not
-// see b. With every state before the clones present, so that the offsets are checked in their order.
-TEST(FilterModels, DeltaJacobianWithTheStepDirectionEstimatedMatchesNumeric) {
+// The turn of the tracker's steps b and its rotation drift r as states: the tracker's delta measures
+// (1 + s)(I + [b]x) t_pred and Exp(|t_meas| r) R_pred; a delta from the dense maps (not scaled) sees neither. With
+// every state before the clones present, so that the offsets are checked in their order, and with a drift far larger
+// than the tracker's so that its second-order terms count.
+TEST(FilterModels, DeltaJacobianWithTheStepDirectionAndRotationDriftMatchesNumeric) {
   std::mt19937 rng(15);
-  FullState x = randomFull(rng, 3);
-  x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
-  x.delta_scale = 0.004;
-  x.delta_direction = Eigen::Vector3d(0.002, -0.003, 0.001);
-  x.tilt_offset = Eigen::Vector2d(0.004, -0.007);
-  x.camera_alignment = expQuat(Eigen::Vector3d(0.002, -0.001, 0.003));
-  EXPECT_EQ(x.deltaDirectionOffset(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim);
-  EXPECT_EQ(x.tiltOffsetOffset(), x.deltaDirectionOffset() + kDeltaDirectionErrorDim);
-  EXPECT_EQ(x.cloneOffset(0), x.cameraAlignmentOffset() + kCameraAlignmentErrorDim);
-  Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
-  T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
-  Eigen::Isometry3d T_state = T_imu_cam;
-  T_state.translation() = *x.lever_arm;
-  T_state.linear() = T_imu_cam.linear() * x.camera_alignment->toRotationMatrix();
-  const Eigen::Isometry3d predicted = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_state);
-  Eigen::Isometry3d z = predicted;
-  z.translation() =
-      (1.0 + *x.delta_scale) * (predicted.translation() + x.delta_direction->cross(predicted.translation()));
-  const DeltaMeasurement scaled(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam, true);
-  EXPECT_LT(scaled.residual(x).norm(), 1e-12);
-  const Eigen::MatrixXd H = scaled.jacobian(x);
-  EXPECT_LT((H - numericH(scaled, x)).cwiseAbs().maxCoeff(), 1e-6);
-  // d (1 + s) (t + b x t) / d b = -(1 + s) [t]x, in the translation rows only.
-  const Eigen::Matrix3d expected = -(1.0 + *x.delta_scale) * skew(predicted.translation());
-  EXPECT_LT((H.block<3, 3>(0, x.deltaDirectionOffset()) - expected).norm(), 1e-12);
-  EXPECT_EQ((H.block<3, 3>(3, x.deltaDirectionOffset()).norm()), 0.0);
-  const DeltaMeasurement unscaled(0, 2, predicted, Matrix6d::Identity() * 1e-6, T_imu_cam);
-  EXPECT_LT(unscaled.residual(x).norm(), 1e-12);
-  EXPECT_EQ(unscaled.jacobian(x).middleCols(x.deltaDirectionOffset(), 3).norm(), 0.0);
-}
-
-// The tracker's rotation drift as states, after the step direction: the tracker's delta measures Exp(|t_meas| r) times
-// the predicted rotation, its translation untouched; a delta from the dense maps does not see r. Every state before
-// the clones present, with a drift far larger than the tracker's so that its second-order terms count.
-TEST(FilterModels, DeltaJacobianWithTheRotationDriftEstimatedMatchesNumeric) {
-  std::mt19937 rng(17);
   FullState x = randomFull(rng, 3);
   x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
   x.delta_scale = 0.004;
@@ -243,8 +208,10 @@ TEST(FilterModels, DeltaJacobianWithTheRotationDriftEstimatedMatchesNumeric) {
   x.delta_rotation_drift = Eigen::Vector3d(0.03, -0.05, 0.02);
   x.tilt_offset = Eigen::Vector2d(0.004, -0.007);
   x.camera_alignment = expQuat(Eigen::Vector3d(0.002, -0.001, 0.003));
+  EXPECT_EQ(x.deltaDirectionOffset(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim);
   EXPECT_EQ(x.deltaRotationDriftOffset(), x.deltaDirectionOffset() + kDeltaDirectionErrorDim);
   EXPECT_EQ(x.tiltOffsetOffset(), x.deltaRotationDriftOffset() + kDeltaRotationDriftErrorDim);
+  EXPECT_EQ(x.cloneOffset(0), x.cameraAlignmentOffset() + kCameraAlignmentErrorDim);
   Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
   T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
   Eigen::Isometry3d T_state = T_imu_cam;
@@ -261,12 +228,22 @@ TEST(FilterModels, DeltaJacobianWithTheRotationDriftEstimatedMatchesNumeric) {
   EXPECT_LT(tracker.residual(x).norm(), 1e-12);
   const Eigen::MatrixXd H = tracker.jacobian(x);
   EXPECT_LT((H - numericH(tracker, x)).cwiseAbs().maxCoeff(), 1e-6);
-  EXPECT_EQ((H.block<3, 3>(0, x.deltaRotationDriftOffset()).norm()), 0.0);   // the translation does not see it
-  EXPECT_GT((H.block<3, 3>(3, x.deltaRotationDriftOffset()).norm()), step);  // about |t| J_l per axis
+  // d (1 + s) (t + b x t) / d b = -(1 + s) [t]x, in the translation rows only.
+  const Eigen::Matrix3d expected = -(1.0 + *x.delta_scale) * skew(predicted.translation());
+  EXPECT_LT((H.block<3, 3>(0, x.deltaDirectionOffset()) - expected).norm(), 1e-12);
+  EXPECT_EQ((H.block<3, 3>(3, x.deltaDirectionOffset()).norm()), 0.0);
+  // The drift in the rotation rows only, about |t| J_l per axis.
+  EXPECT_EQ((H.block<3, 3>(0, x.deltaRotationDriftOffset()).norm()), 0.0);
+  EXPECT_GT((H.block<3, 3>(3, x.deltaRotationDriftOffset()).norm()), step);
   const DeltaMeasurement maps(0, 2, predicted, Matrix6d::Identity() * 1e-6, T_imu_cam);
   EXPECT_LT(maps.residual(x).norm(), 1e-12);
+  EXPECT_EQ(maps.jacobian(x).middleCols(x.deltaDirectionOffset(), 3).norm(), 0.0);
   EXPECT_EQ(maps.jacobian(x).middleCols(x.deltaRotationDriftOffset(), 3).norm(), 0.0);
   EXPECT_LT((maps.jacobian(x) - numericH(maps, x)).cwiseAbs().maxCoeff(), 1e-6);
+  // Without the drift the tilt offsets follow the step direction.
+  FullState no_drift = x;
+  no_drift.delta_rotation_drift.reset();
+  EXPECT_EQ(no_drift.tiltOffsetOffset(), no_drift.deltaDirectionOffset() + kDeltaDirectionErrorDim);
 }
 
 TEST(FilterModels, BoxplusBoxminusRoundTripWithTheStepDirectionAndRotationDrift) {
