@@ -498,34 +498,35 @@ FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const 
     o.lever_arm = *kf.state().lever_arm;
     o.lever_arm_covariance = kf.covariance().block<kLeverArmErrorDim, kLeverArmErrorDim>(l, l);
   }
-  o.delta_scale_estimated = kf.state().delta_scale.has_value();
+  // The standard deviations of one estimated block of the error state.
+  const auto sigmas = [&](int offset, int dim) {
+    return Eigen::VectorXd(kf.covariance().diagonal().segment(offset, dim).cwiseSqrt());
+  };
+  const FullState& x = kf.state();
+  o.delta_scale_estimated = x.delta_scale.has_value();
   if (o.delta_scale_estimated) {
-    o.delta_scale = *kf.state().delta_scale;
-    o.delta_scale_sigma = std::sqrt(kf.covariance()(kf.state().deltaScaleOffset(), kf.state().deltaScaleOffset()));
+    o.delta_scale = *x.delta_scale;
+    o.delta_scale_sigma = sigmas(x.deltaScaleOffset(), kDeltaScaleErrorDim)(0);
   }
-  o.delta_direction_estimated = kf.state().delta_direction.has_value();
+  o.delta_direction_estimated = x.delta_direction.has_value();
   if (o.delta_direction_estimated) {
-    const int b = kf.state().deltaDirectionOffset();
-    o.delta_direction = *kf.state().delta_direction;
-    o.delta_direction_sigma = kf.covariance().block<3, 3>(b, b).diagonal().cwiseSqrt();
+    o.delta_direction = *x.delta_direction;
+    o.delta_direction_sigma = sigmas(x.deltaDirectionOffset(), kDeltaDirectionErrorDim);
   }
-  o.delta_rotation_drift_estimated = kf.state().delta_rotation_drift.has_value();
+  o.delta_rotation_drift_estimated = x.delta_rotation_drift.has_value();
   if (o.delta_rotation_drift_estimated) {
-    const int r = kf.state().deltaRotationDriftOffset();
-    o.delta_rotation_drift = *kf.state().delta_rotation_drift;
-    o.delta_rotation_drift_sigma = kf.covariance().block<3, 3>(r, r).diagonal().cwiseSqrt();
+    o.delta_rotation_drift = *x.delta_rotation_drift;
+    o.delta_rotation_drift_sigma = sigmas(x.deltaRotationDriftOffset(), kDeltaRotationDriftErrorDim);
   }
-  o.tilt_offset_estimated = kf.state().tilt_offset.has_value();
+  o.tilt_offset_estimated = x.tilt_offset.has_value();
   if (o.tilt_offset_estimated) {
-    const int t = kf.state().tiltOffsetOffset();
-    o.tilt_offset = *kf.state().tilt_offset;
-    o.tilt_offset_sigma = kf.covariance().block<2, 2>(t, t).diagonal().cwiseSqrt();
+    o.tilt_offset = *x.tilt_offset;
+    o.tilt_offset_sigma = sigmas(x.tiltOffsetOffset(), kTiltOffsetErrorDim);
   }
-  o.camera_alignment_estimated = kf.state().camera_alignment.has_value();
+  o.camera_alignment_estimated = x.camera_alignment.has_value();
   if (o.camera_alignment_estimated) {
-    const int a = kf.state().cameraAlignmentOffset();
-    o.camera_alignment = logQuat(*kf.state().camera_alignment);
-    o.camera_alignment_sigma = kf.covariance().block<3, 3>(a, a).diagonal().cwiseSqrt();
+    o.camera_alignment = logQuat(*x.camera_alignment);
+    o.camera_alignment_sigma = sigmas(x.cameraAlignmentOffset(), kCameraAlignmentErrorDim);
   }
   o.type = kf.type();
   o.a_priori = a_priori;
