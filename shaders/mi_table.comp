@@ -1,22 +1,34 @@
 #version 450
 // The Mutual Information cost table from the joint histogram (ips/e3d/matching_cost.hpp, steps 2-5), in the same
-// integer arithmetic as ips::e3d::miTable, so the two agree bit for bit. One workgroup of 256 invocations;
-// invocation c works on row c or column c of the 256 x 256 tables, with barriers between the steps. The separable
-// smoothings run columns first where that lets each invocation write whole rows (they commute).
+// integer arithmetic as ips::e3d::miTable, so the two agree bit for bit. Four dispatches (STEP 0..3), each of 256
+// invocations in E3D_MI_TABLE_GROUP-sized workgroups: invocation c works on column c or row c of the 256 x 256
+// tables. The separable smoothings run columns first where that lets each invocation write whole rows (they
+// commute). Why four dispatches rather than one workgroup with barriers: lavapipe runs a workgroup on one thread,
+// so a single workgroup of 256 leaves the other cores idle; between dispatches the buffers carry the steps' results.
+//   STEP 0: columns of the histogram smoothed (work64), the marginals (row and column sums)
+//   STEP 1: rows smoothed and the joint information (work32 [0, 65536)), the marginals' information
+//   STEP 2: columns of the information smoothed (work32 [65536, 131072)), the marginals' information smoothed
+//   STEP 3: rows of the information smoothed and the costs
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
 #extension GL_GOOGLE_include_directive : require
 #include "ips/e3d_shaders/interface.h"
 layout(local_size_x = E3D_MI_TABLE_GROUP) in;
+layout(constant_id = E3D_SPEC_MI_TABLE_STEP) const int STEP = 0;
 layout(std430, binding = 0) readonly buffer Histogram { uint histogram[]; };  // 65536 bins + the count
 layout(std430, binding = 1) readonly buffer Log2Fraction { int log2_fraction[]; };  // 256 entries
-layout(std430, binding = 2) buffer Work64 { uint64_t work64[]; };  // 65536
-layout(std430, binding = 3) buffer Work32 { int work32[]; };       // 2 x 65536
+// E3D_MI_WORK64_ENTRIES: the smoothed histogram, then the left and the right marginal (256 each).
+layout(std430, binding = 2) buffer Work64 { uint64_t work64[]; };
+// E3D_MI_WORK32_ENTRIES: the information, its column-smoothed copy, then the left and right marginals' information
+// and their smoothed values (256 each).
+layout(std430, binding = 3) buffer Work32 { int work32[]; };
 layout(std430, binding = 4) writeonly buffer Table { uint table[]; };  // 65536 bytes
-shared uint64_t marginal_left[256], marginal_right[256];
-shared int info_left[256], info_right[256];
 
 const int PARZEN[7] = int[7](1, 6, 15, 20, 15, 6, 1);  // binomial, sum 64
+const int MARGINAL_LEFT = 65536, MARGINAL_RIGHT = 65536 + 256;  // in work64
+const int SMOOTHED_INFO = 65536;                                  // in work32
+const int INFO_LEFT = 2 * 65536, INFO_RIGHT = INFO_LEFT + 256;    // in work32
+const int ENTROPY_LEFT = INFO_LEFT + 512, ENTROPY_RIGHT = INFO_LEFT + 768;
 
 int log2q8(uint64_t v) {  // 256 floor(log2 v) + the table's fraction of the 8 bits after the leading one
   const uint hi = uint(v >> 32), lo = uint(v);
@@ -25,77 +37,74 @@ int log2q8(uint64_t v) {  // 256 floor(log2 v) + the table's fraction of the 8 b
   return 256 * e + log2_fraction[int(top) - 256];
 }
 
-void sync() {
-  memoryBarrierBuffer();
-  memoryBarrierShared();
-  barrier();
-}
-
 void main() {
-  const int c = int(gl_LocalInvocationID.x);
+  const int c = int(gl_GlobalInvocationID.x);
   const uint64_t n = max(uint64_t(histogram[65536]), uint64_t(1));
-  // 2. Smoothing of the histogram, zero outside (columns: invocation c, column c), and the marginals.
-  uint64_t column_sum = 0;
-  for (int i = 0; i < 256; ++i) {
-    uint64_t acc = 0;
+  if (STEP == 0) {
+    // 2. Smoothing of the histogram, zero outside: column c; the marginals.
+    uint64_t column_sum = 0;
+    for (int i = 0; i < 256; ++i) {
+      uint64_t acc = 0;
+      [[unroll]] for (int t = 0; t < 7; ++t) {
+        const int ii = i + t - 3;
+        if (ii >= 0 && ii < 256) acc += uint64_t(PARZEN[t]) * histogram[ii * 256 + c];
+      }
+      work64[i * 256 + c] = acc;
+      column_sum += histogram[i * 256 + c];
+    }
+    uint64_t row_sum = 0;
+    for (int k = 0; k < 256; ++k) row_sum += histogram[c * 256 + k];
+    work64[MARGINAL_LEFT + c] = row_sum;
+    work64[MARGINAL_RIGHT + c] = column_sum;
+  } else if (STEP == 1) {
+    // Row c, then 3. the information of the joint histogram; the marginals likewise.
+    const int log_joint_total = log2q8(4096 * n);
+    for (int k = 0; k < 256; ++k) {
+      uint64_t acc = 0;
+      [[unroll]] for (int t = 0; t < 7; ++t) {
+        const int kk = k + t - 3;
+        if (kk >= 0 && kk < 256) acc += uint64_t(PARZEN[t]) * work64[c * 256 + kk];
+      }
+      work32[c * 256 + k] = log_joint_total - log2q8(max(acc, uint64_t(1)));
+    }
+    uint64_t smooth_left = 0, smooth_right = 0;
     [[unroll]] for (int t = 0; t < 7; ++t) {
-      const int ii = i + t - 3;
-      if (ii >= 0 && ii < 256) acc += uint64_t(PARZEN[t]) * histogram[ii * 256 + c];
+      const int ii = c + t - 3;
+      if (ii >= 0 && ii < 256) {
+        smooth_left += uint64_t(PARZEN[t]) * work64[MARGINAL_LEFT + ii];
+        smooth_right += uint64_t(PARZEN[t]) * work64[MARGINAL_RIGHT + ii];
+      }
     }
-    work64[i * 256 + c] = acc;
-    column_sum += histogram[i * 256 + c];
-  }
-  uint64_t row_sum = 0;
-  for (int k = 0; k < 256; ++k) row_sum += histogram[c * 256 + k];
-  marginal_left[c] = row_sum;
-  marginal_right[c] = column_sum;
-  sync();
-  // Rows (invocation c, row c), then 3. the information of the joint histogram; the marginals likewise.
-  for (int k = 0; k < 256; ++k) {
-    uint64_t acc = 0;
+    work32[INFO_LEFT + c] = log2q8(64 * n) - log2q8(max(smooth_left, uint64_t(1)));
+    work32[INFO_RIGHT + c] = log2q8(64 * n) - log2q8(max(smooth_right, uint64_t(1)));
+  } else if (STEP == 2) {
+    // 4. Smoothing of the information, edges repeated: column c; the marginals' information (scale 64).
+    for (int i = 0; i < 256; ++i) {
+      int acc = 0;
+      [[unroll]] for (int t = 0; t < 7; ++t) acc += PARZEN[t] * work32[clamp(i + t - 3, 0, 255) * 256 + c];
+      work32[SMOOTHED_INFO + i * 256 + c] = acc;
+    }
+    int entropy_left = 0, entropy_right = 0;
     [[unroll]] for (int t = 0; t < 7; ++t) {
-      const int kk = k + t - 3;
-      if (kk >= 0 && kk < 256) acc += uint64_t(PARZEN[t]) * work64[c * 256 + kk];
+      entropy_left += PARZEN[t] * work32[INFO_LEFT + clamp(c + t - 3, 0, 255)];
+      entropy_right += PARZEN[t] * work32[INFO_RIGHT + clamp(c + t - 3, 0, 255)];
     }
-    work32[c * 256 + k] = log2q8(4096 * n) - log2q8(max(acc, uint64_t(1)));
-  }
-  uint64_t smooth_left = 0, smooth_right = 0;
-  [[unroll]] for (int t = 0; t < 7; ++t) {
-    const int ii = c + t - 3;
-    if (ii >= 0 && ii < 256) {
-      smooth_left += uint64_t(PARZEN[t]) * marginal_left[ii];
-      smooth_right += uint64_t(PARZEN[t]) * marginal_right[ii];
+    work32[ENTROPY_LEFT + c] = entropy_left;
+    work32[ENTROPY_RIGHT + c] = entropy_right;
+  } else {
+    // Row c, then 5. the costs: mi x 4096 = 64 l + 64 r - j, cost = clamp(32 - round(4 mi), 0, 63).
+    const int64_t entropy_left = 64 * int64_t(work32[ENTROPY_LEFT + c]);
+    for (int w = 0; w < 64; ++w) {
+      uint packed = 0u;
+      [[unroll]] for (int b = 0; b < 4; ++b) {
+        const int k = 4 * w + b;
+        int joint = 0;
+        [[unroll]] for (int t = 0; t < 7; ++t) joint += PARZEN[t] * work32[SMOOTHED_INFO + c * 256 + clamp(k + t - 3, 0, 255)];
+        const int64_t mi = entropy_left + 64 * int64_t(work32[ENTROPY_RIGHT + k]) - int64_t(joint);
+        const int quarter_bits = int((mi + (int64_t(1) << 17)) >> 18);
+        packed |= uint(clamp(32 - quarter_bits, 0, 63)) << (8 * b);
+      }
+      table[c * 64 + w] = packed;
     }
-  }
-  info_left[c] = log2q8(64 * n) - log2q8(max(smooth_left, uint64_t(1)));
-  info_right[c] = log2q8(64 * n) - log2q8(max(smooth_right, uint64_t(1)));
-  sync();
-  // 4. Smoothing of the information, edges repeated: columns (invocation c) ...
-  for (int i = 0; i < 256; ++i) {
-    int acc = 0;
-    [[unroll]] for (int t = 0; t < 7; ++t) acc += PARZEN[t] * work32[clamp(i + t - 3, 0, 255) * 256 + c];
-    work32[65536 + i * 256 + c] = acc;
-  }
-  int entropy_left = 0, entropy_right = 0;
-  [[unroll]] for (int t = 0; t < 7; ++t) {
-    entropy_left += PARZEN[t] * info_left[clamp(c + t - 3, 0, 255)];
-    entropy_right += PARZEN[t] * info_right[clamp(c + t - 3, 0, 255)];
-  }
-  sync();
-  info_left[c] = entropy_left;  // now the smoothed entropies (scale 64)
-  info_right[c] = entropy_right;
-  sync();
-  // ... then rows (invocation c, row c) and 5. the costs: mi x 4096 = 64 l + 64 r - j, cost = clamp(32 - round(4 mi)).
-  for (int w = 0; w < 64; ++w) {
-    uint packed = 0u;
-    [[unroll]] for (int b = 0; b < 4; ++b) {
-      const int k = 4 * w + b;
-      int joint = 0;
-      [[unroll]] for (int t = 0; t < 7; ++t) joint += PARZEN[t] * work32[65536 + c * 256 + clamp(k + t - 3, 0, 255)];
-      const int64_t mi = 64 * int64_t(info_left[c]) + 64 * int64_t(info_right[k]) - int64_t(joint);
-      const int quarter_bits = int((mi + (int64_t(1) << 17)) >> 18);
-      packed |= uint(clamp(32 - quarter_bits, 0, 63)) << (8 * b);
-    }
-    table[c * 64 + w] = packed;
   }
 }

@@ -724,8 +724,9 @@ std::vector<uint32_t> referenceHistogram(const cv::Mat& left, const cv::Mat& rig
 
 // The table stage's buffers (the histogram host-visible).
 struct MiTableBuffers {
-  vk::Buffer histogram = hostBuffer((65536 + 1) * 4, 0), log2 = hostBuffer(256 * 4), work64 = hostBuffer(65536 * 8),
-             work32 = hostBuffer(2 * 65536 * 4), table = hostBuffer(65536);
+  vk::Buffer histogram = hostBuffer((65536 + 1) * 4, 0), log2 = hostBuffer(256 * 4),
+             work64 = hostBuffer(E3D_MI_WORK64_ENTRIES * 8), work32 = hostBuffer(E3D_MI_WORK32_ENTRIES * 4),
+             table = hostBuffer(65536);
   MiTableBuffers() { std::memcpy(log2.mapped(), log2FractionTable().data(), 256 * 4); }
   cv::Mat readTable() const { return cv::Mat(256, 256, CV_8UC1, table.mapped()).clone(); }
 };

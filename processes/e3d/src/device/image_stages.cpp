@@ -101,13 +101,19 @@ void MiHistogramStage::record(VkCommandBuffer cmd, Guide guide) const {
 
 MiTableStage::MiTableStage(const vk::DescriptorPool& pool, const vk::Buffer& histogram,
                            const vk::Buffer& log2_fractions, const vk::Buffer& work64, const vk::Buffer& work32,
-                           const vk::Buffer& table)
-    : pipeline_(pool, "mi_table", {{0, histogram}, {1, log2_fractions}, {2, work64}, {3, work32}, {4, table}}, 0) {}
+                           const vk::Buffer& table) {
+  for (int step = 0; step < E3D_MI_TABLE_STEPS; ++step)
+    steps_[step] =
+        vk::Pipeline(pool, "mi_table", {{0, histogram}, {1, log2_fractions}, {2, work64}, {3, work32}, {4, table}}, 0,
+                     {{E3D_SPEC_MI_TABLE_STEP, step}});
+}
 
 void MiTableStage::record(VkCommandBuffer cmd) const {
-  pipeline_.bind(cmd);
-  vkCmdDispatch(cmd, 1, 1, 1);
-  vk::computeBarrier(cmd);
+  for (const vk::Pipeline& step : steps_) {
+    step.bind(cmd);
+    vkCmdDispatch(cmd, 256 / E3D_MI_TABLE_GROUP, 1, 1);
+    vk::computeBarrier(cmd);
+  }
 }
 
 }  // namespace e3d

@@ -134,8 +134,8 @@ void MatchLevel::initCostStages(const std::vector<vk::Descriptor>& chunks, int b
 void MatchLevel::initMutualInformation(cv::Size guide_size) {
   mi_histogram_ = buffer((65536 + 1) * 4, false);
   mi_table_ = buffer(65536, false);
-  mi_work64_ = buffer(65536 * 8, false);
-  mi_work32_ = buffer(2 * 65536 * 4, false);
+  mi_work64_ = buffer(E3D_MI_WORK64_ENTRIES * 8, false);
+  mi_work32_ = buffer(E3D_MI_WORK32_ENTRIES * 4, false);
   mi_log2_ = buffer(256 * 4, true);
   std::memcpy(mi_log2_.mapped(), log2FractionTable().data(), 256 * 4);
   mi_start_histogram_.emplace(pool_, size_, guide_size, image_words_, checkedLeft(), mi_histogram_, params_);

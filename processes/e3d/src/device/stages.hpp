@@ -113,7 +113,8 @@ class MiHistogramStage {
   shader::MiHistogramParams pc_;
 };
 
-// mi_table: the 256 x 256 cost table from the histogram (one workgroup).
+// mi_table: the 256 x 256 cost table from the histogram, in four dispatches (mi_table.comp's steps). work64 and
+// work32 hold E3D_MI_WORK64_ENTRIES and E3D_MI_WORK32_ENTRIES entries.
 class MiTableStage {
  public:
   MiTableStage(const vk::DescriptorPool& pool, const vk::Buffer& histogram, const vk::Buffer& log2_fractions,
@@ -121,7 +122,7 @@ class MiTableStage {
   void record(VkCommandBuffer cmd) const;
 
  private:
-  vk::Pipeline pipeline_;
+  vk::Pipeline steps_[E3D_MI_TABLE_STEPS];
 };
 
 // The cost stage of one match: census costs into the lines' cost slice (cost_census), or the intensity costs

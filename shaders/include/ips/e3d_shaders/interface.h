@@ -15,6 +15,7 @@
 #define E3D_SPEC_MIRROR 7              // the second match (right to left): images read swapped and mirrored
 #define E3D_SPEC_RIGHT_MAP 8           // the right map by the diagonal search
 #define E3D_SPEC_COST_VOLUME 9         // row passes read the costs from the cost volume (not census on the fly)
+#define E3D_SPEC_MI_TABLE_STEP 10      // mi_table: which of its four dispatches (0..3)
 
 // Largest number of buffers (or storage-buffer ranges) a path-cost volume, the row passes' sums or a cost volume
 // is split into (each at most maxStorageBufferRange).
@@ -30,8 +31,12 @@
 // Workgroup of lr_check.
 #define E3D_LR_GROUP_X 16
 #define E3D_LR_GROUP_Y 8
-// Workgroup of mi_table (one workgroup builds the whole table).
-#define E3D_MI_TABLE_GROUP 256
+// mi_table: four dispatches of 256 invocations (one per row or column of the table) in workgroups of this size,
+// so that lavapipe spreads each over its threads; its work buffers' sizes in entries (see mi_table.comp).
+#define E3D_MI_TABLE_GROUP 16
+#define E3D_MI_TABLE_STEPS 4
+#define E3D_MI_WORK64_ENTRIES (65536 + 2 * 256)
+#define E3D_MI_WORK32_ENTRIES (2 * 65536 + 4 * 256)
 
 #ifdef __cplusplus
 #include <cstddef>
