@@ -167,8 +167,8 @@ TEST(FilterModels, DeltaJacobianWithTheLeverArmEstimatedMatchesNumeric) {
   EXPECT_LT(m.jacobian(x).middleCols(kCoreErrorDim, 3).topRows(3).norm(), 1e-12);
 }
 
-// The tracker's scale error as a state, after the lever arm: the tracker's delta (scaled) measures (1 + s) times the
-// predicted translation, a delta from the dense maps (not scaled) does not see s.
+// The tracker's scale error as a state, after the lever arm: the tracker's delta (from_tracker) measures (1 + s) times
+// the predicted translation, a delta from the dense maps (not from_tracker) does not see s.
 TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
   std::mt19937 rng(11);
   FullState x = randomFull(rng, 3);
@@ -182,10 +182,10 @@ TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
   const Eigen::Isometry3d predicted = DeltaMeasurement::predict(x.clones[0], x.clones[2], T_imu_cam);
   Eigen::Isometry3d z = predicted;
   z.translation() *= 1.0 + *x.delta_scale;
-  const DeltaMeasurement scaled(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam, true);
-  EXPECT_LT(scaled.residual(x).norm(), 1e-12);
-  const Eigen::MatrixXd H = scaled.jacobian(x);
-  EXPECT_LT((H - numericH(scaled, x)).cwiseAbs().maxCoeff(), 1e-6);
+  const DeltaMeasurement tracker_delta(0, 2, z, Matrix6d::Identity() * 1e-6, T_imu_cam, true);
+  EXPECT_LT(tracker_delta.residual(x).norm(), 1e-12);
+  const Eigen::MatrixXd H = tracker_delta.jacobian(x);
+  EXPECT_LT((H - numericH(tracker_delta, x)).cwiseAbs().maxCoeff(), 1e-6);
   // d (1 + s) t / d s = t, in the translation rows only.
   EXPECT_LT((H.col(x.deltaScaleOffset()).head<3>() - predicted.translation()).norm(), 1e-12);
   EXPECT_EQ(H.col(x.deltaScaleOffset()).tail<3>().norm(), 0.0);
@@ -196,9 +196,9 @@ TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
 }
 
 // The turn of the tracker's steps b and its rotation drift r as states: the tracker's delta measures
-// (1 + s)(I + [b]x) t_pred and Exp(|t_meas| r) R_pred; a delta from the dense maps (not scaled) sees neither. With
-// every state before the clones present, so that the offsets are checked in their order, and with a drift far larger
-// than the tracker's so that its second-order terms count.
+// (1 + s)(I + [b]x) t_pred and Exp(|t_meas| r) R_pred; a delta from the dense maps (not from_tracker) sees neither.
+// With every state before the clones present, so that the offsets are checked in their order, and with a drift far
+// larger than the tracker's so that its second-order terms count.
 TEST(FilterModels, DeltaJacobianWithTheStepDirectionAndRotationDriftMatchesNumeric) {
   std::mt19937 rng(15);
   FullState x = randomFull(rng, 3);
@@ -292,7 +292,7 @@ TEST(FilterModels, TiltJacobianWithTheOffsetEstimatedMatchesNumeric) {
 }
 
 // The camera's alignment as states, after the others: it turns the predicted translation and conjugates the predicted
-// rotation, for the tracker's deltas (scaled) and the far points' rotations alike.
+// rotation, for the tracker's deltas (from_tracker) and the far points' rotations alike.
 TEST(FilterModels, DeltaAndRotationJacobiansWithTheCameraAlignmentMatchNumeric) {
   std::mt19937 rng(14);
   FullState x = randomFull(rng, 3);

@@ -195,8 +195,8 @@ void setRotationRows(const FullState& x, int i0, int i1, const Eigen::Isometry3d
 }  // namespace
 
 DeltaMeasurement::DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
-                                   const Eigen::Isometry3d& T_imu_cam0, bool scaled)
-    : i0_(clone0), i1_(clone1), z_(T_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0), scaled_(scaled) {}
+                                   const Eigen::Isometry3d& T_imu_cam0, bool from_tracker)
+    : i0_(clone0), i1_(clone1), z_(T_c0_c1), cov_(covariance), T_imu_cam0_(T_imu_cam0), from_tracker_(from_tracker) {}
 
 Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone& c1,
                                             const Eigen::Isometry3d& T_imu_cam0) {
@@ -209,13 +209,13 @@ Eigen::Isometry3d DeltaMeasurement::predict(const PoseClone& c0, const PoseClone
 }
 
 Eigen::Matrix3d DeltaMeasurement::turnOf(const FullState& x) const {
-  return scaled_ && x.delta_direction ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() + skew(*x.delta_direction))
-                                      : Eigen::Matrix3d::Identity();
+  return from_tracker_ && x.delta_direction ? Eigen::Matrix3d(Eigen::Matrix3d::Identity() + skew(*x.delta_direction))
+                                            : Eigen::Matrix3d::Identity();
 }
 
 Eigen::Vector3d DeltaMeasurement::rotationDriftOf(const FullState& x) const {
-  return scaled_ && x.delta_rotation_drift ? Eigen::Vector3d(z_.translation().norm() * *x.delta_rotation_drift)
-                                           : Eigen::Vector3d::Zero();
+  return from_tracker_ && x.delta_rotation_drift ? Eigen::Vector3d(z_.translation().norm() * *x.delta_rotation_drift)
+                                                 : Eigen::Vector3d::Zero();
 }
 
 MeasVector DeltaMeasurement::residual(const FullState& x) const {
@@ -252,12 +252,12 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   const Eigen::Vector3d t_pred = A * d - R_ci * t_ic;
   const Eigen::Matrix3d turn = turnOf(x);
   H.topRows<3>() = (scaleOf(x) * turn * H.topRows<3>()).eval();
-  if (scaled_ && x.delta_scale) H.block<3, 1>(0, x.deltaScaleOffset()) = turn * t_pred;
-  if (scaled_ && x.delta_direction) H.block<3, 3>(0, x.deltaDirectionOffset()) = -scaleOf(x) * skew(t_pred);
+  if (from_tracker_ && x.delta_scale) H.block<3, 1>(0, x.deltaScaleOffset()) = turn * t_pred;
+  if (from_tracker_ && x.delta_direction) H.block<3, 3>(0, x.deltaDirectionOffset()) = -scaleOf(x) * skew(t_pred);
   setRotationRows(x, i0_, i1_, T_imu_cam0_, 3, H);
   // Measured: Exp(c r) R_pred with c = |t_meas|: a perturbation Exp(e) of R_pred shows as Exp(Exp(c r) e), and one of r
   // as Exp(c J_l(c r) dr), J_l(phi) = J_r(-phi).
-  if (scaled_ && x.delta_rotation_drift) {
+  if (from_tracker_ && x.delta_rotation_drift) {
     const Eigen::Vector3d drift = rotationDriftOf(x);
     H.middleRows<3>(3) = (expSO3(drift) * H.middleRows<3>(3)).eval();
     H.block<3, 3>(3, x.deltaRotationDriftOffset()) = z_.translation().norm() * rightJacobianSO3(-drift);

@@ -90,14 +90,15 @@ class TiltMeasurement : public Measurement {
 // Relative pose of camera 0 between clone i0 (older) and clone i1: X_c0(t0) = R * X_c0(t1) + t. Residual
 // [t_meas - t_pred; Log(R_meas R_pred^T)] (rotation error in camera 0 at t0), covariance order [t, rotvec].
 // T_imu_cam0 is the calibration's, with the state's translation (the lever arm) and the state's camera alignment
-// where the filter estimates them. `scaled`: the measured translation is (1 + delta_scale) (I + [delta_direction]x) t
-// where the state holds the tracker's scale error and the turn of its steps (the disparity errors the tracker has not
-// found scale and turn every step alike), and its measured rotation is Exp(|t_meas| delta_rotation_drift) R where the
-// state holds the tracker's rotation drift; a delta from elsewhere (the dense maps' alignment) is taken as it is.
+// where the filter estimates them. `from_tracker` (a delta of the tracker): the measured translation is
+// (1 + delta_scale) (I + [delta_direction]x) t where the state holds the tracker's scale error and the turn of its
+// steps (the disparity errors the tracker has not found scale and turn every step alike), and its measured rotation is
+// Exp(|t_meas| delta_rotation_drift) R where the state holds the tracker's rotation drift; a delta from elsewhere (the
+// dense maps' alignment) is taken as it is.
 class DeltaMeasurement : public Measurement {
  public:
   DeltaMeasurement(int clone0, int clone1, const Eigen::Isometry3d& T_c0_c1, const Matrix6d& covariance,
-                   const Eigen::Isometry3d& T_imu_cam0, bool scaled = false);
+                   const Eigen::Isometry3d& T_imu_cam0, bool from_tracker = false);
   int dim() const override { return 6; }
   static Eigen::Isometry3d predict(const PoseClone& c0, const PoseClone& c1, const Eigen::Isometry3d& T_imu_cam0);
   MeasVector residual(const FullState& x) const override;
@@ -106,7 +107,7 @@ class DeltaMeasurement : public Measurement {
   bool coreOnly() const override { return false; }
 
  private:
-  double scaleOf(const FullState& x) const { return scaled_ && x.delta_scale ? 1.0 + *x.delta_scale : 1.0; }
+  double scaleOf(const FullState& x) const { return from_tracker_ && x.delta_scale ? 1.0 + *x.delta_scale : 1.0; }
   // I + [delta_direction]x for the tracker's deltas, else I.
   Eigen::Matrix3d turnOf(const FullState& x) const;
   // |t_meas| delta_rotation_drift for the tracker's deltas, else 0.
@@ -115,7 +116,7 @@ class DeltaMeasurement : public Measurement {
   Eigen::Isometry3d z_;
   Matrix6d cov_;
   Eigen::Isometry3d T_imu_cam0_;
-  bool scaled_;
+  bool from_tracker_;
 };
 
 // Relative rotation of camera 0 between clone i0 (older) and clone i1, alone: the tracker's rotation from far
