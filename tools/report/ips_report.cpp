@@ -19,6 +19,7 @@
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
 #include <ips/tracker_delta_t.hpp>
+#include <iterator>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
 #include <opencv2/imgproc.hpp>
@@ -588,14 +589,19 @@ int main(int argc, char** argv) {
       // where the head is simulated.
       if (!run.states.empty()) {
         const ips::filter_state_t& last = run.states.back();
+        // "key": [values], "sigma_key": [sigmas] of an estimated block (the message's fixed arrays).
+        auto estimatedBlock = [&js](const char* key, const char* sigma_key, const auto& values, const auto& sigmas,
+                                    int digits) {
+          js << ", \"" << key
+             << "\": " << ips::report::jsonArray(std::vector<double>(std::begin(values), std::end(values)), digits)
+             << ", \"" << sigma_key
+             << "\": " << ips::report::jsonArray(std::vector<double>(std::begin(sigmas), std::end(sigmas)), digits);
+        };
         if (last.lever_arm_estimated) {
-          const std::vector<double> lever(last.lever_arm, last.lever_arm + 3);
-          const std::vector<double> sigma(last.lever_arm_sigma, last.lever_arm_sigma + 3);
-          js << ", \"lever_arm_m\": " << ips::report::jsonArray(lever, 5)
-             << ", \"lever_arm_sigma_m\": " << ips::report::jsonArray(sigma, 5);
+          estimatedBlock("lever_arm_m", "lever_arm_sigma_m", last.lever_arm, last.lever_arm_sigma, 5);
           if (truth_calib) {
             std::vector<double> error(3);
-            for (int k = 0; k < 3; ++k) error[k] = lever[k] - truth_calib->T_imu_cam0.translation()(k);
+            for (int k = 0; k < 3; ++k) error[k] = last.lever_arm[k] - truth_calib->T_imu_cam0.translation()(k);
             js << ", \"lever_arm_error_m\": " << ips::report::jsonArray(error, 5);
           }
         }
@@ -603,26 +609,16 @@ int main(int argc, char** argv) {
           js << ", \"delta_scale\": " << jsonNumber(last.delta_scale)
              << ", \"delta_scale_sigma\": " << jsonNumber(last.delta_scale_sigma);
         if (last.delta_direction_estimated)
-          js << ", \"delta_direction_rad\": "
-             << ips::report::jsonArray(std::vector<double>(last.delta_direction, last.delta_direction + 3), 6)
-             << ", \"delta_direction_sigma_rad\": "
-             << ips::report::jsonArray(std::vector<double>(last.delta_direction_sigma, last.delta_direction_sigma + 3),
-                                       6);
+          estimatedBlock("delta_direction_rad", "delta_direction_sigma_rad", last.delta_direction,
+                         last.delta_direction_sigma, 6);
         if (last.delta_rotation_drift_estimated)
-          js << ", \"delta_rotation_drift_rad_per_m\": "
-             << ips::report::jsonArray(std::vector<double>(last.delta_rotation_drift, last.delta_rotation_drift + 3), 7)
-             << ", \"delta_rotation_drift_sigma_rad_per_m\": "
-             << ips::report::jsonArray(
-                    std::vector<double>(last.delta_rotation_drift_sigma, last.delta_rotation_drift_sigma + 3), 7);
+          estimatedBlock("delta_rotation_drift_rad_per_m", "delta_rotation_drift_sigma_rad_per_m",
+                         last.delta_rotation_drift, last.delta_rotation_drift_sigma, 7);
         if (last.tilt_offset_estimated)
-          js << ", \"tilt_offset_rad\": " << ips::report::jsonArray({last.tilt_offset[0], last.tilt_offset[1]}, 6)
-             << ", \"tilt_offset_sigma_rad\": "
-             << ips::report::jsonArray({last.tilt_offset_sigma[0], last.tilt_offset_sigma[1]}, 6);
+          estimatedBlock("tilt_offset_rad", "tilt_offset_sigma_rad", last.tilt_offset, last.tilt_offset_sigma, 6);
         if (last.camera_alignment_estimated) {
-          const std::vector<double> est(last.camera_alignment, last.camera_alignment + 3);
-          const std::vector<double> sigma(last.camera_alignment_sigma, last.camera_alignment_sigma + 3);
-          js << ", \"camera_alignment_rad\": " << ips::report::jsonArray(est, 6)
-             << ", \"camera_alignment_sigma_rad\": " << ips::report::jsonArray(sigma, 6);
+          estimatedBlock("camera_alignment_rad", "camera_alignment_sigma_rad", last.camera_alignment,
+                         last.camera_alignment_sigma, 6);
           // The camera-to-IMU rotation's own error in the file the processes ran on (the principal points' part of
           // the alignment is not in it).
           if (truth_calib && ran_on) {

@@ -16,6 +16,13 @@ namespace {
 
 constexpr int kFlushPacingUs = 1000;  // between the held-back states published at shutdown
 
+// An estimated block of the filter's output (an Eigen vector) into the message's fixed array of the same size.
+template <class Vector, int N>
+void copyBlock(const Vector& from, double (&to)[N]) {
+  static_assert(Vector::SizeAtCompileTime == N, "the message's array and the filter's block differ in size");
+  for (int i = 0; i < N; ++i) to[i] = from[i];
+}
+
 ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   ips::filter_state_t m{};
   const ips::filter::NavState& s = out.state;
@@ -40,33 +47,23 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   for (int r = 0; r < layout::kDim; ++r)
     for (int c = 0; c < layout::kDim; ++c) m.covariance[r][c] = out.covariance(r, c);
   m.lever_arm_estimated = out.lever_arm_estimated;
-  for (int i = 0; i < 3; ++i) {
-    m.lever_arm[i] = out.lever_arm[i];
-    m.lever_arm_sigma[i] = std::sqrt(std::max(0.0, out.lever_arm_covariance(i, i)));
-  }
+  copyBlock(out.lever_arm, m.lever_arm);
+  for (int i = 0; i < 3; ++i) m.lever_arm_sigma[i] = std::sqrt(std::max(0.0, out.lever_arm_covariance(i, i)));
   m.delta_scale_estimated = out.delta_scale_estimated;
   m.delta_scale = out.delta_scale;
   m.delta_scale_sigma = out.delta_scale_sigma;
   m.delta_direction_estimated = out.delta_direction_estimated;
-  for (int i = 0; i < 3; ++i) {
-    m.delta_direction[i] = out.delta_direction[i];
-    m.delta_direction_sigma[i] = out.delta_direction_sigma[i];
-  }
+  copyBlock(out.delta_direction, m.delta_direction);
+  copyBlock(out.delta_direction_sigma, m.delta_direction_sigma);
   m.delta_rotation_drift_estimated = out.delta_rotation_drift_estimated;
-  for (int i = 0; i < 3; ++i) {
-    m.delta_rotation_drift[i] = out.delta_rotation_drift[i];
-    m.delta_rotation_drift_sigma[i] = out.delta_rotation_drift_sigma[i];
-  }
+  copyBlock(out.delta_rotation_drift, m.delta_rotation_drift);
+  copyBlock(out.delta_rotation_drift_sigma, m.delta_rotation_drift_sigma);
   m.tilt_offset_estimated = out.tilt_offset_estimated;
-  for (int i = 0; i < 2; ++i) {
-    m.tilt_offset[i] = out.tilt_offset[i];
-    m.tilt_offset_sigma[i] = out.tilt_offset_sigma[i];
-  }
+  copyBlock(out.tilt_offset, m.tilt_offset);
+  copyBlock(out.tilt_offset_sigma, m.tilt_offset_sigma);
   m.camera_alignment_estimated = out.camera_alignment_estimated;
-  for (int i = 0; i < 3; ++i) {
-    m.camera_alignment[i] = out.camera_alignment[i];
-    m.camera_alignment_sigma[i] = out.camera_alignment_sigma[i];
-  }
+  copyBlock(out.camera_alignment, m.camera_alignment);
+  copyBlock(out.camera_alignment_sigma, m.camera_alignment_sigma);
   for (const auto& sensor : out.sensors) {
     if (!sensor.name || !*sensor.name) continue;
     m.sensor_names.push_back(sensor.name);
