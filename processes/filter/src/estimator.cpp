@@ -158,9 +158,12 @@ void Estimator::addDelta(const TrackerDelta& d, Sensor sensor) {
   if (sensor == kSensorTracker && checked.valid) camera_delay_.addDelta(d.utime_prev, d.utime, d.rotation);
   e.delta.utime = d.utime - camera_delay_.latencyAt(d.utime);
   e.delta.utime_prev = d.utime_prev - camera_delay_.latencyAt(d.utime_prev);
-  e.time = e.delta.utime;
+  // A map's alignment waits until the filter's time is cloud_apply_delay_us past the map's, so that it is applied at
+  // the same point live and in a replay.
+  e.time = e.delta.utime + (sensor == kSensorCloud ? params_.cloud_apply_delay_us : 0);
   if (e.time <= processed_time_) {
     // Deltas come late by nature (after the tracker or the mapper ran): they act on the clones, which are kept.
+    if (sensor == kSensorCloud) ++counters_[sensor].applied_late;
     if (initialized_) process(e);
     return;
   }

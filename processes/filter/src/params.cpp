@@ -114,6 +114,8 @@ FilterParams loadFilterParams(const Config& c) {
   p.cloud_min_sigma_r = c.getDouble("cloud/min_sigma_r", p.cloud_min_sigma_r);
   nonNegative(c, "cloud/min_sigma_t", p.cloud_min_sigma_t);
   nonNegative(c, "cloud/min_sigma_r", p.cloud_min_sigma_r);
+  p.cloud_apply_delay_us = c.getInt("cloud/apply_delay_us", static_cast<int>(p.cloud_apply_delay_us));
+  nonNegative(c, "cloud/apply_delay_us", static_cast<double>(p.cloud_apply_delay_us));
   p.max_keyframe_clones = c.getInt("cloud/max_keyframe_clones", p.max_keyframe_clones);
   if (p.max_keyframe_clones < 2) throw ConfigError(c.path() + ": key 'cloud/max_keyframe_clones' must be at least 2");
   p.max_clones = c.getInt("max_clones", p.max_clones);

@@ -73,6 +73,9 @@ struct SensorCounters {
   int64_t accepted = 0;
   int64_t rejected = 0;  // by the Mahalanobis gate
   int64_t too_late = 0;  // older than what the reordering window still allows (or clone gone)
+  // Map alignments that arrived after the filter's time had passed their map's by cloud_apply_delay_us: applied at
+  // once, so a replay may fuse them at another point than the live run did.
+  int64_t applied_late = 0;
 };
 
 // One to one ips::filter_state_t.
