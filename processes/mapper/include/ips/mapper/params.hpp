@@ -34,14 +34,17 @@ struct MapperParams {
   int max_pending_images = 32;
   // The alignment of maps (CLOUD_DELTA) takes only points whose pixel has texture of its own: the standard deviation
   // of the rectified left image's grey values in a texture_window_px square (census's 5 x 5) at least
-  // alignment_min_grey_spread. Where that window holds little more than the cameras' noise (1.5 grey levels at 8 bit
-  // for the head's cameras), SGM's disparity comes from the neighbours through the smoothness terms: on a plain wall
-  // it follows the wall's edges, not the wall, and two such maps aligned pull each other by their errors
-  // (cloud_odometry_eval on plain walls: 8.8 cm and 0.85 deg off with all points, worse than the prior's 5.8 cm;
-  // 3.0 cm with these). Twice the noise: a window of noise alone stays below it, and one whose relief is as strong
-  // as the noise reaches it. The map itself keeps every point.
+  // alignment_min_grey_spread. Where that window holds nothing but the cameras' noise (1.5 grey levels at 8 bit for
+  // the head's cameras), SGM's disparity comes from the neighbours through the smoothness terms: on a plain wall it
+  // follows the wall's edges, not the wall, and two such maps aligned pull each other by their errors
+  // (cloud_odometry_eval on plain walls: 8.8 cm and 0.85 deg off with all points, worse than the prior's 5.8 cm).
+  // The spread of 25 grey values of noise alone scatters by 1.5 / sqrt(2 x 24) = 0.22 around 1.5, so 2.0 lies more
+  // than two of those above it: few windows of noise alone pass, and every window whose own relief is about the
+  // noise's (painted plaster) does, which census still matches. Twice the noise (3.0) kept out most of the plaster and
+  // left the alignment too few points exactly where the tracker fails (processes/mapper/README.md). The map itself
+  // keeps every point.
   int texture_window_px = 5;
-  double alignment_min_grey_spread = 3.0;
+  double alignment_min_grey_spread = 2.0;
 };
 
 MapperParams loadMapperParams(const Config& cfg);
