@@ -5,8 +5,9 @@
 # (out/latest points at it).
 # Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the
 # walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario file instead of config/sim_hard.yaml, e.g.
-# config/sim_walk.yaml for the easy walk; config/filter_<name>.yaml, if there is one for config/sim_<name>.yaml, then
-# replaces filter_sim.yaml), IPS_REPLAY_SPEED (default 1), IPS_CONFIG (the config folder; default config/),
+# config/sim_walk.yaml for the easy walk; config/filter_<name>.yaml and config/e3d_<name>.yaml, where there are ones
+# for config/sim_<name>.yaml, then replace filter_sim.yaml and e3d_sim.yaml), IPS_REPLAY_SPEED (default 1),
+# IPS_CONFIG (the config folder; default config/),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), IPS_CALIB (a calibration file the
 # processes run on instead of the log's; the log's is then the truth the report compares with), IPS_SEEDS (the
 # job once per seed 1..N, summarised by ips_seeds), LCM_DEFAULT_URL.
@@ -105,18 +106,24 @@ if [ -n "${IPS_CALIB:-}" ]; then
   cp "$IPS_CALIB" "$run/walk.lcmlog.calib.yaml"
   say "    the processes run on $IPS_CALIB"
 fi
-# A simulated scenario may come with its own filter settings: config/filter_<name>.yaml for config/sim_<name>.yaml
-# (a car's body vibration needs another process noise than a walker's gait) takes filter_sim.yaml's place.
+# A simulated scenario may come with its own filter and E3D settings: config/filter_<name>.yaml and
+# config/e3d_<name>.yaml for config/sim_<name>.yaml take the places of filter_sim.yaml and e3d_sim.yaml (a car's body
+# vibration needs another process noise than a walker's gait; past plain walls the filters fuse the alignment of
+# E3D's maps, one per second).
 if [ -z "${IPS_DATASET:-}" ] && [ -n "${IPS_SCENARIO:-}" ]; then
   scenario_name=$(basename "$IPS_SCENARIO" .yaml)
-  scenario_filter=$IPS_CONFIG/filter_${scenario_name#sim_}.yaml
-  if [ -f "$scenario_filter" ]; then
-    mkdir -p "$run/config"
-    for f in "$IPS_CONFIG"/*.yaml; do ln -sf "$(realpath "$f")" "$run/config/"; done
-    ln -sf "$(realpath "$scenario_filter")" "$run/config/filter_sim.yaml"
-    IPS_CONFIG=$run/config
-    say "    the filters run with $scenario_filter"
-  fi
+  scenario_config=$IPS_CONFIG
+  for process in filter e3d; do
+    scenario_file=$scenario_config/${process}_${scenario_name#sim_}.yaml
+    [ -f "$scenario_file" ] || continue
+    if [ "$IPS_CONFIG" = "$scenario_config" ]; then
+      mkdir -p "$run/config"
+      for f in "$scenario_config"/*.yaml; do ln -sf "$(realpath "$f")" "$run/config/"; done
+      IPS_CONFIG=$run/config
+    fi
+    ln -sf "$(realpath "$scenario_file")" "$run/config/${process}_sim.yaml"
+    say "    $process runs with $scenario_file"
+  done
 fi
 walk_s=$(lcm-logplayer --help >/dev/null 2>&1; python3 - "$run/walk.lcmlog" <<'PY' 2>/dev/null || echo 0
 import struct, sys
