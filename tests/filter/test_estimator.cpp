@@ -53,6 +53,20 @@ void feed(Estimator& est, const std::vector<Msg>& msgs) {
   }
 }
 
+// The tracker in a weakly textured corridor (2 cm per axis) and the alignment of dense maps there (5 mm, 0.2 mrad),
+// as the simulated deltas of the tests of navigation aided by the dense cloud.
+SensorSimParams weakTrackerParams() {
+  SensorSimParams sp;
+  sp.tracker_sigma_t = 0.02;
+  return sp;
+}
+SensorSimParams mapAlignmentParams() {
+  SensorSimParams sp;
+  sp.tracker_sigma_t = 0.005;
+  sp.tracker_sigma_r = 2e-4;
+  return sp;
+}
+
 FilterParams paramsFor(FilterType type) {
   FilterParams p;
   p.type = type;
@@ -520,13 +534,8 @@ TEST(FilterEstimator, CloudDeltaBetweenKeyframesSecondsApartIsFusedAndSharpensTh
     double end_error[3] = {0, 0, 0};
     // 0: tracker only; 1: with the maps' alignment; 2: alignments without keyframe announcements.
     for (int mode = 0; mode < 3; ++mode) {
-      SensorSimParams sp;
-      sp.tracker_sigma_t = 0.02;
-      SensorSim sim(walk, sp, calib, 31);
-      SensorSimParams cloud_sp;
-      cloud_sp.tracker_sigma_t = 0.005;
-      cloud_sp.tracker_sigma_r = 2e-4;
-      SensorSim cloud_sim(walk, cloud_sp, calib, 32);
+      SensorSim sim(walk, weakTrackerParams(), calib, 31);
+      SensorSim cloud_sim(walk, mapAlignmentParams(), calib, 32);
       FilterParams p = paramsFor(type);
       p.cloud = true;  // off by default (the filter README says why)
       Estimator est(p, calib);
@@ -580,13 +589,8 @@ TEST(FilterEstimator, CloudDeltasAreAppliedAtTheirTimePlusTheDelayWhateverTheirA
     std::vector<FilterOutput> outputs;
     std::vector<int64_t> applied_late;
     for (const int64_t latency : {int64_t{500'000}, int64_t{2'500'000}, kLatestUs}) {
-      SensorSimParams sp;
-      sp.tracker_sigma_t = 0.02;
-      SensorSim sim(walk, sp, calib, 41);
-      SensorSimParams cloud_sp;
-      cloud_sp.tracker_sigma_t = 0.005;
-      cloud_sp.tracker_sigma_r = 2e-4;
-      SensorSim cloud_sim(walk, cloud_sp, calib, 42);
+      SensorSim sim(walk, weakTrackerParams(), calib, 41);
+      SensorSim cloud_sim(walk, mapAlignmentParams(), calib, 42);
       FilterParams p = paramsFor(type);
       p.cloud = true;
       p.max_keyframe_clones = 6;  // as config/filter_weak.yaml: maps every second, applied 3 s after
