@@ -609,7 +609,7 @@ TEST(FilterEstimator, CloudDeltasAreAppliedAtTheirTimePlusTheDelayWhateverTheirA
       const SensorCounters& cloud = est.counters()[kSensorCloud];
       EXPECT_GT(cloud.accepted, 0) << toString(type) << " latency " << latency;
       EXPECT_EQ(cloud.too_late, 0) << toString(type) << " latency " << latency;
-      applied_late.push_back(cloud.applied_late);
+      applied_late.push_back(est.cloudAppliedLate());
       outputs.push_back(est.current());
     }
     EXPECT_EQ(applied_late[0], 0) << toString(type);

@@ -192,7 +192,7 @@ void FilterProcess::reportCounters(fw::Health& health) const {
     health.set(std::string(c.name) + "_rejected", c.rejected);
     health.set(std::string(c.name) + "_too_late", c.too_late);
   }
-  health.set("cloud_applied_late", est_.counters()[filter::kSensorCloud].applied_late);
+  health.set("cloud_applied_late", est_.cloudAppliedLate());
   health.set("imu_gaps", est_.imuGaps());
   health.set("starts_in_motion", est_.startsInMotion());
   // The camera's delay against the IMU as estimated online [us], whether it is applied, and how often it ran.

@@ -163,7 +163,7 @@ void Estimator::addDelta(const TrackerDelta& d, Sensor sensor) {
   e.time = e.delta.utime + (sensor == kSensorCloud ? params_.cloud_apply_delay_us : 0);
   if (e.time <= processed_time_) {
     // Deltas come late by nature (after the tracker or the mapper ran): they act on the clones, which are kept.
-    if (sensor == kSensorCloud) ++counters_[sensor].applied_late;
+    if (sensor == kSensorCloud) ++cloud_applied_late_;
     if (initialized_) process(e);
     return;
   }

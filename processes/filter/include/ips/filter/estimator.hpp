@@ -73,9 +73,6 @@ struct SensorCounters {
   int64_t accepted = 0;
   int64_t rejected = 0;  // by the Mahalanobis gate
   int64_t too_late = 0;  // older than what the reordering window still allows (or clone gone)
-  // Map alignments that arrived after the filter's time had passed their map's by cloud_apply_delay_us: applied at
-  // once, so a replay may fuse them at another point than the live run did.
-  int64_t applied_late = 0;
 };
 
 // One to one ips::filter_state_t.
@@ -148,6 +145,9 @@ class Estimator {
   const KalmanFilter& filter() const { return *run_.kf; }
   const std::array<SensorCounters, kNumSensors>& counters() const { return counters_; }
   int64_t imuGaps() const { return imu_gaps_; }
+  // Map alignments that arrived after the filter's time had passed their map's by cloud_apply_delay_us: applied at
+  // once, so a replay may fuse them at another point than the live run did.
+  int64_t cloudAppliedLate() const { return cloud_applied_late_; }
   // The camera's delay against the IMU as estimated online (FilterParams::camera_delay).
   const CameraDelayEstimator::Figures& cameraDelay() const { return camera_delay_.figures(); }
   const FilterParams& params() const { return params_; }
@@ -208,6 +208,7 @@ class Estimator {
   int64_t processed_time_ = INT64_MIN;
   std::array<SensorCounters, kNumSensors> counters_;
   int64_t imu_gaps_ = 0;
+  int64_t cloud_applied_late_ = 0;
   int64_t imu_since_output_ = 0;
   std::vector<FilterOutput> outputs_;
   // Keyframe times (latency-corrected) announced by E3D, newest last; bounded by the clones they can still pin.

@@ -107,9 +107,9 @@ struct FilterParams {
   // supported using a dense 3D point cloud") as a relative-pose measurement between the clones at the two maps'
   // times, which the filter keeps when E3D announces the pair (KEYFRAME). Floors as for the tracker's deltas:
   // the alignment's covariance comes from its own residuals and may claim more than the maps' systematic errors
-  // (SGM's smoothing, the range limit) allow. Off by default: in the main job they lower the ATE, but on weakly
-  // textured walls, where they should help most, E3D's maps are biased and the end point is further off with them
-  // (processes/mapper/README.md has the figures); config/filter_weak.yaml turns them on past plain walls.
+  // (SGM's smoothing, the range limit) allow. Off by default: on the walk they change the end point within a run's
+  // noise and on the hard walk they make the filter too certain; config/filter_weak.yaml turns them on past plain
+  // walls, where they hold the velocity through the tracker's gaps (processes/mapper/README.md has the figures).
   bool cloud = false;
   double cloud_min_sigma_t = 2e-3;  // [m]: a fraction of the maps' 5 cm voxels
   double cloud_min_sigma_r = 2e-4;  // [rad]: 2 mm over the ~10 m the maps reach
@@ -117,8 +117,8 @@ struct FilterParams {
   // arrived before, so that a replay fuses it at the same point as the live run. It cannot come sooner than E3D's
   // match and the mapper's wait for the filter's own state at the map's time (which leaves the filter after the
   // reordering window): about 1 s on lavapipe beside the tracker, 3 s leaves room for a busy E3D. One that arrives
-  // later still is applied at once (its clones kept) and counted too late. The clones act on the present state
-  // through their covariance, so the delay costs nothing but the time until the correction.
+  // later still is applied at once (its clones kept) and counted (Estimator::cloudAppliedLate). The clones act on the
+  // present state through their covariance, so the delay costs nothing but the time until the correction.
   int64_t cloud_apply_delay_us = 3'000'000;
   // Keyframe clones kept besides the image clones: the newest three, so that the alignment may span one skipped map
   // (E3D busy). With a map every second, the clones must outlast cloud_apply_delay_us: config/filter_weak.yaml.
