@@ -75,8 +75,9 @@ void main() {
         smooth_right += uint64_t(PARZEN[t]) * work64[MARGINAL_RIGHT + ii];
       }
     }
-    work32[INFO_LEFT + c] = log2q8(64 * n) - log2q8(max(smooth_left, uint64_t(1)));
-    work32[INFO_RIGHT + c] = log2q8(64 * n) - log2q8(max(smooth_right, uint64_t(1)));
+    const int log_marginal_total = log2q8(64 * n);
+    work32[INFO_LEFT + c] = log_marginal_total - log2q8(max(smooth_left, uint64_t(1)));
+    work32[INFO_RIGHT + c] = log_marginal_total - log2q8(max(smooth_right, uint64_t(1)));
   } else if (STEP == 2) {
     // 4. Smoothing of the information, edges repeated: column c; the marginals' information (scale 64).
     for (int i = 0; i < 256; ++i) {
