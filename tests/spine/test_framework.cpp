@@ -177,6 +177,26 @@ TEST(Framework, HealthReportsRatesAndCounters) {
   EXPECT_EQ(next.received, 10);
 }
 
+TEST(Framework, HealthCounterNamesAlwaysPassTheValidator) {
+  // A stream named with a space ("cloud delta") once made counters such as "cloud delta_clock_step": from the
+  // first such event on every health message of the filter was refused by its consumers, and the report said
+  // the filter had stopped.
+  ips::fw::Health h("filter");
+  h.count("cloud delta_clock_step");
+  h.dropped("seq gap/stereo", 2);
+  h.bad("", "a reason nobody named");
+  h.set(std::string(80, 'x'), 7);
+  h.count("cloud delta_clock_step");
+  const ips::health_t m = h.report(1.0);
+  EXPECT_TRUE(ips::fw::validate(m, "HEALTH_FILTER").ok()) << ips::fw::validate(m, "HEALTH_FILTER").detail;
+  EXPECT_EQ(h.counter("cloud_delta_clock_step"), 2);
+  EXPECT_EQ(h.counter("cloud delta_clock_step"), 2);  // the caller's name finds the same counter
+  EXPECT_EQ(h.counter("seq_gap_stereo"), 2);
+  EXPECT_EQ(h.counter("unnamed"), 1);
+  EXPECT_EQ(h.counter(std::string(64, 'x')), 7);
+  EXPECT_EQ(m.num_counters, 4);
+}
+
 TEST(Framework, HealthMessageIsPublishedOnItsChannel) {
   ips::fw::Node node("my_proc", "memq://");
   int seen = 0;

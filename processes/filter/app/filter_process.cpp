@@ -172,7 +172,7 @@ void FilterProcess::onKeyframe(const ips::keyframe_t& m) {
 }
 
 void FilterProcess::onCloudDelta(const ips::tracker_delta_t& m) {
-  if (!check(m, cloud_order_, "cloud delta")) return;
+  if (!check(m, cloud_order_, "cloud")) return;
   if (!m.valid) {
     node_.health().count("cloud_invalid");
     return;

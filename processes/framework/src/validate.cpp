@@ -97,13 +97,14 @@ Verdict validate(const ips::filter_state_t& m) {
   return {};
 }
 
-namespace {
-bool isName(const std::string& s) {
+bool isHealthName(const std::string& s) {
   if (s.empty() || s.size() > 64) return false;
   for (unsigned char c : s)
     if (!(std::isalnum(c) || c == '_' || c == '-' || c == '.')) return false;
   return true;
 }
+
+namespace {
 bool isPrintable(const std::string& s) {
   if (s.size() > 255) return false;
   for (unsigned char c : s)
@@ -119,7 +120,7 @@ std::string healthChannel(const std::string& process_name) {
 }
 
 Verdict validate(const ips::health_t& m, const std::string& channel) {
-  if (!isName(m.process)) return bad("bad_value", "health message with an impossible process name");
+  if (!isHealthName(m.process)) return bad("bad_value", "health message with an impossible process name");
   if (!isPrintable(m.host)) return bad("bad_value", "health message with an unprintable host name");
   if (channel != healthChannel(m.process))
     return bad("bad_value", "health of '" + m.process + "' received on " + channel);
@@ -131,7 +132,7 @@ Verdict validate(const ips::health_t& m, const std::string& channel) {
       m.counter_values.size() != m.counter_names.size())
     return bad("bad_size", "health message with counters of wrong size");
   for (const auto& n : m.counter_names)
-    if (!isName(n)) return bad("bad_value", "health message with an impossible counter name");
+    if (!isHealthName(n)) return bad("bad_value", "health message with an impossible counter name");
   return {};
 }
 

@@ -45,6 +45,8 @@ Verdict validate(const ips::keyframe_t& m);
 Verdict validate(const ips::health_t& m, const std::string& channel);
 // The channel a process publishes its health on.
 std::string healthChannel(const std::string& process_name);
+// A name a health message may carry, as a process or a counter: 1 to 64 letters, digits, '_', '-' or '.'.
+bool isHealthName(const std::string& name);
 
 // Order and plausibility of one stream of stamped messages. Time must increase; a stamp far ahead of the
 // stream's recent ones (a forged or corrupt message, one bad clock read) is rejected, never adopted, so one bad
