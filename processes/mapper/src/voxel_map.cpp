@@ -6,44 +6,83 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <numeric>
 #include <stdexcept>
+#include <unordered_map>
+#include <utility>
 
 namespace ips::mapper {
 
-struct VoxelMap::Impl {
-  open3d::geometry::PointCloud cloud;  // one point per voxel, grey in the colours (r = g = b)
-};
-
 namespace {
 
-open3d::geometry::PointCloud toCloud(const std::vector<Eigen::Vector3d>& points,
-                                     const std::vector<uint8_t>& intensity) {
-  open3d::geometry::PointCloud c;
-  c.points_ = points;
-  c.colors_.reserve(points.size());
-  for (size_t i = 0; i < points.size(); ++i) {
-    const double g = i < intensity.size() ? intensity[i] / 255.0 : 0.0;
-    c.colors_.emplace_back(g, g, g);
-  }
-  return c;
-}
-
-// Open3D's VoxelDownSample puts its grid at the corner of each cloud it is given, so a map fused again and
-// again would have its voxels shift with its extent: the grid is anchored here instead, one fixed lattice
-// (a multiple of the voxel size from the world origin) out to this distance in every direction.
+// Points further than this from the world origin are not mapped: no head travels that far from its origin,
+// and the voxel indices stay well inside 32 bits down to 0.1 mm voxels.
 constexpr double kMapHalfExtentM = 10000.0;
-
-std::shared_ptr<open3d::geometry::PointCloud> downsampleOnFixedGrid(const open3d::geometry::PointCloud& cloud,
-                                                                    double voxel) {
-  const double half = std::ceil(kMapHalfExtentM / voxel) * voxel;
-  return std::get<0>(
-      cloud.VoxelDownSampleAndTrace(voxel, Eigen::Vector3d::Constant(-half), Eigen::Vector3d::Constant(half)));
-}
 
 bool insideGrid(const Eigen::Vector3d& p) { return p.cwiseAbs().maxCoeff() < kMapHalfExtentM; }
 
+// A voxel of the fixed lattice: voxel i covers [i v, (i + 1) v) on each axis, anchored at the world origin, so
+// that a voxel means the same cell of space however the map grows.
+struct VoxelKey {
+  int32_t x, y, z;
+  bool operator==(const VoxelKey& o) const { return x == o.x && y == o.y && z == o.z; }
+};
+
+struct VoxelKeyHash {
+  size_t operator()(const VoxelKey& k) const {
+    // The spatial hash of Teschner et al. (2003): three large primes, so that neighbouring cells spread.
+    return (static_cast<size_t>(static_cast<uint32_t>(k.x)) * 73856093u) ^
+           (static_cast<size_t>(static_cast<uint32_t>(k.y)) * 19349663u) ^
+           (static_cast<size_t>(static_cast<uint32_t>(k.z)) * 83492791u);
+  }
+};
+
+VoxelKey keyOf(const Eigen::Vector3d& p, double voxel) {
+  return {static_cast<int32_t>(std::floor(p.x() / voxel)), static_cast<int32_t>(std::floor(p.y() / voxel)),
+          static_cast<int32_t>(std::floor(p.z() / voxel))};
+}
+
+// The points of one image summed per voxel, in the order their voxels first appear.
+struct VoxelSums {
+  struct Sum {
+    VoxelKey key;
+    Eigen::Vector3d point = Eigen::Vector3d::Zero();
+    double grey = 0;
+    int n = 0;
+  };
+  std::vector<Sum> sums;
+  int64_t outside = 0;  // points beyond kMapHalfExtentM
+
+  VoxelSums(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& intensity, double voxel) {
+    std::unordered_map<VoxelKey, size_t, VoxelKeyHash> index;
+    index.reserve(points.size() / 4 + 1);
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (!insideGrid(points[i])) {
+        ++outside;
+        continue;
+      }
+      const VoxelKey key = keyOf(points[i], voxel);
+      const auto [it, added] = index.try_emplace(key, sums.size());
+      if (added) sums.push_back(Sum{key});
+      Sum& s = sums[it->second];
+      s.point += points[i];
+      s.grey += i < intensity.size() ? intensity[i] : 0;
+      ++s.n;
+    }
+  }
+};
+
 }  // namespace
+
+// One entry per voxel: a hash table, so that fusing an image costs its own points, not the map's size (the map
+// grows to millions of voxels on a long run; re-binning all of them for every image made each map take longer than
+// the one before).
+struct VoxelMap::Impl {
+  struct Voxel {
+    Eigen::Vector3d centroid;
+    double grey;  // 0..255
+  };
+  std::unordered_map<VoxelKey, Voxel, VoxelKeyHash> voxels;
+};
 
 VoxelMap::VoxelMap(double voxel_size_m, int max_voxels)
     : impl_(std::make_unique<Impl>()), voxel_size_m_(voxel_size_m), max_voxels_(max_voxels) {}
@@ -53,56 +92,70 @@ VoxelMap::~VoxelMap() = default;
 int64_t VoxelMap::insert(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& intensity,
                          const Eigen::Vector3d& head_position) {
   if (points.empty()) return 0;
+  const VoxelSums incoming(points, intensity, voxel_size_m_);
+  auto& voxels = impl_->voxels;
   // The stored centroid of a voxel counts as one point beside the new ones, so a voxel follows newer
   // observations (a fading average) rather than freezing on its first.
-  open3d::geometry::PointCloud& map = impl_->cloud;
-  open3d::geometry::PointCloud incoming = toCloud(points, intensity);
-  std::vector<size_t> inside;
-  for (size_t i = 0; i < points.size(); ++i)
-    if (insideGrid(points[i])) inside.push_back(i);
-  const int64_t outside = static_cast<int64_t>(points.size() - inside.size());
-  if (outside > 0) incoming = *incoming.SelectByIndex(inside);
-  map += incoming;
-  map = *downsampleOnFixedGrid(map, voxel_size_m_);
-  if (static_cast<int64_t>(map.points_.size()) <= max_voxels_) return outside;
-  std::vector<size_t> order(map.points_.size());
-  std::iota(order.begin(), order.end(), 0);
-  std::nth_element(order.begin(), order.begin() + max_voxels_, order.end(), [&](size_t a, size_t b) {
-    return (map.points_[a] - head_position).squaredNorm() < (map.points_[b] - head_position).squaredNorm();
-  });
-  order.resize(max_voxels_);
-  std::sort(order.begin(), order.end());
-  const int64_t dropped = static_cast<int64_t>(map.points_.size()) - max_voxels_;
-  map = *map.SelectByIndex(order);
-  return outside + dropped;
+  for (const auto& s : incoming.sums) {
+    const auto it = voxels.find(s.key);
+    if (it == voxels.end()) {
+      voxels.emplace(s.key, Impl::Voxel{s.point / s.n, s.grey / s.n});
+    } else {
+      it->second.centroid = (it->second.centroid + s.point) / (s.n + 1);
+      it->second.grey = (it->second.grey + s.grey) / (s.n + 1);
+    }
+  }
+  if (static_cast<int64_t>(voxels.size()) <= max_voxels_) return incoming.outside;
+  std::vector<std::pair<double, VoxelKey>> by_distance;
+  by_distance.reserve(voxels.size());
+  for (const auto& [key, v] : voxels) by_distance.emplace_back((v.centroid - head_position).squaredNorm(), key);
+  std::nth_element(by_distance.begin(), by_distance.begin() + max_voxels_, by_distance.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  const int64_t dropped = static_cast<int64_t>(by_distance.size()) - max_voxels_;
+  for (auto it = by_distance.begin() + max_voxels_; it != by_distance.end(); ++it) voxels.erase(it->second);
+  return incoming.outside + dropped;
 }
 
 void VoxelMap::downsample(double voxel_size_m, std::vector<Eigen::Vector3d>* points, std::vector<uint8_t>* intensity) {
   if (points->empty()) return;
-  std::vector<size_t> inside;
-  for (size_t i = 0; i < points->size(); ++i)
-    if (insideGrid((*points)[i])) inside.push_back(i);
-  const auto down = downsampleOnFixedGrid(*toCloud(*points, *intensity).SelectByIndex(inside), voxel_size_m);
-  *points = down->points_;
-  intensity->resize(down->points_.size());
-  for (size_t i = 0; i < down->colors_.size(); ++i)
-    (*intensity)[i] = static_cast<uint8_t>(std::lround(std::clamp(down->colors_[i].x(), 0.0, 1.0) * 255));
+  const VoxelSums fused(*points, *intensity, voxel_size_m);
+  points->clear();
+  intensity->clear();
+  for (const auto& s : fused.sums) {
+    points->push_back(s.point / s.n);
+    intensity->push_back(static_cast<uint8_t>(std::lround(std::clamp(s.grey / s.n, 0.0, 255.0))));
+  }
 }
 
-size_t VoxelMap::size() const { return impl_->cloud.points_.size(); }
+size_t VoxelMap::size() const { return impl_->voxels.size(); }
 
-std::vector<Eigen::Vector3d> VoxelMap::points() const { return impl_->cloud.points_; }
+std::vector<Eigen::Vector3d> VoxelMap::points() const {
+  std::vector<Eigen::Vector3d> out;
+  out.reserve(impl_->voxels.size());
+  for (const auto& [key, v] : impl_->voxels) out.push_back(v.centroid);
+  return out;
+}
 
 std::vector<uint8_t> VoxelMap::intensity() const {
   std::vector<uint8_t> out;
-  for (const auto& c : impl_->cloud.colors_) out.push_back(static_cast<uint8_t>(std::lround(c.x() * 255)));
+  out.reserve(impl_->voxels.size());
+  for (const auto& [key, v] : impl_->voxels)
+    out.push_back(static_cast<uint8_t>(std::lround(std::clamp(v.grey, 0.0, 255.0))));
   return out;
 }
 
 void VoxelMap::save(const std::string& path) const {
+  open3d::geometry::PointCloud cloud;
+  cloud.points_.reserve(impl_->voxels.size());
+  cloud.colors_.reserve(impl_->voxels.size());
+  for (const auto& [key, v] : impl_->voxels) {
+    cloud.points_.push_back(v.centroid);
+    const double g = std::clamp(v.grey, 0.0, 255.0) / 255.0;
+    cloud.colors_.emplace_back(g, g, g);
+  }
   open3d::io::WritePointCloudOption option;
   option.write_ascii = open3d::io::WritePointCloudOption::IsAscii::Binary;
-  if (!open3d::io::WritePointCloud(path, impl_->cloud, option))
+  if (!open3d::io::WritePointCloud(path, cloud, option))
     throw std::runtime_error("cannot write the map to " + path + " (folder missing, or not .ply/.pcd)");
 }
 

@@ -1,6 +1,7 @@
 #pragma once
-// The fused map: points averaged per voxel (Open3D's voxel down-sampling), bounded in size, written as PLY or
-// PCD (Open3D's writers). Open3D stays inside voxel_map.cpp.
+// The fused map: points averaged per voxel of a fixed lattice (a hash table of voxels: fusing an image costs its
+// own points, whatever the map's size), bounded in size, written as PLY or PCD (Open3D's writers). Open3D stays
+// inside voxel_map.cpp.
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
