@@ -164,6 +164,38 @@ TEST(VoxelMap, FusesPerVoxelStaysWithinItsBoundAndRoundTrips) {
   std::filesystem::remove_all(dir);
 }
 
+TEST(VoxelMap, AVoxelsCentroidFollowsItsNewPointsOnALatticeAnchoredAtTheOrigin) {
+  // Voxel i covers [i v, (i + 1) v): 0.049 and 0.001 share a voxel of 5 cm, 0.051 and -0.001 do not.
+  VoxelMap map(0.05, 1000);
+  map.insert({{0.001, 0.01, 0.01}, {0.049, 0.01, 0.01}, {0.051, 0.01, 0.01}, {-0.001, 0.01, 0.01}}, {10, 30, 50, 70},
+             Eigen::Vector3d::Zero());
+  ASSERT_EQ(map.size(), 3u);
+  // Seen again with two points: the stored centroid counts as one point beside them.
+  map.insert({{0.010, 0.02, 0.02}, {0.040, 0.02, 0.02}}, {100, 200}, Eigen::Vector3d::Zero());
+  ASSERT_EQ(map.size(), 3u);
+  const std::vector<Eigen::Vector3d> points = map.points();
+  const std::vector<uint8_t> grey = map.intensity();
+  int checked = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (points[i].x() <= 0.0 || points[i].x() >= 0.05) continue;
+    EXPECT_TRUE(
+        points[i].isApprox(Eigen::Vector3d((0.025 + 0.010 + 0.040) / 3, (0.01 + 0.04) / 3, (0.01 + 0.04) / 3), 1e-12))
+        << points[i].transpose();
+    EXPECT_EQ(grey[i], 107);  // (20 + 100 + 200) / 3, rounded
+    ++checked;
+  }
+  EXPECT_EQ(checked, 1);
+
+  // One image's points fused per voxel for POINTS, in the order their voxels first appear.
+  std::vector<Eigen::Vector3d> image{{0.051, 0, 0}, {0.001, 0, 0}, {0.099, 0, 0}};
+  std::vector<uint8_t> image_grey{1, 2, 3};
+  VoxelMap::downsample(0.05, &image, &image_grey);
+  ASSERT_EQ(image.size(), 2u);
+  EXPECT_NEAR(image[0].x(), 0.075, 1e-12);
+  EXPECT_EQ(image_grey[0], 2);
+  EXPECT_NEAR(image[1].x(), 0.001, 1e-12);
+}
+
 TEST(MapEval, SelfConsistencyMeasuresADoubledWall) {
   // The same wall (x in [0, 2], z in [0, 2] at y = 3, every 2 cm) seen early, and late 4 cm further away; plus
   // late points of another wall nobody saw early.
