@@ -194,6 +194,10 @@ TEST(VoxelMap, AVoxelsCentroidFollowsItsNewPointsOnALatticeAnchoredAtTheOrigin) 
   EXPECT_NEAR(image[0].x(), 0.075, 1e-12);
   EXPECT_EQ(image_grey[0], 2);
   EXPECT_NEAR(image[1].x(), 0.001, 1e-12);
+
+  // Voxel indices are 32-bit: a voxel too small for them to reach 10 km is refused, not wrapped.
+  EXPECT_THROW(VoxelMap(1e-6, 1000), std::invalid_argument);
+  EXPECT_THROW(VoxelMap::downsample(0.0, &image, &image_grey), std::invalid_argument);
 }
 
 TEST(MapEval, SelfConsistencyMeasuresADoubledWall) {

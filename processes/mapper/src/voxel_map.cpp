@@ -14,11 +14,19 @@ namespace ips::mapper {
 
 namespace {
 
-// Points further than this from the world origin are not mapped: no head travels that far from its origin,
-// and the voxel indices stay well inside 32 bits down to 0.1 mm voxels.
+// Points further than this from the world origin are not mapped: no head travels that far from its origin.
 constexpr double kMapHalfExtentM = 10000.0;
 
 bool insideGrid(const Eigen::Vector3d& p) { return p.cwiseAbs().maxCoeff() < kMapHalfExtentM; }
+
+// Voxel indices are 32-bit: out to kMapHalfExtentM that holds for voxels of 10 um and more.
+constexpr double kMinVoxelM = kMapHalfExtentM / (1 << 30);
+
+void checkVoxelSize(double voxel) {
+  if (!(voxel >= kMinVoxelM) || !std::isfinite(voxel))
+    throw std::invalid_argument("voxel size " + std::to_string(voxel) + " m: must be finite and at least " +
+                                std::to_string(kMinVoxelM) + " m");
+}
 
 // A voxel of the fixed lattice: voxel i covers [i v, (i + 1) v) on each axis, anchored at the world origin, so
 // that a voxel means the same cell of space however the map grows.
@@ -85,7 +93,9 @@ struct VoxelMap::Impl {
 };
 
 VoxelMap::VoxelMap(double voxel_size_m, int max_voxels)
-    : impl_(std::make_unique<Impl>()), voxel_size_m_(voxel_size_m), max_voxels_(max_voxels) {}
+    : impl_(std::make_unique<Impl>()), voxel_size_m_(voxel_size_m), max_voxels_(max_voxels) {
+  checkVoxelSize(voxel_size_m);
+}
 
 VoxelMap::~VoxelMap() = default;
 
@@ -117,6 +127,7 @@ int64_t VoxelMap::insert(const std::vector<Eigen::Vector3d>& points, const std::
 }
 
 void VoxelMap::downsample(double voxel_size_m, std::vector<Eigen::Vector3d>* points, std::vector<uint8_t>* intensity) {
+  checkVoxelSize(voxel_size_m);
   if (points->empty()) return;
   const VoxelSums fused(*points, *intensity, voxel_size_m);
   points->clear();

@@ -12,6 +12,7 @@ namespace ips::mapper {
 
 class VoxelMap {
  public:
+  // Throws std::invalid_argument for a voxel size below 10 um (the voxel indices are 32-bit) or not finite.
   VoxelMap(double voxel_size_m, int max_voxels);
   ~VoxelMap();
 
