@@ -2,7 +2,6 @@
 
 #include <unistd.h>
 
-#include <cctype>
 #include <cstdint>
 
 #include "ips/framework/validate.hpp"
@@ -13,17 +12,6 @@ namespace {
 // Counters saturate instead of wrapping: a nonsense increment must not turn a count negative.
 void addSaturating(int64_t& counter, int64_t increment) {
   if (__builtin_add_overflow(counter, increment, &counter)) counter = increment > 0 ? INT64_MAX : INT64_MIN;
-}
-
-// Every counter goes out in the health message, and one name its validator refuses (validate.hpp) makes every
-// consumer drop the whole message from then on: the process would look silent. Names made of parts (a stream's
-// name and a reason) are therefore made valid here, each character outside the rule replaced by '_'.
-std::string counterName(const std::string& name) {
-  if (isHealthName(name)) return name;
-  std::string out = name.substr(0, 64);
-  for (auto& c : out)
-    if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.')) c = '_';
-  return out.empty() ? std::string("unnamed") : out;
 }
 
 std::string hostName() {
@@ -60,7 +48,7 @@ void Health::bad(const std::string& reason, const std::string& detail) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++bad_;
-    ++counters_[counterName(reason)];
+    ++counters_[toHealthName(reason)];
     log = bad_log_.allow(bad_log_clock_++, &held);
   }
   if (log) {
@@ -72,17 +60,17 @@ void Health::bad(const std::string& reason, const std::string& detail) {
 void Health::dropped(const std::string& reason, int64_t count) {
   std::lock_guard<std::mutex> lock(mutex_);
   addSaturating(dropped_, count);
-  addSaturating(counters_[counterName(reason)], count);
+  addSaturating(counters_[toHealthName(reason)], count);
 }
 
 void Health::count(const std::string& name, int64_t increment) {
   std::lock_guard<std::mutex> lock(mutex_);
-  addSaturating(counters_[counterName(name)], increment);
+  addSaturating(counters_[toHealthName(name)], increment);
 }
 
 void Health::set(const std::string& name, int64_t value) {
   std::lock_guard<std::mutex> lock(mutex_);
-  counters_[counterName(name)] = value;
+  counters_[toHealthName(name)] = value;
 }
 
 void Health::latency(double ms) {
@@ -98,7 +86,7 @@ void Health::queueLength(int n) {
 
 int64_t Health::counter(const std::string& name) const {
   std::lock_guard<std::mutex> lock(mutex_);
-  auto it = counters_.find(counterName(name));
+  auto it = counters_.find(toHealthName(name));
   return it == counters_.end() ? 0 : it->second;
 }
 

@@ -97,11 +97,22 @@ Verdict validate(const ips::filter_state_t& m) {
   return {};
 }
 
+namespace {
+constexpr size_t kMaxHealthNameLength = 64;
+bool isHealthNameChar(unsigned char c) { return std::isalnum(c) || c == '_' || c == '-' || c == '.'; }
+}  // namespace
+
 bool isHealthName(const std::string& s) {
-  if (s.empty() || s.size() > 64) return false;
-  for (unsigned char c : s)
-    if (!(std::isalnum(c) || c == '_' || c == '-' || c == '.')) return false;
-  return true;
+  return !s.empty() && s.size() <= kMaxHealthNameLength &&
+         std::all_of(s.begin(), s.end(), [](char c) { return isHealthNameChar(static_cast<unsigned char>(c)); });
+}
+
+std::string toHealthName(const std::string& name) {
+  if (isHealthName(name)) return name;
+  std::string out = name.substr(0, kMaxHealthNameLength);
+  for (auto& c : out)
+    if (!isHealthNameChar(static_cast<unsigned char>(c))) c = '_';
+  return out.empty() ? std::string("unnamed") : out;
 }
 
 namespace {

@@ -1,6 +1,8 @@
 #pragma once
 // Counters and rates of one process, turned into an ips::health_t once per report interval.
 // Thread-safe: LCM handlers and worker threads both count.
+// Counter names are made valid (toHealthName, validate.hpp) as they are counted: one name the health validator
+// refuses would make every consumer drop the whole message from then on, and the process would look silent.
 #include <cstdint>
 #include <ips/health_t.hpp>
 #include <map>

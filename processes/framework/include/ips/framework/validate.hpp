@@ -47,6 +47,8 @@ Verdict validate(const ips::health_t& m, const std::string& channel);
 std::string healthChannel(const std::string& process_name);
 // A name a health message may carry, as a process or a counter: 1 to 64 letters, digits, '_', '-' or '.'.
 bool isHealthName(const std::string& name);
+// The name itself when it is one, else made one: cut to 64 characters, each other character '_', empty "unnamed".
+std::string toHealthName(const std::string& name);
 
 // Order and plausibility of one stream of stamped messages. Time must increase; a stamp far ahead of the
 // stream's recent ones (a forged or corrupt message, one bad clock read) is rejected, never adopted, so one bad
