@@ -49,6 +49,8 @@ VoxelKey keyOf(const Eigen::Vector3d& p, double voxel) {
           static_cast<int32_t>(std::floor(p.z() / voxel))};
 }
 
+uint8_t greyByte(double grey) { return static_cast<uint8_t>(std::lround(std::clamp(grey, 0.0, 255.0))); }
+
 // The points of one image summed per voxel, in the order their voxels first appear.
 struct VoxelSums {
   struct Sum {
@@ -62,7 +64,6 @@ struct VoxelSums {
 
   VoxelSums(const std::vector<Eigen::Vector3d>& points, const std::vector<uint8_t>& intensity, double voxel) {
     std::unordered_map<VoxelKey, size_t, VoxelKeyHash> index;
-    index.reserve(points.size() / 4 + 1);
     for (size_t i = 0; i < points.size(); ++i) {
       if (!insideGrid(points[i])) {
         ++outside;
@@ -107,13 +108,10 @@ int64_t VoxelMap::insert(const std::vector<Eigen::Vector3d>& points, const std::
   // The stored centroid of a voxel counts as one point beside the new ones, so a voxel follows newer
   // observations (a fading average) rather than freezing on its first.
   for (const auto& s : incoming.sums) {
-    const auto it = voxels.find(s.key);
-    if (it == voxels.end()) {
-      voxels.emplace(s.key, Impl::Voxel{s.point / s.n, s.grey / s.n});
-    } else {
-      it->second.centroid = (it->second.centroid + s.point) / (s.n + 1);
-      it->second.grey = (it->second.grey + s.grey) / (s.n + 1);
-    }
+    const auto [it, added] = voxels.try_emplace(s.key, Impl::Voxel{s.point / s.n, s.grey / s.n});
+    if (added) continue;
+    it->second.centroid = (it->second.centroid + s.point) / (s.n + 1);
+    it->second.grey = (it->second.grey + s.grey) / (s.n + 1);
   }
   if (static_cast<int64_t>(voxels.size()) <= max_voxels_) return incoming.outside;
   std::vector<std::pair<double, VoxelKey>> by_distance;
@@ -134,7 +132,7 @@ void VoxelMap::downsample(double voxel_size_m, std::vector<Eigen::Vector3d>* poi
   intensity->clear();
   for (const auto& s : fused.sums) {
     points->push_back(s.point / s.n);
-    intensity->push_back(static_cast<uint8_t>(std::lround(std::clamp(s.grey / s.n, 0.0, 255.0))));
+    intensity->push_back(greyByte(s.grey / s.n));
   }
 }
 
@@ -150,8 +148,7 @@ std::vector<Eigen::Vector3d> VoxelMap::points() const {
 std::vector<uint8_t> VoxelMap::intensity() const {
   std::vector<uint8_t> out;
   out.reserve(impl_->voxels.size());
-  for (const auto& [key, v] : impl_->voxels)
-    out.push_back(static_cast<uint8_t>(std::lround(std::clamp(v.grey, 0.0, 255.0))));
+  for (const auto& [key, v] : impl_->voxels) out.push_back(greyByte(v.grey));
   return out;
 }
 
@@ -161,7 +158,7 @@ void VoxelMap::save(const std::string& path) const {
   cloud.colors_.reserve(impl_->voxels.size());
   for (const auto& [key, v] : impl_->voxels) {
     cloud.points_.push_back(v.centroid);
-    const double g = std::clamp(v.grey, 0.0, 255.0) / 255.0;
+    const double g = greyByte(v.grey) / 255.0;
     cloud.colors_.emplace_back(g, g, g);
   }
   open3d::io::WritePointCloudOption option;
