@@ -44,7 +44,12 @@ filter::NavState navStateOf(const sim::GroundTruth& g) {
 SensorSim::SensorSim(const AnalyticWalk& walk, const SensorSimParams& p, const StereoCalibration& calib, uint32_t seed)
     : walk_(walk), p_(p), calib_(calib), rng_(seed) {}
 
-Eigen::Vector3d SensorSim::noise3() { return Eigen::Vector3d(n01_(rng_), n01_(rng_), n01_(rng_)); }
+// One draw per statement (the order of a constructor's arguments is unspecified): z, y, x, the order the walks have
+// always been drawn in.
+Eigen::Vector3d SensorSim::noise3() {
+  const double z = n01_(rng_), y = n01_(rng_), x = n01_(rng_);
+  return Eigen::Vector3d(x, y, z);
+}
 
 NavState SensorSim::truth(int64_t utime) const {
   const TruthSample s = walk_.at(utime * 1e-6);

@@ -108,7 +108,10 @@ int main(int argc, char** argv) {
 
     std::mt19937 rng(static_cast<unsigned>(args.getInt("--seed")));
     std::normal_distribution<double> normal(0.0, 1.0);
-    auto draw = [&](double s) { return Eigen::Vector3d(s * normal(rng), s * normal(rng), s * normal(rng)); };
+    auto draw = [&](double s) {  // z, y, x: one draw per statement, the order of the runs so far
+      const double z = normal(rng), y = normal(rng), x = normal(rng);
+      return Eigen::Vector3d(s * x, s * y, s * z);
+    };
     std::ofstream csv;
     if (args.has("--csv")) {
       csv.open(args.get("--csv"));

@@ -11,7 +11,10 @@ constexpr double kDeg = M_PI / 180;
 constexpr double kMg = 9.80665e-3;  // 1 mg in m/s^2 (the datasheet's g)
 
 Eigen::Matrix3d smallRotation(Rng& rng, double sigma_rad) {
-  const Eigen::Vector3d r(rng.normal() * sigma_rad, rng.normal() * sigma_rad, rng.normal() * sigma_rad);
+  // One draw per statement (the order of a constructor's arguments is unspecified): z, y, x, the order the heads
+  // have always been drawn in.
+  const double z = rng.normal() * sigma_rad, y = rng.normal() * sigma_rad, x = rng.normal() * sigma_rad;
+  const Eigen::Vector3d r(x, y, z);
   if (r.norm() == 0) return Eigen::Matrix3d::Identity();
   return Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
 }

@@ -278,7 +278,11 @@ cv::Mat makeRoughTexture(int size, uint64_t seed, double contrast) {
 
 cv::Mat makeTileTexture(int size, int tiles, uint64_t seed) {
   Rng rng(seed);
-  cv::Mat acc = 0.5 * tiledNoise(size, size / 4, rng) + 0.3 * tiledNoise(size, size / 16, rng);
+  // One draw per statement: the order of an operator's operands is unspecified, so a compiler may pick either. The
+  // finer noise is drawn first, the order the worlds have always been drawn in.
+  const cv::Mat fine = tiledNoise(size, size / 16, rng);
+  const cv::Mat coarse = tiledNoise(size, size / 4, rng);
+  cv::Mat acc = 0.5 * coarse + 0.3 * fine;
   const int cell = size / tiles;
   for (int ty = 0; ty < tiles; ++ty)
     for (int tx = 0; tx < tiles; ++tx) {
@@ -295,7 +299,9 @@ cv::Mat makeSpeckleTexture(int size, uint64_t seed) {
   Rng rng(seed);
   cv::Mat acc = 0.6 * tiledNoise(size, size / 8, rng);
   for (int i = 0; i < size * size / 60; ++i) {
-    const cv::Point p(static_cast<int>(rng.uniform() * size), static_cast<int>(rng.uniform() * size));
+    const int y = static_cast<int>(rng.uniform() * size);  // y first: see makeTileTexture
+    const int x = static_cast<int>(rng.uniform() * size);
+    const cv::Point p(x, y);
     const double r = 1 + 3 * rng.uniform();
     cv::circle(acc, p, static_cast<int>(r), cv::Scalar(rng.uniform() * 3 - 1.5), cv::FILLED);
   }
