@@ -82,10 +82,13 @@ TEST(StereoCalibration, RecoversAKnownStereoCamera) {
   std::vector<std::vector<cv::Point2f>> left, right;
   while (names.size() < 16) {
     // Board centre placed in front of the left camera, tilted up to about 30 deg about each axis.
-    const cv::Vec3d rvec(angle(rng), angle(rng), angle(rng) * 0.5);
+    // One draw per statement (the order of a constructor's arguments is unspecified): z, y, x.
+    const double rz = angle(rng) * 0.5, ry = angle(rng), rx = angle(rng);
+    const cv::Vec3d rvec(rx, ry, rz);
     cv::Matx33d R;
     cv::Rodrigues(rvec, R);
-    const cv::Vec3d centre(shift(rng), shift(rng) * 0.75, depth(rng));
+    const double cz = depth(rng), cy = shift(rng) * 0.75, cx = shift(rng);
+    const cv::Vec3d centre(cx, cy, cz);
     const cv::Vec3d tvec = centre - R * cv::Vec3d(4 * square, 2.5 * square, 0);
     cv::Matx33d R1 = R_stereo * R;
     cv::Vec3d rvec1;

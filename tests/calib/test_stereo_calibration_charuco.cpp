@@ -158,9 +158,12 @@ std::vector<Pose> drawPoses(const CharucoSpec& board, size_t full, size_t partia
   while (n_full < full || n_partial < partial) {
     const bool want_full = n_full < full;
     cv::Matx33d R;
-    cv::Rodrigues(cv::Vec3d(angle(rng), angle(rng), angle(rng) * 0.5), R);
+    // One draw per statement (the order of a constructor's arguments is unspecified): z, y, x.
+    const double rz = angle(rng) * 0.5, ry = angle(rng), rx = angle(rng);
+    cv::Rodrigues(cv::Vec3d(rx, ry, rz), R);
     const double z = depth(rng);
-    cv::Vec3d centre(shift(rng), shift(rng) * 0.75, z);
+    const double cy = shift(rng) * 0.75, cx = shift(rng);
+    cv::Vec3d centre(cx, cy, z);
     if (!want_full) {  // towards an image corner or edge: the board's centre near the image border
       const double u = unit(rng) < 0.5 ? unit(rng) * 0.15 : 0.85 + unit(rng) * 0.15;
       const double v = unit(rng);

@@ -175,7 +175,8 @@ TEST(TiltCalibrationSim, ChartAtStaticPositionsGivesTheSensorsAngles) {
   double worst_deg = 0, worst_told_deg = 0;
   const ips::StereoCalibration& told = start;
   for (int k = 0; k < 200; ++k) {
-    const Eigen::Matrix3d R_world_body = bodyInWorld(tilt(rng), tilt(rng), 0);
+    const double pitch = tilt(rng), roll = tilt(rng);  // one draw per statement
+    const Eigen::Matrix3d R_world_body = bodyInWorld(roll, pitch, 0);
     const Eigen::Vector3d up_body = R_world_body.transpose() * Eigen::Vector3d::UnitZ();
     const Eigen::Vector2d truth = tiltAngles(rig.head.R_tilt_imu * up_body) + sensor.offset();
     const Eigen::Vector2d predicted = tiltAngles(estimated.R_tilt_cam0 * R_cam_imu * up_body);

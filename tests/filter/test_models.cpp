@@ -18,7 +18,10 @@ namespace {
 
 NavState randomNav(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  auto v3 = [&](double s) { return Eigen::Vector3d(s * n(rng), s * n(rng), s * n(rng)); };
+  auto v3 = [&](double s) {  // one draw per statement (a constructor's argument order is unspecified): z, y, x
+    const double z = n(rng), y = n(rng), x = n(rng);
+    return Eigen::Vector3d(s * x, s * y, s * z);
+  };
   NavState x;
   x.utime = 1'000'000;
   x.position = v3(3);

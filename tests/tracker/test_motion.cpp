@@ -39,8 +39,11 @@ std::vector<Correspondence> makeCorrespondences(const RectifiedStereo& cam, cons
   std::normal_distribution<double> noise(0, noise_px);
   std::vector<Correspondence> out;
   while (int(out.size()) < count) {
+    // One draw per statement (the order of a constructor's arguments is unspecified, and every compiler must see
+    // the same points).
     const double z = uz(rng);
-    const Eigen::Vector3d p_prev((ux(rng) - cam.cx) * z / cam.f, (uy(rng) - cam.cy) * z / cam.f, z);
+    const double v = uy(rng), u = ux(rng);
+    const Eigen::Vector3d p_prev((u - cam.cx) * z / cam.f, (v - cam.cy) * z / cam.f, z);
     const Eigen::Vector3d p_now = m.R.transpose() * (p_prev - m.t);
     if (p_now.z() < 1.0) continue;
     const Eigen::Vector3d a = cam.project(p_prev), b = cam.project(p_now);
@@ -81,7 +84,8 @@ TEST(Motion, AlignPointCloudsIsExactWithoutNoise) {
   std::mt19937 rng(1);
   std::uniform_real_distribution<double> u(-5, 5);
   for (int i = 0; i < 10; ++i) {
-    now.emplace_back(u(rng), u(rng), u(rng) + 10);
+    const double z = u(rng) + 10, y = u(rng), x = u(rng);  // one draw per statement
+    now.emplace_back(x, y, z);
     prev.push_back(m.R * now.back() + m.t);
   }
   RigidMotion est;
@@ -165,7 +169,8 @@ std::vector<Correspondence> makeFarCorrespondences(const RectifiedStereo& cam, c
   std::vector<Correspondence> out;
   while (int(out.size()) < count) {
     const double rho = u01(rng) < 0.2 ? 0.0 : uinv(rng);  // inverse depth at the older time
-    const Eigen::Vector3d a((ux(rng) - cam.cx) / cam.f, (uy(rng) - cam.cy) / cam.f, 1.0);
+    const double v_px = uy(rng), u_px = ux(rng);          // one draw per statement
+    const Eigen::Vector3d a((u_px - cam.cx) / cam.f, (v_px - cam.cy) / cam.f, 1.0);
     // Direction and inverse depth at the newer time: X_now = R^T (X_prev - t) = R^T (a - rho t) / rho.
     const Eigen::Vector3d v = m.R.transpose() * (a - rho * m.t);
     const double rho_now = rho / v.z();
@@ -177,8 +182,13 @@ std::vector<Correspondence> makeFarCorrespondences(const RectifiedStereo& cam, c
     if (c.now.xl < 0 || c.now.xl > 640 || c.now.y < 0 || c.now.y > 480) continue;
     for (StereoObservation* o : {&c.prev, &c.now}) o->xl += noise(rng), o->y += noise(rng), o->xr += noise(rng);
     if (int(out.size()) < outliers) {
-      c.now.xl = ux(rng);
-      c.now.y = uy(rng);
+      // Moved at least 10 px from where the point is seen (a random position could land on it by chance and would
+      // then be an inlier, not an outlier): the far gate is about a pixel wide.
+      const double seen_x = c.now.xl, seen_y = c.now.y;
+      do {
+        c.now.xl = ux(rng);
+        c.now.y = uy(rng);
+      } while (std::hypot(c.now.xl - seen_x, c.now.y - seen_y) < 10.0);
       c.now.xr = c.now.xl - fb * rho_now;
     }
     out.push_back(c);
