@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "ips/filter/models.hpp"
+#include "ips/random_vector.hpp"
 
 namespace ips::eval {
 
@@ -44,11 +45,8 @@ filter::NavState navStateOf(const sim::GroundTruth& g) {
 SensorSim::SensorSim(const AnalyticWalk& walk, const SensorSimParams& p, const StereoCalibration& calib, uint32_t seed)
     : walk_(walk), p_(p), calib_(calib), rng_(seed) {}
 
-// One draw per statement (the order of a constructor's arguments is unspecified): z, y, x, the order the walks have
-// always been drawn in.
 Eigen::Vector3d SensorSim::noise3() {
-  const double z = n01_(rng_), y = n01_(rng_), x = n01_(rng_);
-  return Eigen::Vector3d(x, y, z);
+  return drawVector3([&] { return n01_(rng_); });
 }
 
 NavState SensorSim::truth(int64_t utime) const {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "ips/calib/delay_estimation.hpp"
+#include "ips/random_vector.hpp"
 
 namespace ips::calib::testing {
 
@@ -56,8 +57,7 @@ inline SimulatedMotion simulateMotion(double duration_s, int64_t camera_late_us,
     if (step % 200 == 0 && step > 0) {                                                    // 10 Hz image pairs
       const Eigen::Matrix3d R_b = (q_prev_frame.conjugate() * q_w_b).toRotationMatrix();  // body at now in body at prev
       Eigen::Matrix3d R_cam = s.R_cam_imu * R_b * s.R_cam_imu.transpose();
-      const double nz = tracker_noise(rng), ny = tracker_noise(rng), nx = tracker_noise(rng);  // one per statement
-      const Eigen::Vector3d n(nx, ny, nz);
+      const Eigen::Vector3d n = ips::drawVector3([&] { return tracker_noise(rng); });
       R_cam = R_cam * Eigen::AngleAxisd(n.norm(), n.normalized()).toRotationMatrix();
       if (outlier_every > 0 && (step / 200) % outlier_every == 0)
         R_cam = R_cam * Eigen::AngleAxisd(3 * M_PI / 180, Eigen::Vector3d(1, 1, 0).normalized()).toRotationMatrix();

@@ -11,6 +11,7 @@
 #include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
 #include "ips/log.hpp"
+#include "ips/random_vector.hpp"
 
 using namespace ips::filter;
 using namespace ips::eval;
@@ -449,8 +450,8 @@ TEST(FilterEstimator, FusedWalkIsAccurateAndConsistentForBothFilters) {
     const double endpoint_pct = 100.0 * endpoint_error.norm() / distance;
     // Accurate: these sensors leave the filter a 1-sigma of 0.23 % of the distance at the end (sqrt of the position
     // covariance's trace); over the sensor seeds 17-26 the end is 0.11-0.28 % off. Within its own uncertainty:
-    // the end error's Mahalanobis distance below the 99.9 % quantile. (A bound fitted to one seed's draw, as the
-    // 0.25 % here before, fails on the next draw: 2 of these 10 seeds.)
+    // the end error's Mahalanobis distance below the 99.9 % quantile. Not a bound fitted to this seed's draw: the
+    // next draw would fail it.
     EXPECT_LT(endpoint_pct, 0.5) << toString(type);
     const Eigen::Matrix3d position_covariance = last.covariance.block<3, 3>(kErrP, kErrP);
     EXPECT_LT(endpoint_error.dot(position_covariance.ldlt().solve(endpoint_error)), chiSquareQuantile(0.999, 3))
@@ -500,8 +501,7 @@ TEST(FilterEstimator, FarRotationIsGatedOnItsOwnAndSharpensTheHeading) {
         c1.position = b.position, c1.orientation = b.orientation;
         const Eigen::Matrix3d R = DeltaMeasurement::predict(c0, c1, calib.T_imu_cam0).linear();
         m.delta.far_valid = true;
-        const double nz = noise(rng), ny = noise(rng), nx = noise(rng);  // one draw per statement
-        m.delta.far_rotation = Eigen::Quaterniond(expSO3(Eigen::Vector3d(nx, ny, nz)) * R);
+        m.delta.far_rotation = Eigen::Quaterniond(expSO3(ips::drawVector3([&] { return noise(rng); })) * R);
         m.delta.far_covariance = Eigen::Matrix3d::Identity() * far_sigma * far_sigma;
         if (m.delta.utime == 6'000'000) {
           m.delta.far_rotation = Eigen::Quaterniond(expSO3(Eigen::Vector3d(0, 0.01, 0)) * R);  // 0.6 deg: a look-alike

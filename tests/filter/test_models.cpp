@@ -10,6 +10,7 @@
 #include "ips/eval/filter_testbed.hpp"
 #include "ips/filter/kalman.hpp"
 #include "ips/filter/models.hpp"
+#include "ips/random_vector.hpp"
 
 using namespace ips::filter;
 using namespace ips::eval;
@@ -18,10 +19,7 @@ namespace {
 
 NavState randomNav(std::mt19937& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  auto v3 = [&](double s) {  // one draw per statement (a constructor's argument order is unspecified): z, y, x
-    const double z = n(rng), y = n(rng), x = n(rng);
-    return Eigen::Vector3d(s * x, s * y, s * z);
-  };
+  auto v3 = [&](double s) -> Eigen::Vector3d { return s * ips::drawVector3([&] { return n(rng); }); };
   NavState x;
   x.utime = 1'000'000;
   x.position = v3(3);

@@ -22,6 +22,7 @@
 #include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
 #include "ips/log.hpp"
+#include "ips/random_vector.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/simulation.hpp"
@@ -82,12 +83,7 @@ int main(int argc, char** argv) {
         Estimator est(params, head.calibration);
         std::mt19937 rng(sc.seed * 7919u + 17u);
         std::normal_distribution<double> n01;
-        // Three draws, one per statement (the order of a constructor's arguments is unspecified): z, y, x, the
-        // order the runs so far were drawn in.
-        auto normal3 = [&](std::mt19937& g) {
-          const double z = n01(g), y = n01(g), x = n01(g);
-          return Eigen::Vector3d(x, y, z);
-        };
+        auto normal3 = [&] { return ips::drawVector3([&] { return n01(rng); }); };
         auto truthAt = [&](int64_t utime, const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) {
           return ips::eval::navStateOf(ips::sim::groundTruthAt(traj, sc.start_utime, utime, bg, ba));
         };
@@ -122,8 +118,8 @@ int main(int argc, char** argv) {
               TrackerDelta d;
               d.utime = next_img;
               d.utime_prev = last_img;
-              d.translation = T.translation() + sigma_t * normal3(rng);
-              d.rotation = Eigen::Quaterniond(expSO3(sigma_r * normal3(rng)) * T.linear()).normalized();
+              d.translation = T.translation() + sigma_t * normal3();
+              d.rotation = Eigen::Quaterniond(expSO3(sigma_r * normal3()) * T.linear()).normalized();
               d.covariance.setZero();
               d.covariance.diagonal() << Eigen::Vector3d::Constant(sigma_t * sigma_t),
                   Eigen::Vector3d::Constant(sigma_r * sigma_r);

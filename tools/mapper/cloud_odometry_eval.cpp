@@ -27,6 +27,7 @@
 #include "ips/mapper/cloud_odometry.hpp"
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/stereo_points.hpp"
+#include "ips/random_vector.hpp"
 #include "ips/sim/rig.hpp"
 
 using namespace ips;
@@ -108,10 +109,7 @@ int main(int argc, char** argv) {
 
     std::mt19937 rng(static_cast<unsigned>(args.getInt("--seed")));
     std::normal_distribution<double> normal(0.0, 1.0);
-    auto draw = [&](double s) {  // z, y, x: one draw per statement, the order of the runs so far
-      const double z = normal(rng), y = normal(rng), x = normal(rng);
-      return Eigen::Vector3d(s * x, s * y, s * z);
-    };
+    auto draw = [&](double s) -> Eigen::Vector3d { return s * ips::drawVector3([&] { return normal(rng); }); };
     std::ofstream csv;
     if (args.has("--csv")) {
       csv.open(args.get("--csv"));

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ips/random_vector.hpp"
+
 namespace ips::sim {
 
 namespace {
@@ -11,10 +13,7 @@ constexpr double kDeg = M_PI / 180;
 constexpr double kMg = 9.80665e-3;  // 1 mg in m/s^2 (the datasheet's g)
 
 Eigen::Matrix3d smallRotation(Rng& rng, double sigma_rad) {
-  // One draw per statement (the order of a constructor's arguments is unspecified): z, y, x, the order the heads
-  // have always been drawn in.
-  const double z = rng.normal() * sigma_rad, y = rng.normal() * sigma_rad, x = rng.normal() * sigma_rad;
-  const Eigen::Vector3d r(x, y, z);
+  const Eigen::Vector3d r = sigma_rad * drawVector3([&] { return rng.normal(); });
   if (r.norm() == 0) return Eigen::Matrix3d::Identity();
   return Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
 }
