@@ -29,8 +29,8 @@ if [ $sanitize = 1 ]; then
   # Line tables (-g1) are all a sanitizer's report needs, and they compile and link far faster than full debug info.
   # -O1, AddressSanitizer's recommended level: the instrumented build, CI's longest step, compiles about a third
   # faster than at -O2, and the unit tests run about as fast.
-  CC=clang CXX=clang++ cmake -S . -B $dir -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
-    -DIPS_SANITIZE=ON >/dev/null
+  CC=clang CXX=clang++ cmake -S . -B $dir -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DIPS_SANITIZE=ON >/dev/null
   # Only the tests' targets (and the libraries and tools they declare): the process mains, the other tools and
   # the benchmarks serve the process tests, which run in build/.
   make -C $dir/tests -j"$jobs"
