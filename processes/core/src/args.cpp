@@ -16,25 +16,25 @@ Args::Args(int argc, char** argv, std::string summary) : summary_(std::move(summ
 
 Args& Args::option(const std::string& name, const std::string& value_name, const std::string& help,
                    const std::string& default_value) {
-  specs_[name] = Spec{value_name, help, default_value, false, false};
+  specs_[name] = Spec{value_name, help, default_value, false, false, false, {}};
   order_.push_back(name);
   return *this;
 }
 
 Args& Args::required(const std::string& name, const std::string& value_name, const std::string& help) {
-  specs_[name] = Spec{value_name, help, "", false, true};
+  specs_[name] = Spec{value_name, help, "", false, true, false, {}};
   order_.push_back(name);
   return *this;
 }
 
 Args& Args::flag(const std::string& name, const std::string& help) {
-  specs_[name] = Spec{"", help, "", true, false};
+  specs_[name] = Spec{"", help, "", true, false, false, {}};
   order_.push_back(name);
   return *this;
 }
 
 Args& Args::repeated(const std::string& name, const std::string& value_name, const std::string& help) {
-  specs_[name] = Spec{value_name, help, "", false, false, true};
+  specs_[name] = Spec{value_name, help, "", false, false, true, {}};
   order_.push_back(name);
   return *this;
 }
