@@ -31,8 +31,8 @@ if [ $sanitize = 1 ]; then
   # faster than at -O2, and the unit tests run about as fast.
   CC=clang CXX=clang++ cmake -S . -B $dir -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DIPS_SANITIZE=ON >/dev/null
-  # Only the tests' targets (and the libraries and tools they declare): the process mains, the other tools and
-  # the benchmarks serve the process tests, which run in build/.
+  # Only the unit tests' targets (and the libraries and tools they declare): the process mains, the other tools,
+  # the benchmarks and the programs of slow tests serve the tests that run in build/ (tests/CMakeLists.txt).
   make -C $dir/tests -j"$jobs"
   # Unit tests under the sanitizers; tests of whole processes, system tests and the longest unit tests are labelled
   # (process, slow) and run in build/.
