@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "ips/calibration.hpp"
+#include "ips/config.hpp"
 #include "ips/e3d/sgm.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
@@ -293,6 +294,45 @@ TEST(StereoMatcher, BadInputThrows) {
   EXPECT_THROW(StereoMatcher(context(), cv::Size(5000, 10), p), std::invalid_argument);
 }
 
+TEST(SgmParams, MutualInformationTakesThePenaltiesOfItsWindow) {
+  const SgmParams window3 = SgmParams::forCost(Cost::mi), pixelwise = SgmParams::forCost(Cost::mi, 1);
+  EXPECT_EQ(window3.mi_window, 3);
+  EXPECT_EQ(pixelwise.mi_window, 1);
+  EXPECT_LT(window3.p1, pixelwise.p1);                                // the mean of nine costs needs smaller penalties
+  EXPECT_EQ(SgmParams::forCost(Cost::census, 1).p1, SgmParams().p1);  // the window is mi's alone
+  // From census to mi keeps the window and takes its penalties.
+  SgmParams census;
+  census.mi_window = 1;
+  EXPECT_EQ(census.withCost(Cost::mi).p1, pixelwise.p1);
+  // A config without penalties takes those of its cost and window; given penalties win.
+  const std::string path = ::testing::TempDir() + "/sgm_mi_window.yaml";
+  {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    fs << "a"
+       << "{"
+       << "cost"
+       << "mi"
+       << "mi_window" << 1 << "}";
+    fs << "b"
+       << "{"
+       << "cost"
+       << "mi"
+       << "mi_window" << 1 << "p1" << 5 << "}";
+    fs << "c"
+       << "{"
+       << "cost"
+       << "mi"
+       << "mi_window" << 2 << "}";
+  }
+  const Config config(path);
+  const SgmParams a = SgmParams::fromConfig(config.section("a"));
+  EXPECT_EQ(a.mi_window, 1);
+  EXPECT_EQ(a.p1, pixelwise.p1);
+  EXPECT_EQ(a.p2, pixelwise.p2);
+  EXPECT_EQ(SgmParams::fromConfig(config.section("b")).p1, 5);
+  EXPECT_THROW(SgmParams::fromConfig(config.section("c")), ConfigError);
+}
+
 TEST(StereoMatcher, FillInvalidEqualsReferenceAndLeavesNoHoles) {
   IPS_REQUIRE_SHARED_DATA("stereo");
   cv::Mat left = loadGrey("cones", "left.png"), right = loadGrey("cones", "right.png");
@@ -401,7 +441,10 @@ TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
   SgmParams p = SgmParams::forCost(Cost::mi);
   p.num_disparities = 60;
   p.mi_levels = 3;
+  expectDeviceEqualsReference(left, right, p);  // the 3x3 window, the default
+  p.mi_window = 1;                              // pixelwise, Hirschmueller's
   expectDeviceEqualsReference(left, right, p);
+  p.mi_window = 3;
   p.mi_levels = 1;  // the full resolution only, learning from the start disparity and then from itself
   p.mi_coarse_iterations = 3;
   p.right_map = RightMap::match;

@@ -509,8 +509,15 @@ TEST(CostStage, MutualInformationEqualsReference) {
   SgmParams p = SgmParams::forCost(Cost::mi);
   p.num_disparities = 27;
   p.min_disparity = 1;
-  for (int multiple : {4, 8})
-    for (bool mirror : {false, true}) expectIntensityCostEqualsReference(left, right, p, multiple, mirror, table);
+  for (int window : {1, 3}) {  // pixelwise, and the mean over 3x3
+    p.mi_window = window;
+    for (int multiple : {4, 8})
+      for (bool mirror : {false, true}) expectIntensityCostEqualsReference(left, right, p, multiple, mirror, table);
+  }
+  // A range reaching past the row: the window's columns clamped on both images.
+  p.num_disparities = 50;
+  p.min_disparity = 20;
+  expectIntensityCostEqualsReference(left, right, p, 4, false, table);
 }
 
 // A 37 x 23 pair whose left image is the right one shifted by `shift` px, with noise: the paths have a minimum to

@@ -21,6 +21,26 @@ constexpr int kBins = 256;
 // The Parzen window: binomial (1 6 15 20 15 6 1), sum 64.
 constexpr int kParzen[7] = {1, 6, 15, 20, 15, 6, 1};
 
+// The costs [y][x][k] of sad and of windowed mi: the mean of pair_cost(L, R) over the 3x3 windows around x and
+// x - d, every column and row clamped into the image, rounded and truncated: min((sum + 4) / 9, 63).
+template <typename PairCost>
+void window3x3Mean(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, std::vector<uint8_t>& cost,
+                   PairCost pair_cost) {
+  const int W = left.cols, H = left.rows, D = p.num_disparities;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (int k = 0; k < D; ++k) {
+        int sum = 0;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const int yy = clampi(y + dy, 0, H - 1);
+            sum += pair_cost(left.at<uint8_t>(yy, clampi(x + dx, 0, W - 1)),
+                             right.at<uint8_t>(yy, clampi(x + dx - (p.min_disparity + k), 0, W - 1)));
+          }
+        cost[(static_cast<size_t>(y) * W + x) * D + k] = static_cast<uint8_t>(std::min((sum + 4) / 9, kCostMax));
+      }
+}
+
 }  // namespace
 
 int maxCost(Cost cost) { return cost == Cost::census ? kCensusMaxCost : kCostMax; }
@@ -66,26 +86,18 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
           at(y, x, k) = static_cast<uint8_t>(
               std::min(std::abs(int(left.at<uint8_t>(y, x)) - int(right.at<uint8_t>(y, column(x, k)))), kCostMax));
   } else if (p.cost == Cost::sad) {
-    // The 3x3 windows around x and x - d, every column and row clamped into the image.
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
-        for (int k = 0; k < D; ++k) {
-          int sum = 0;
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dx = -1; dx <= 1; ++dx) {
-              const int yy = clampi(y + dy, 0, H - 1);
-              sum += std::abs(int(left.at<uint8_t>(yy, clampi(x + dx, 0, W - 1))) -
-                              int(right.at<uint8_t>(yy, clampi(x + dx - (p.min_disparity + k), 0, W - 1))));
-            }
-          at(y, x, k) = static_cast<uint8_t>(std::min((sum + 4) / 9, kCostMax));
-        }
+    window3x3Mean(left, right, p, cost, [](int left_grey, int right_grey) { return std::abs(left_grey - right_grey); });
   } else {  // mi
     if (mi_table.type() != CV_8UC1 || mi_table.rows != kBins || mi_table.cols != kBins)
       throw std::invalid_argument("costVolume: cost mi needs a 256x256 CV_8UC1 table");
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
-        for (int k = 0; k < D; ++k)
-          at(y, x, k) = mi_table.at<uint8_t>(left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k)));
+    const auto table = [&](int left_grey, int right_grey) { return int(mi_table.at<uint8_t>(left_grey, right_grey)); };
+    if (p.mi_window == 3) {
+      window3x3Mean(left, right, p, cost, table);
+    } else {
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+          for (int k = 0; k < D; ++k) at(y, x, k) = table(left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k)));
+    }
   }
   return cost;
 }

@@ -15,8 +15,11 @@ void addSgmOptions(ips::Args& args) {
            std::to_string(c.p2_slope);
   };
   const auto yesNo = [](bool on) { return on ? std::string("on") : std::string("off"); };
+  const SgmParams mi_pixelwise = SgmParams::forCost(Cost::mi, 1);
   const std::string per_cost = "(default P1/P2/p2_slope per cost: " + penalties(Cost::census) + ", " +
-                               penalties(Cost::ad) + ", " + penalties(Cost::sad) + ", " + penalties(Cost::mi) + ")";
+                               penalties(Cost::ad) + ", " + penalties(Cost::sad) + ", " + penalties(Cost::mi) +
+                               ";\nmi with --mi-window 1: " + std::to_string(mi_pixelwise.p1) + "/" +
+                               std::to_string(mi_pixelwise.p2) + "/" + std::to_string(mi_pixelwise.p2_slope) + ")";
   args.option("--config", "FILE",
               "SGM: YAML with a section 'sgm' (SgmParams keys), e.g. config/e3d.yaml; the SGM options below\n"
               "start from it, without it from the built-in defaults shown")
@@ -28,6 +31,10 @@ void addSgmOptions(ips::Args& args) {
       .option("--mi-coarse-iterations", "N",
               "iterations on the coarse levels of the Mutual Information hierarchy (default " +
                   std::to_string(d.mi_coarse_iterations) + ")")
+      .option("--mi-window", "1|3",
+              "Mutual Information: the cost's window, 1 = pixelwise, 3 = mean over 3x3; another window\nthan the "
+              "config's takes its penalties (default " +
+                  std::to_string(d.mi_window) + ")")
       .option("--num-disparities", "N",
               "1.." + std::to_string(kMaxDisparities) + " (default " + std::to_string(d.num_disparities) + ")")
       .option("--min-disparity", "N", "(default " + std::to_string(d.min_disparity) + ")")
@@ -59,6 +66,13 @@ SgmParams sgmParamsFromArgs(const ips::Args& a) {
   const auto setIfGiven = [&](const char* name, int& value) {
     if (a.has(name)) value = static_cast<int>(a.getInt(name));
   };
+  if (a.has("--mi-window")) {
+    const int window = static_cast<int>(a.getInt("--mi-window"));
+    if (window != p.mi_window) {
+      p.mi_window = window;
+      p = p.withCost(p.cost);  // mi's penalties for this window
+    }
+  }
   setIfGiven("--mi-levels", p.mi_levels);
   setIfGiven("--mi-coarse-iterations", p.mi_coarse_iterations);
   setIfGiven("--num-disparities", p.num_disparities);

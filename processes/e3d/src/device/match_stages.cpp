@@ -20,7 +20,8 @@ vk::Specialisation matchSpecialisation(uint32_t subgroup_size, int lane_disps, c
           {E3D_SPEC_PHASE, variant.phase},
           {E3D_SPEC_MIRROR, variant.mirror ? 1 : 0},
           {E3D_SPEC_RIGHT_MAP, variant.right_map ? 1 : 0},
-          {E3D_SPEC_COST_VOLUME, variant.cost_volume ? 1 : 0}};
+          {E3D_SPEC_COST_VOLUME, variant.cost_volume ? 1 : 0},
+          {E3D_SPEC_MI_WINDOW, params.mi_window}};
 }
 
 CostStage CostStage::census(const vk::DescriptorPool& pool, const vk::Specialisation& spec, cv::Size size,

@@ -4,8 +4,9 @@
 //  ad      absolute grey difference, truncated: min(|L(x) - R(x - d)|, 63)
 //  sad     mean absolute difference over the 3x3 windows around x and x - d (each column and row clamped into
 //          the image), rounded and truncated: min((sum + 4) / 9, 63)
-//  mi      Mutual Information (Hirschmueller 2008): a 256 x 256 table of costs 0..63 indexed by the two grey
-//          values, learnt from a disparity map (below)
+//  mi      Mutual Information (Hirschmueller 2008): a 256 x 256 table T of costs 0..63 indexed by the two grey
+//          values, learnt from a disparity map (below); with mi_window 1 the pixelwise T[L(x)][R(x - d)], with
+//          mi_window 3 (the default) its mean over the 3x3 windows as for sad: min((sum T + 4) / 9, 63)
 // x - d is clamped into the row (for sad: x - d + dx), as everywhere in E3D.
 //
 // Mutual Information table, from a left image, a right image and a disparity map of the left one:
