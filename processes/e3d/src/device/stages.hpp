@@ -126,7 +126,8 @@ class MiTableStage {
 };
 
 // The cost stage of one match: census costs into the lines' cost slice (cost_census), or the intensity costs
-// (cost_ad, cost_sad, cost_mi) into the rows' cost volume or the lines' cost slice. One subgroup per row.
+// (cost_ad, cost_sad, cost_mi) into the rows' cost volume or the lines' cost slice. One subgroup per row, or per
+// E3D_WINDOW_ROWS rows for the 3x3 window costs.
 class CostStage {
  public:
   // cost_census from the census codes of both images (swapped for the mirrored match).
@@ -141,12 +142,12 @@ class CostStage {
   void record(VkCommandBuffer cmd) const;
 
  private:
-  CostStage(vk::Pipeline pipeline, int height) : pipeline_(std::move(pipeline)), height_(height) {}
+  CostStage(vk::Pipeline pipeline, int groups) : pipeline_(std::move(pipeline)), groups_(groups) {}
   vk::Pipeline pipeline_;
   bool census_ = false;
   shader::CensusCostParams census_pc_{};
   shader::CostVolumeParams volume_pc_{};
-  int height_;
+  int groups_;  // workgroups of the dispatch
 };
 
 // sgm_aggregate (lines): one dispatch per path direction, one subgroup per image line.
