@@ -2,8 +2,9 @@
 // Matching cost of Mutual Information with the 256 x 256 table T learnt by mi_table.comp (ips/e3d/matching_cost.hpp),
 // written into the cost volume (cost_volume.glsl): with MI_WINDOW 1 the pixelwise C(x,y,d) = T[L(x,y)][R(x - d,y)],
 // x - d clamped into the row; with MI_WINDOW 3 the mean of T over the 3x3 windows (cost_window3x3.glsl, as SAD).
-// The second match (MIRROR) uses the transposed table. One workgroup (= one subgroup) per row; lane l owns
-// disparities l*K .. l*K+K-1 and the right greys slide by one disparity per pixel.
+// The second match (MIRROR) uses the transposed table. One workgroup (= one subgroup) per row (pixelwise) or per
+// E3D_WINDOW_ROWS rows (window); lane l owns disparities l*K .. l*K+K-1 and the right greys slide by one disparity
+// per pixel.
 #extension GL_GOOGLE_include_directive : require
 #extension GL_EXT_control_flow_attributes : require
 #extension GL_EXT_shader_explicit_arithmetic_types_int64 : require

@@ -1,12 +1,12 @@
-// Shared by the window costs (cost_sad, cost_mi with mi_window 3): C(x,y,d) = min((sum_{dy,dx} PAIR_COST(
+// Shared by the window costs (cost_sad, cost_mi with mi_window 3): C(x,y,d) = min((sum_{dy,dx} WINDOW_PAIR_COST(
 // L(x+dx,y+dy), R(x-d+dx,y+dy)) + 4) / 9, 63), every column and row clamped into the image (see
 // ips/e3d/matching_cost.hpp), written into the cost volume (cost_volume.glsl). The includer defines
 // WINDOW_PAIR_COST(left_grey, right_grey) (uint, 0..63) and includes this after cost_volume.glsl.
-// One workgroup (= one subgroup) per E3D_WINDOW_ROWS rows; lane l owns disparities l*K .. l*K+K-1. The right greys of the three rows
-// slide by one disparity per pixel; R(x - d + 1) is the neighbouring disparity d - 1 (a shuffle across lanes, and one
-// extra load at the start of the range). Each pair cost is computed once and carried for two columns, and each row's
-// sums serve the output rows of the subgroup, so a table cost (mi) is looked up (2 + E3D_WINDOW_ROWS) /
-// E3D_WINDOW_ROWS times per pixel and disparity, not nine.
+// One workgroup (= one subgroup) per E3D_WINDOW_ROWS output rows; lane l owns disparities l*K .. l*K+K-1. The right
+// greys of each row slide by one disparity per pixel; R(x - d + 1) is the neighbouring disparity d - 1 (a shuffle
+// across lanes, and one extra load at the start of the range). Each pair cost is computed once and carried for two
+// columns, and each row's sums serve up to three output rows of the subgroup, so a table cost (mi) is looked up
+// (2 + E3D_WINDOW_ROWS) / E3D_WINDOW_ROWS times per pixel and disparity, not nine.
 #ifndef COST_WINDOW3X3_GLSL
 #define COST_WINDOW3X3_GLSL
 
