@@ -45,6 +45,10 @@ void window3x3Mean(const cv::Mat& left, const cv::Mat& right, const SgmParams& p
 
 int maxCost(Cost cost) { return cost == Cost::census ? kCensusMaxCost : kCostMax; }
 
+bool isWindowCost(const SgmParams& params) {
+  return params.cost == Cost::sad || (params.cost == Cost::mi && params.mi_window == 3);
+}
+
 cv::Mat census5x5(const cv::Mat& image) {
   if (image.empty() || image.type() != CV_8UC1) throw std::invalid_argument("census5x5: need a CV_8UC1 image");
   const int W = image.cols, H = image.rows;
@@ -79,24 +83,22 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
           const uint32_t b = static_cast<uint32_t>(cr.at<int32_t>(y, column(x, k)));
           at(y, x, k) = static_cast<uint8_t>(__builtin_popcount(a ^ b));
         }
-  } else if (p.cost == Cost::ad) {
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
-        for (int k = 0; k < D; ++k)
-          at(y, x, k) = static_cast<uint8_t>(
-              std::min(std::abs(int(left.at<uint8_t>(y, x)) - int(right.at<uint8_t>(y, column(x, k)))), kCostMax));
-  } else if (p.cost == Cost::sad) {
-    window3x3Mean(left, right, p, cost, [](int left_grey, int right_grey) { return std::abs(left_grey - right_grey); });
-  } else {  // mi
-    if (mi_table.type() != CV_8UC1 || mi_table.rows != kBins || mi_table.cols != kBins)
+  } else {
+    // The intensity costs: a pair cost of the two greys, pixelwise (ad, mi with mi_window 1) or its mean over the
+    // 3x3 windows (sad, mi with mi_window 3).
+    if (p.cost == Cost::mi && (mi_table.type() != CV_8UC1 || mi_table.rows != kBins || mi_table.cols != kBins))
       throw std::invalid_argument("costVolume: cost mi needs a 256x256 CV_8UC1 table");
-    const auto table = [&](int left_grey, int right_grey) { return int(mi_table.at<uint8_t>(left_grey, right_grey)); };
-    if (p.mi_window == 3) {
-      window3x3Mean(left, right, p, cost, table);
+    const auto pair_cost = [&](int left_grey, int right_grey) {
+      return p.cost == Cost::mi ? int(mi_table.at<uint8_t>(left_grey, right_grey)) : std::abs(left_grey - right_grey);
+    };
+    if (isWindowCost(p)) {
+      window3x3Mean(left, right, p, cost, pair_cost);
     } else {
       for (int y = 0; y < H; ++y)
         for (int x = 0; x < W; ++x)
-          for (int k = 0; k < D; ++k) at(y, x, k) = table(left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k)));
+          for (int k = 0; k < D; ++k)
+            at(y, x, k) = static_cast<uint8_t>(
+                std::min(pair_cost(left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k))), kCostMax));
     }
   }
   return cost;

@@ -42,8 +42,7 @@ CostStage CostStage::intensity(const vk::DescriptorPool& pool, const vk::Special
                                const vk::Buffer* mi_table, int base_row, int rows_per_chunk, int row_words) {
   std::vector<vk::Binding> bindings = {{0, image_left}, {1, image_right}, {4, chunks}};
   if (params.cost == Cost::mi) bindings.push_back(vk::Binding::uniformBuffer(5, *mi_table));
-  const bool window = params.cost == Cost::sad || (params.cost == Cost::mi && params.mi_window == 3);
-  const int rows_per_group = window ? E3D_WINDOW_ROWS : 1;
+  const int rows_per_group = isWindowCost(params) ? E3D_WINDOW_ROWS : 1;
   CostStage stage(vk::Pipeline(pool, std::string("cost_") + toString(params.cost), bindings,
                                sizeof(shader::CostVolumeParams), spec),
                   (size.height + rows_per_group - 1) / rows_per_group);

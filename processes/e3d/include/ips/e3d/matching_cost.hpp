@@ -31,6 +31,9 @@ enum class Cost;
 
 // Largest cost of a cost function (24 for census, 63 for the others).
 int maxCost(Cost cost);
+// Whether the cost is the mean of a pair cost over the 3x3 windows (sad, mi with mi_window 3): the reference and
+// the device's cost stage (cost_window3x3.glsl) both follow this.
+bool isWindowCost(const SgmParams& params);
 
 // Census 5x5 transform (CV_32S holding the 24-bit codes).
 cv::Mat census5x5(const cv::Mat& image);
