@@ -8,9 +8,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "ips/args.hpp"
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
 #include "ips/e3d/sgm.hpp"
+#include "ips/e3d/sgm_options.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/shared_data_test.hpp"
@@ -331,6 +333,41 @@ TEST(SgmParams, MutualInformationTakesThePenaltiesOfItsWindow) {
   EXPECT_EQ(a.p2, pixelwise.p2);
   EXPECT_EQ(SgmParams::fromConfig(config.section("b")).p1, 5);
   EXPECT_THROW(SgmParams::fromConfig(config.section("c")), ConfigError);
+}
+
+// The tools' SGM options: --mi-window takes mi's penalties for that window, and leaves another cost's alone.
+SgmParams paramsFromCommandLine(std::vector<std::string> words) {
+  words.insert(words.begin(), "e3d_tool");
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  Args args(static_cast<int>(argv.size()), argv.data(), "test");
+  addSgmOptions(args);
+  EXPECT_TRUE(args.parse());
+  return sgmParamsFromArgs(args);
+}
+
+TEST(SgmOptions, MiWindowTakesTheMiPenaltiesOfThatWindowOnly) {
+  const SgmParams pixelwise = SgmParams::forCost(Cost::mi, 1);
+  const SgmParams mi1 = paramsFromCommandLine({"--cost", "mi", "--mi-window", "1"});
+  EXPECT_EQ(mi1.mi_window, 1);
+  EXPECT_EQ(mi1.p1, pixelwise.p1);
+  EXPECT_EQ(mi1.p2, pixelwise.p2);
+  EXPECT_EQ(paramsFromCommandLine({"--cost", "mi", "--mi-window", "1", "--p1", "5"}).p1, 5);  // given wins
+  // A census configuration with its own penalties keeps them whatever the MI window.
+  const std::string path = ::testing::TempDir() + "/sgm_census_penalties.yaml";
+  {
+    cv::FileStorage fs(path, cv::FileStorage::WRITE);
+    fs << "sgm"
+       << "{"
+       << "cost"
+       << "census"
+       << "p1" << 9 << "p2" << 60 << "}";
+  }
+  const SgmParams census = paramsFromCommandLine({"--config", path, "--mi-window", "1"});
+  EXPECT_EQ(census.cost, Cost::census);
+  EXPECT_EQ(census.mi_window, 1);
+  EXPECT_EQ(census.p1, 9);
+  EXPECT_EQ(census.p2, 60);
 }
 
 TEST(StereoMatcher, FillInvalidEqualsReferenceAndLeavesNoHoles) {

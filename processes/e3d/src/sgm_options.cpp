@@ -70,7 +70,7 @@ SgmParams sgmParamsFromArgs(const ips::Args& a) {
     const int window = static_cast<int>(a.getInt("--mi-window"));
     if (window != p.mi_window) {
       p.mi_window = window;
-      p = p.withCost(p.cost);  // mi's penalties for this window
+      if (p.cost == Cost::mi) p = p.withCost(Cost::mi);  // mi's penalties for this window; other costs keep theirs
     }
   }
   setIfGiven("--mi-levels", p.mi_levels);
