@@ -2,7 +2,8 @@
 // The joint histogram of Mutual Information (ips/e3d/matching_cost.hpp, step 1): for every pixel with a valid
 // disparity whose match is inside the row, count (L(p), R(p - d)). The disparity is, by `mode`: 0 the start of the
 // hierarchy (pseudo-random, miStartHash), 1 a map of this level, 2 the map of the level below, doubled (each pixel
-// from (x / 2, y / 2)). Bin 65536 counts the pixels. One invocation per pixel.
+// from (x / 2, y / 2)). Bin 65536 counts the pixels. One histogram per region of the region_columns x region_rows grid
+// (E3D_MI_HISTOGRAM_ENTRIES each), the left pixel's region. One invocation per pixel.
 #extension GL_GOOGLE_include_directive : require
 #include "e3d_common.glsl"
 layout(local_size_x = E3D_GROUP_SIZE) in;
@@ -42,6 +43,9 @@ void main() {
   const int xr = x - ((d16 + 8) >> 4);
   if (xr < 0 || xr >= pc.width) return;
   const uint i = grey(false, y * pc.width + x), k = grey(true, y * pc.width + xr);
-  atomicAdd(histogram[(i << 8) | k], 1u);
-  atomicAdd(histogram[65536], 1u);
+  const int region = E3D_REGION_OF(y, pc.region_rows, pc.height) * pc.region_columns +
+                     E3D_REGION_OF(x, pc.region_columns, pc.width);
+  const int base = region * E3D_MI_HISTOGRAM_ENTRIES;
+  atomicAdd(histogram[base + int((i << 8) | k)], 1u);
+  atomicAdd(histogram[base + 65536], 1u);
 }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <iostream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -346,6 +347,23 @@ SgmParams paramsFromCommandLine(std::vector<std::string> words) {
   return sgmParamsFromArgs(args);
 }
 
+TEST(SgmParams, MutualInformationLevelsTakeRegionsThatHoldEnoughPixels) {
+  const SgmParams p = SgmParams::forCost(Cost::mi);  // 6 x 3 regions of at least 4096 pixels
+  ASSERT_EQ(p.mi_region_columns, 6);
+  ASSERT_EQ(p.mi_region_rows, 3);
+  ASSERT_EQ(p.mi_region_min_pixels, 4096);
+  // 640 x 480: regions of 106 x 160 px, at half resolution 53 x 80 = 4240 px, at a quarter 26 x 40.
+  const SgmParams full = miLevelParams(p, 0, {640, 480}), half = miLevelParams(p, 1, {320, 240}),
+                  quarter = miLevelParams(p, 2, {160, 120});
+  EXPECT_EQ(full.mi_region_columns * full.mi_region_rows, 18);
+  EXPECT_EQ(half.mi_region_columns * half.mi_region_rows, 18);
+  EXPECT_EQ(quarter.mi_region_columns, 1);
+  EXPECT_EQ(quarter.mi_region_rows, 1);
+  EXPECT_EQ(half.num_disparities, 65);                      // and the level's range: [0, 127] / 2 -> [0, 64]
+  const SgmParams small = miLevelParams(p, 0, {384, 190});  // 64 x 63 = 4032 px: one table
+  EXPECT_EQ(small.mi_region_columns * small.mi_region_rows, 1);
+}
+
 TEST(SgmOptions, MiWindowTakesTheMiPenaltiesOfThatWindowOnly) {
   const SgmParams pixelwise = SgmParams::forCost(Cost::mi, 1);
   const SgmParams mi1 = paramsFromCommandLine({"--cost", "mi", "--mi-window", "1"});
@@ -482,11 +500,56 @@ TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
   p.mi_window = 1;                              // pixelwise, Hirschmueller's
   expectDeviceEqualsReference(left, right, p);
   p.mi_window = 3;
+  const SgmParams defaults = p;
+  p.mi_region_columns = 5;  // regions on every level, an uneven grid (300 / 5, 180 / 2 at the full resolution)
+  p.mi_region_rows = 2;
+  p.mi_region_min_pixels = 0;
+  expectDeviceEqualsReference(left, right, p);
+  p.mi_region_min_pixels = 2000;  // the full resolution's regions (60 x 90 px) only, one table below (30 x 45)
+  expectDeviceEqualsReference(left, right, p);
+  p.mi_region_columns = p.mi_region_rows = 1;  // one table per level
+  expectDeviceEqualsReference(left, right, p);
+  p = defaults;
   p.mi_levels = 1;  // the full resolution only, learning from the start disparity and then from itself
   p.mi_coarse_iterations = 3;
   p.right_map = RightMap::match;
   p.fill_invalid = true;
   expectDeviceEqualsReference(left, right, p);
+}
+
+TEST(StereoMatcher, MutualInformationRegionsFollowVignetting) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
+  // The right image 40 % darker towards its corners (the illumination falling with the distance to the centre, as
+  // a lens's vignetting): the grey relation between the images changes across the image, which one table cannot
+  // follow and a table per region can.
+  const cv::Mat left = loadGrey("cones", "left.png"), right = loadGrey("cones", "right.png");
+  cv::Mat vignetted(right.size(), CV_8UC1);
+  const double cx = (right.cols - 1) / 2.0, cy = (right.rows - 1) / 2.0, r2max = cx * cx + cy * cy;
+  for (int y = 0; y < right.rows; ++y)
+    for (int x = 0; x < right.cols; ++x)
+      vignetted.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(
+          right.at<uint8_t>(y, x) * (1.0 - 0.4 * ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / r2max));
+  const cv::Mat gt = cv::imread(ips::dataDir() + "/stereo/cones/disp_gt.png", cv::IMREAD_GRAYSCALE);
+  const auto bad2 = [&](const cv::Mat& d16) {  // invalid counted as bad, no fill
+    int bad = 0, n = 0;
+    for (int y = 0; y < gt.rows; ++y)
+      for (int x = 0; x < gt.cols; ++x) {
+        if (gt.at<uint8_t>(y, x) == 0) continue;
+        ++n;
+        const int v = d16.at<int16_t>(y, x);
+        bad += v == kInvalidDisparity || std::abs(v / 16.0 - gt.at<uint8_t>(y, x) / 4.0) > 2.0;
+      }
+    return 100.0 * bad / n;
+  };
+  SgmParams regions = SgmParams::forCost(Cost::mi);
+  regions.num_disparities = 64;
+  SgmParams one_table = regions;
+  one_table.mi_region_columns = one_table.mi_region_rows = 1;
+  const double with_regions = bad2(StereoMatcher(context(), left.size(), regions).match(left, vignetted).disparity);
+  const double with_one_table = bad2(StereoMatcher(context(), left.size(), one_table).match(left, vignetted).disparity);
+  std::cout << "vignetted cones, bad 2.0 %: " << regions.mi_region_columns << "x" << regions.mi_region_rows
+            << " regions " << with_regions << ", one table " << with_one_table << "\n";
+  EXPECT_LT(with_regions, with_one_table - 2.0);
 }
 
 TEST(StereoMatcher, MutualInformationAndCensusHoldWhereTheRightImageIsDarkerAndAdDoesNot) {

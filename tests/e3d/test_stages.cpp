@@ -455,17 +455,20 @@ std::pair<cv::Mat, cv::Mat> mirroredPair(const cv::Mat& left, const cv::Mat& rig
 
 // cost_ad, cost_sad, cost_mi into a cost volume of `lane_multiple` (4: the lines layout, 32-bit stores; 8: the
 // rows layout, 64-bit stores) at base row 3, split over buffers of 5 rows; `mirror`: the second match, which reads
-// the pair swapped and mirrored (and the table transposed), i.e. the reference's mirrored pair.
+// the pair swapped and mirrored (and the tables transposed, their regions mirrored), i.e. the reference's mirrored
+// pair. mi: `tables` holds one table per region of params' grid.
 void expectIntensityCostEqualsReference(const cv::Mat& left, const cv::Mat& right, const SgmParams& params,
-                                        int lane_multiple, bool mirror, const cv::Mat& table = cv::Mat()) {
+                                        int lane_multiple, bool mirror, const MiTables& tables = MiTables()) {
   const cv::Size size = left.size();
   const LanePlan lanes = planLanes(params.num_disparities, context().subgroupSize(), lane_multiple);
   const uint64_t row_bytes = static_cast<uint64_t>(size.width) * lanes.padded_disps;
   const int base_row = 3;
   Volume volume(base_row + size.height, row_bytes, 5);
   ImagePair images(left, right);
-  vk::Buffer table_buffer = hostBuffer(65536);
-  if (!table.empty()) std::memcpy(table_buffer.mapped(), table.data, 65536);
+  vk::Buffer table_buffer = hostBuffer(std::max<size_t>(1, tables.tables.size()) * E3D_MI_TABLE_BYTES);
+  for (size_t i = 0; i < tables.tables.size(); ++i)
+    std::memcpy(static_cast<uint8_t*>(table_buffer.mapped()) + i * E3D_MI_TABLE_BYTES, tables.tables[i].data,
+                E3D_MI_TABLE_BYTES);
   const int m = mirror ? 1 : 0;
   vk::DescriptorPool pool = makePool();
   CostStage stage = CostStage::intensity(pool, specialisation(lanes.lane_disps, params, mirror), size, params,
@@ -473,14 +476,9 @@ void expectIntensityCostEqualsReference(const cv::Mat& left, const cv::Mat& righ
                                          base_row, 5, static_cast<int>(row_bytes / 4));
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
   auto [ref_left, ref_right] = mirror ? mirroredPair(left, right) : std::pair<cv::Mat, cv::Mat>(left, right);
-  cv::Mat ref_table = table;
-  if (mirror && !table.empty()) {
-    ref_table = cv::Mat();  // a new matrix: transposing into the input's header would overwrite it
-    cv::transpose(table, ref_table);
-  }
   int padding = 0;
   const std::vector<uint8_t> device = readSlice(volume, base_row, size, params.num_disparities, lanes, &padding);
-  EXPECT_EQ(mismatches(device, costVolume(ref_left, ref_right, params, ref_table)), 0)
+  EXPECT_EQ(mismatches(device, costVolume(ref_left, ref_right, params, mirror ? tables.swapped() : tables)), 0)
       << params.describe() << " lanes of " << lanes.lane_disps << (mirror ? " mirrored" : "");
   EXPECT_EQ(padding, 0);
   EXPECT_EQ(volume.row(0)[0], 0xCD);  // rows before base_row untouched
@@ -503,21 +501,63 @@ TEST(CostStage, AdAndSadEqualReference) {
   }
 }
 
+// Random tables (the stage only looks costs up), one per region of params' grid.
+MiTables randomTables(const SgmParams& params, uint64_t seed) {
+  MiTables tables;
+  tables.columns = params.mi_region_columns;
+  tables.rows = params.mi_region_rows;
+  for (int i = 0; i < tables.columns * tables.rows; ++i)
+    tables.tables.push_back(randomImage({256, 256}, seed + i, 0, 64));
+  return tables;
+}
+
 TEST(CostStage, MutualInformationEqualsReference) {
   const cv::Mat left = randomImage({37, 23}, 65), right = randomImage({37, 23}, 66);
-  const cv::Mat table = randomImage({256, 256}, 67, 0, 64);  // any table: the stage only looks costs up
   SgmParams p = SgmParams::forCost(Cost::mi);
   p.num_disparities = 27;
   p.min_disparity = 1;
-  for (int window : {1, 3}) {  // pixelwise, and the mean over 3x3
-    p.mi_window = window;
-    for (int multiple : {4, 8})
-      for (bool mirror : {false, true}) expectIntensityCostEqualsReference(left, right, p, multiple, mirror, table);
+  // One table; the default grid (6 x 3); a grid of regions of one and two columns and rows (37 / 7 = 5.3: uneven).
+  for (cv::Size grid : {cv::Size(1, 1), cv::Size(p.mi_region_columns, p.mi_region_rows), cv::Size(7, 5)}) {
+    p.mi_region_columns = grid.width;
+    p.mi_region_rows = grid.height;
+    const MiTables tables = randomTables(p, 67);
+    for (int window : {1, 3}) {  // pixelwise, and the mean over 3x3
+      p.mi_window = window;
+      for (int multiple : {4, 8})
+        for (bool mirror : {false, true}) expectIntensityCostEqualsReference(left, right, p, multiple, mirror, tables);
+    }
   }
   // A range reaching past the row: the window's columns clamped on both images.
   p.num_disparities = 50;
   p.min_disparity = 20;
-  expectIntensityCostEqualsReference(left, right, p, 4, false, table);
+  expectIntensityCostEqualsReference(left, right, p, 4, false, randomTables(p, 68));
+}
+
+TEST(CostStage, MutualInformationRegionsReadTheirOwnTables) {
+  // Each region's table a constant of its own: the cost of every pixel and disparity is its region's constant,
+  // whatever the greys (the window's mean of a constant), so a region reading a neighbour's table shows.
+  const cv::Mat left = randomImage({37, 23}, 69), right = randomImage({37, 23}, 70);
+  SgmParams p = SgmParams::forCost(Cost::mi);
+  p.num_disparities = 9;
+  p.mi_region_columns = 4;
+  p.mi_region_rows = 3;
+  MiTables tables;
+  tables.columns = 4;
+  tables.rows = 3;
+  for (int i = 0; i < 12; ++i) tables.tables.push_back(cv::Mat(256, 256, CV_8UC1, cv::Scalar(3 + 5 * i)));
+  const std::vector<uint8_t> costs = costVolume(left, right, p, tables);
+  for (int y : {0, 7, 8, 15, 16, 22})
+    for (int x : {0, 9, 10, 18, 19, 27, 28, 36}) {
+      const int region = miRegionOf(y, 3, 23) * 4 + miRegionOf(x, 4, 37);
+      EXPECT_EQ(costs[(static_cast<size_t>(y) * 37 + x) * 9 + 4], 3 + 5 * region) << x << ", " << y;
+    }
+  EXPECT_EQ(miRegionOf(8, 4, 37), 0);  // region 1 starts at floor(37 / 4) = 9, region 3 at floor(3 * 37 / 4) = 27
+  EXPECT_EQ(miRegionOf(9, 4, 37), 1);
+  EXPECT_EQ(miRegionOf(26, 4, 37), 2);
+  EXPECT_EQ(miRegionOf(27, 4, 37), 3);
+  EXPECT_EQ(miRegionOf(36, 4, 37), 3);
+  for (int multiple : {4, 8})
+    for (bool mirror : {false, true}) expectIntensityCostEqualsReference(left, right, p, multiple, mirror, tables);
 }
 
 // A 37 x 23 pair whose left image is the right one shifted by `shift` px, with noise: the paths have a minimum to
@@ -729,13 +769,24 @@ std::vector<uint32_t> referenceHistogram(const cv::Mat& left, const cv::Mat& rig
   return out;
 }
 
-// The table stage's buffers (the histogram host-visible).
+// The table stage's buffers for `regions` regions (the histograms host-visible).
 struct MiTableBuffers {
-  vk::Buffer histogram = hostBuffer((65536 + 1) * 4, 0), log2 = hostBuffer(256 * 4),
-             work64 = hostBuffer(E3D_MI_WORK64_ENTRIES * 8), work32 = hostBuffer(E3D_MI_WORK32_ENTRIES * 4),
-             table = hostBuffer(65536);
-  MiTableBuffers() { std::memcpy(log2.mapped(), log2FractionTable().data(), 256 * 4); }
-  cv::Mat readTable() const { return cv::Mat(256, 256, CV_8UC1, table.mapped()).clone(); }
+  explicit MiTableBuffers(int regions = 1)
+      : histogram(hostBuffer(static_cast<size_t>(regions) * E3D_MI_HISTOGRAM_ENTRIES * 4, 0)),
+        log2(hostBuffer(256 * 4)),
+        work64(hostBuffer(static_cast<size_t>(regions) * E3D_MI_WORK64_ENTRIES * 8)),
+        work32(hostBuffer(static_cast<size_t>(regions) * E3D_MI_WORK32_ENTRIES * 4)),
+        table(hostBuffer(static_cast<size_t>(regions) * E3D_MI_TABLE_BYTES)) {
+    std::memcpy(log2.mapped(), log2FractionTable().data(), 256 * 4);
+  }
+  vk::Buffer histogram, log2, work64, work32, table;
+  cv::Mat readTable(int region = 0) const {
+    return cv::Mat(256, 256, CV_8UC1, static_cast<uint8_t*>(table.mapped()) + region * E3D_MI_TABLE_BYTES).clone();
+  }
+  std::vector<uint32_t> readHistogram(int region) const {
+    const uint32_t* bins = static_cast<const uint32_t*>(histogram.mapped()) + region * E3D_MI_HISTOGRAM_ENTRIES;
+    return std::vector<uint32_t>(bins, bins + E3D_MI_HISTOGRAM_ENTRIES);
+  }
 };
 
 // The image the table learns from: a grey mapping (right = 0.6 left + 20) with noise, so that the table has a
@@ -754,7 +805,7 @@ TEST(MiTableStage, EqualsReferenceFromAHistogram) {
   const std::vector<uint32_t> histogram = referenceHistogram(left, right, zero);
   std::memcpy(b.histogram.mapped(), histogram.data(), histogram.size() * 4);
   vk::DescriptorPool pool = makePool();
-  MiTableStage stage(pool, b.histogram, b.log2, b.work64, b.work32, b.table);
+  MiTableStage stage(pool, b.histogram, b.log2, b.work64, b.work32, b.table, 1);
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
   const cv::Mat expected = miTable(left, right, zero);
   EXPECT_EQ(differences(b.readTable(), expected), 0);
@@ -767,71 +818,122 @@ TEST(MiTableStage, EmptyHistogramGivesTheUniformTable) {
   const cv::Mat image = randomImage({37, 23}, 102);
   MiTableBuffers b;  // histogram zeroed
   vk::DescriptorPool pool = makePool();
-  MiTableStage stage(pool, b.histogram, b.log2, b.work64, b.work32, b.table);
+  MiTableStage stage(pool, b.histogram, b.log2, b.work64, b.work32, b.table, 1);
   runOnDevice([&](VkCommandBuffer cmd) { stage.record(cmd); });
   const cv::Mat none(image.size(), CV_16S, cv::Scalar(kInvalidDisparity));
   EXPECT_EQ(differences(b.readTable(), miTable(image, image, none)), 0);
 }
 
-// The histogram stage with a guide, read back and compared bin for bin with miJointHistogram of the guide's
-// disparities, then the table stage on it against miTable.
+// The histogram stage with a guide, read back, then the table stage on it: the histogram and table of each region
+// of params' grid (region-major).
 struct MiHistogramRun {
-  std::vector<uint32_t> histogram;
-  cv::Mat table;
+  std::vector<std::vector<uint32_t>> histograms;
+  std::vector<cv::Mat> tables;
+  // Of the first region (the image's with 1 x 1).
+  const std::vector<uint32_t>& histogram() const { return histograms.front(); }
+  const cv::Mat& table() const { return tables.front(); }
 };
 MiHistogramRun runMiHistogram(const cv::Mat& left, const cv::Mat& right, const cv::Mat& guide16,
                               MiHistogramStage::Guide mode, const SgmParams& params) {
   ImagePair images(left, right);
   vk::Buffer guide = mapBuffer(guide16.empty() ? cv::Mat(1, 1, CV_16S, cv::Scalar(0)) : guide16);
-  MiTableBuffers b;
+  const int regions = params.mi_region_columns * params.mi_region_rows;
+  MiTableBuffers b(regions);
   vk::DescriptorPool pool = makePool();
   MiHistogramStage histogram(pool, left.size(), guide16.empty() ? left.size() : guide16.size(), images.words, guide,
                              b.histogram, params);
-  MiTableStage table(pool, b.histogram, b.log2, b.work64, b.work32, b.table);
+  MiTableStage table(pool, b.histogram, b.log2, b.work64, b.work32, b.table, regions);
   runOnDevice([&](VkCommandBuffer cmd) {
     histogram.record(cmd, mode);
     table.record(cmd);
   });
-  const uint32_t* bins = static_cast<const uint32_t*>(b.histogram.mapped());
-  return {std::vector<uint32_t>(bins, bins + 65536 + 1), b.readTable()};
+  MiHistogramRun run;
+  for (int r = 0; r < regions; ++r) {
+    run.histograms.push_back(b.readHistogram(r));
+    run.tables.push_back(b.readTable(r));
+  }
+  return run;
+}
+
+// The device's histograms and tables of every region against miJointHistograms and miTables of `map`.
+void expectRegionsEqualReference(const MiHistogramRun& run, const cv::Mat& left, const cv::Mat& right,
+                                 const cv::Mat& map, const SgmParams& params) {
+  const std::vector<JointHistogram> expected =
+      miJointHistograms(left, right, map, params.mi_region_columns, params.mi_region_rows);
+  const MiTables tables = miTables(left, right, map, params.mi_region_columns, params.mi_region_rows);
+  ASSERT_EQ(run.histograms.size(), expected.size());
+  for (size_t r = 0; r < expected.size(); ++r) {
+    std::vector<uint32_t> bins(expected[r].bins.begin(), expected[r].bins.end());
+    bins.push_back(static_cast<uint32_t>(expected[r].count));
+    EXPECT_EQ(run.histograms[r], bins) << "region " << r;
+    EXPECT_EQ(differences(run.tables[r], tables.tables[r]), 0) << "region " << r;
+  }
 }
 
 TEST(MiHistogramStage, OwnGuideCountsTheMatchedPairs) {
   cv::Mat left, right;
   miPair({37, 23}, 103, left, right);
-  const SgmParams p = SgmParams::forCost(Cost::mi);
+  SgmParams p = SgmParams::forCost(Cost::mi);
+  p.mi_region_columns = p.mi_region_rows = 1;  // one table (the regions: below)
   // Disparity 0: every pixel counted, in its own column.
   const cv::Mat zero(left.size(), CV_16S, cv::Scalar(0));
   const MiHistogramRun at_zero = runMiHistogram(left, right, zero, MiHistogramStage::Guide::own, p);
-  EXPECT_EQ(at_zero.histogram, referenceHistogram(left, right, zero));
-  EXPECT_EQ(at_zero.histogram[65536], left.total());
-  EXPECT_EQ(differences(at_zero.table, miTable(left, right, zero)), 0);
+  EXPECT_EQ(at_zero.histogram(), referenceHistogram(left, right, zero));
+  EXPECT_EQ(at_zero.histogram()[65536], left.total());
+  EXPECT_EQ(differences(at_zero.table(), miTable(left, right, zero)), 0);
   // A random map with invalid pixels and matches outside the row (both not counted), subpixel values rounded.
   const cv::Mat map = randomMap(left.size(), 104, -3 * 16, 20 * 16, 20);
   const MiHistogramRun run = runMiHistogram(left, right, map, MiHistogramStage::Guide::own, p);
-  EXPECT_EQ(run.histogram, referenceHistogram(left, right, map));
-  EXPECT_EQ(differences(run.table, miTable(left, right, map)), 0);
-  EXPECT_LT(run.histogram[65536], left.total() * 8 / 10);
-  EXPECT_GT(run.histogram[65536], left.total() / 3);
+  EXPECT_EQ(run.histogram(), referenceHistogram(left, right, map));
+  EXPECT_EQ(differences(run.table(), miTable(left, right, map)), 0);
+  EXPECT_LT(run.histogram()[65536], left.total() * 8 / 10);
+  EXPECT_GT(run.histogram()[65536], left.total() / 3);
 }
 
 TEST(MiHistogramStage, StartAndBelowGuidesEqualReference) {
   cv::Mat left, right;
   miPair({37, 23}, 105, left, right);
   SgmParams p = SgmParams::forCost(Cost::mi);
+  p.mi_region_columns = p.mi_region_rows = 1;  // one table (the regions: below)
   p.num_disparities = 12;
   p.min_disparity = -2;
   // The start of the hierarchy: the pseudo-random disparity of miStartDisparity.
   const MiHistogramRun start = runMiHistogram(left, right, cv::Mat(), MiHistogramStage::Guide::start, p);
   const cv::Mat start_map = miStartDisparity(left.size(), p.min_disparity, p.num_disparities);
-  EXPECT_EQ(start.histogram, referenceHistogram(left, right, start_map));
-  EXPECT_EQ(differences(start.table, miTable(left, right, start_map)), 0);
+  EXPECT_EQ(start.histogram(), referenceHistogram(left, right, start_map));
+  EXPECT_EQ(differences(start.table(), miTable(left, right, start_map)), 0);
   // The map of the level below (an odd size's half), doubled.
   const cv::Mat below = randomMap({19, 12}, 106, 0, 6 * 16, 25);
   const MiHistogramRun doubled = runMiHistogram(left, right, below, MiHistogramStage::Guide::below, p);
   const cv::Mat doubled_map = doubleDisparity(below, left.size());
-  EXPECT_EQ(doubled.histogram, referenceHistogram(left, right, doubled_map));
-  EXPECT_EQ(differences(doubled.table, miTable(left, right, doubled_map)), 0);
+  EXPECT_EQ(doubled.histogram(), referenceHistogram(left, right, doubled_map));
+  EXPECT_EQ(differences(doubled.table(), miTable(left, right, doubled_map)), 0);
+}
+
+TEST(MiHistogramStage, RegionsCountTheirOwnPixels) {
+  cv::Mat left, right;
+  miPair({37, 23}, 107, left, right);
+  SgmParams p = SgmParams::forCost(Cost::mi);
+  p.num_disparities = 12;
+  p.min_disparity = -2;
+  // The default grid, and an uneven one (37 / 5, 23 / 4).
+  for (cv::Size grid : {cv::Size(p.mi_region_columns, p.mi_region_rows), cv::Size(5, 4)}) {
+    p.mi_region_columns = grid.width;
+    p.mi_region_rows = grid.height;
+    const cv::Mat map = randomMap(left.size(), 108, -3 * 16, 20 * 16, 20);
+    const MiHistogramRun own = runMiHistogram(left, right, map, MiHistogramStage::Guide::own, p);
+    expectRegionsEqualReference(own, left, right, map, p);
+    // Every matched pixel in exactly one region: the counts add up to the image's histogram.
+    uint64_t counted = 0;
+    for (const std::vector<uint32_t>& h : own.histograms) counted += h[65536];
+    EXPECT_EQ(counted, miJointHistogram(left, right, map).count);
+    const MiHistogramRun start = runMiHistogram(left, right, cv::Mat(), MiHistogramStage::Guide::start, p);
+    expectRegionsEqualReference(start, left, right, miStartDisparity(left.size(), p.min_disparity, p.num_disparities),
+                                p);
+    const cv::Mat below = randomMap({19, 12}, 109, 0, 6 * 16, 25);
+    const MiHistogramRun doubled = runMiHistogram(left, right, below, MiHistogramStage::Guide::below, p);
+    expectRegionsEqualReference(doubled, left, right, doubleDisparity(below, left.size()), p);
+  }
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "ips/e3d/sgm.hpp"
+#include "ips/e3d_shaders/interface.h"
 
 namespace ips {
 namespace e3d {
@@ -21,8 +22,9 @@ constexpr int kBins = 256;
 // The Parzen window: binomial (1 6 15 20 15 6 1), sum 64.
 constexpr int kParzen[7] = {1, 6, 15, 20, 15, 6, 1};
 
-// The costs [y][x][k] of sad and of windowed mi: the mean of pair_cost(L, R) over the 3x3 windows around x and
-// x - d, every column and row clamped into the image, rounded and truncated: min((sum + 4) / 9, 63).
+// The costs [y][x][k] of sad and of windowed mi: the mean of pair_cost(x, y, L, R) (x, y the centre pixel) over
+// the 3x3 windows around x and x - d, every column and row clamped into the image, rounded and truncated:
+// min((sum + 4) / 9, 63).
 template <typename PairCost>
 void window3x3Mean(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, std::vector<uint8_t>& cost,
                    PairCost pair_cost) {
@@ -34,7 +36,7 @@ void window3x3Mean(const cv::Mat& left, const cv::Mat& right, const SgmParams& p
         for (int dy = -1; dy <= 1; ++dy)
           for (int dx = -1; dx <= 1; ++dx) {
             const int yy = clampi(y + dy, 0, H - 1);
-            sum += pair_cost(left.at<uint8_t>(yy, clampi(x + dx, 0, W - 1)),
+            sum += pair_cost(x, y, left.at<uint8_t>(yy, clampi(x + dx, 0, W - 1)),
                              right.at<uint8_t>(yy, clampi(x + dx - (p.min_disparity + k), 0, W - 1)));
           }
         cost[(static_cast<size_t>(y) * W + x) * D + k] = static_cast<uint8_t>(std::min((sum + 4) / 9, kCostMax));
@@ -68,8 +70,29 @@ cv::Mat census5x5(const cv::Mat& image) {
   return out;
 }
 
+int miRegionOf(int coordinate, int regions, int extent) { return E3D_REGION_OF(coordinate, regions, extent); }
+
+const cv::Mat& MiTables::at(int x, int y, cv::Size size) const {
+  const int column = miRegionOf(mirrored ? size.width - 1 - x : x, columns, size.width);
+  return tables[static_cast<size_t>(miRegionOf(y, rows, size.height) * columns + column)];
+}
+
+MiTables MiTables::swapped() const {
+  MiTables s = *this;
+  s.mirrored = !mirrored;
+  for (cv::Mat& t : s.tables) t = t.t();
+  return s;
+}
+
 std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const SgmParams& p,
                                 const cv::Mat& mi_table) {
+  MiTables tables;
+  if (!mi_table.empty()) tables.tables.push_back(mi_table);
+  return costVolume(left, right, p, tables);
+}
+
+std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const SgmParams& p,
+                                const MiTables& mi_tables) {
   const int W = left.cols, H = left.rows, D = p.num_disparities;
   std::vector<uint8_t> cost(static_cast<size_t>(W) * H * D);
   auto at = [&](int y, int x, int k) -> uint8_t& { return cost[(static_cast<size_t>(y) * W + x) * D + k]; };
@@ -86,10 +109,17 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
   } else {
     // The intensity costs: a pair cost of the two greys, pixelwise (ad, mi with mi_window 1) or its mean over the
     // 3x3 windows (sad, mi with mi_window 3).
-    if (p.cost == Cost::mi && (mi_table.type() != CV_8UC1 || mi_table.rows != kBins || mi_table.cols != kBins))
-      throw std::invalid_argument("costVolume: cost mi needs a 256x256 CV_8UC1 table");
-    const auto pair_cost = [&](int left_grey, int right_grey) {
-      return p.cost == Cost::mi ? int(mi_table.at<uint8_t>(left_grey, right_grey)) : std::abs(left_grey - right_grey);
+    if (p.cost == Cost::mi) {
+      if (mi_tables.columns < 1 || mi_tables.rows < 1 ||
+          mi_tables.tables.size() != static_cast<size_t>(mi_tables.columns * mi_tables.rows))
+        throw std::invalid_argument("costVolume: cost mi needs one table per region");
+      for (const cv::Mat& t : mi_tables.tables)
+        if (t.type() != CV_8UC1 || t.rows != kBins || t.cols != kBins)
+          throw std::invalid_argument("costVolume: cost mi needs 256x256 CV_8UC1 tables");
+    }
+    const auto pair_cost = [&](int x, int y, int left_grey, int right_grey) {
+      return p.cost == Cost::mi ? int(mi_tables.at(x, y, left.size()).at<uint8_t>(left_grey, right_grey))
+                                : std::abs(left_grey - right_grey);
     };
     if (isWindowCost(p)) {
       window3x3Mean(left, right, p, cost, pair_cost);
@@ -98,7 +128,7 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
         for (int x = 0; x < W; ++x)
           for (int k = 0; k < D; ++k)
             at(y, x, k) = static_cast<uint8_t>(
-                std::min(pair_cost(left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k))), kCostMax));
+                std::min(pair_cost(x, y, left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k))), kCostMax));
     }
   }
   return cost;
@@ -162,28 +192,47 @@ std::vector<T> parzen1(const std::vector<T>& in, bool repeat_edges) {
 
 }  // namespace
 
-JointHistogram miJointHistogram(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16) {
+std::vector<JointHistogram> miJointHistograms(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16,
+                                              int columns, int rows) {
   if (left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size() ||
       disparity16.type() != CV_16S || disparity16.size() != left.size())
     throw std::invalid_argument("miJointHistogram: need two CV_8UC1 images and a CV_16S disparity map of one size");
+  if (columns < 1 || rows < 1) throw std::invalid_argument("miJointHistograms: need at least one region");
   const int W = left.cols, H = left.rows;
-  JointHistogram h;
-  h.bins.assign(kBins * kBins, 0);
+  std::vector<JointHistogram> histograms(static_cast<size_t>(columns * rows));
+  for (JointHistogram& h : histograms) h.bins.assign(kBins * kBins, 0);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       const int d = disparity16.at<int16_t>(y, x);
       if (d == kInvalidDisparity) continue;
       const int xr = x - ((d + kSubpixelScale / 2) >> 4);
       if (xr < 0 || xr >= W) continue;
+      JointHistogram& h = histograms[static_cast<size_t>(miRegionOf(y, rows, H) * columns + miRegionOf(x, columns, W))];
       ++h.bins[left.at<uint8_t>(y, x) * kBins + right.at<uint8_t>(y, xr)];
       ++h.count;
     }
-  return h;
+  return histograms;
+}
+
+JointHistogram miJointHistogram(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16) {
+  return miJointHistograms(left, right, disparity16, 1, 1).front();
 }
 
 cv::Mat miTable(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16) {
-  // 1. Joint histogram of the matched pixels.
-  const JointHistogram histogram = miJointHistogram(left, right, disparity16);
+  return miTable(miJointHistogram(left, right, disparity16));
+}
+
+MiTables miTables(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16, int columns, int rows) {
+  MiTables tables;
+  tables.columns = columns;
+  tables.rows = rows;
+  for (const JointHistogram& h : miJointHistograms(left, right, disparity16, columns, rows))
+    tables.tables.push_back(miTable(h));
+  return tables;
+}
+
+cv::Mat miTable(const JointHistogram& histogram) {
+  // 1. The joint histogram of the matched pixels.
   const std::vector<uint64_t>& hist = histogram.bins;
   const uint64_t n = histogram.count;
   // 2. Parzen smoothing of the joint histogram and of the marginals.

@@ -1,5 +1,7 @@
 #include "ips/e3d/sgm_options.hpp"
 
+#include <cstdio>
+#include <stdexcept>
 #include <string>
 
 #include "ips/config.hpp"
@@ -35,6 +37,12 @@ void addSgmOptions(ips::Args& args) {
               "Mutual Information: the cost's window, 1 = pixelwise, 3 = mean over 3x3; another window\nthan the "
               "config's takes its penalties (default " +
                   std::to_string(d.mi_window) + ")")
+      .option("--mi-regions", "CxR",
+              "Mutual Information: one table per region of a C x R grid (1x1 = one table; default " +
+                  std::to_string(d.mi_region_columns) + "x" + std::to_string(d.mi_region_rows) + ")")
+      .option("--mi-region-min-pixels", "N",
+              "Mutual Information: a level takes the regions when each holds N pixels, else one table\n(default " +
+                  std::to_string(d.mi_region_min_pixels) + ")")
       .option("--num-disparities", "N",
               "1.." + std::to_string(kMaxDisparities) + " (default " + std::to_string(d.num_disparities) + ")")
       .option("--min-disparity", "N", "(default " + std::to_string(d.min_disparity) + ")")
@@ -75,6 +83,13 @@ SgmParams sgmParamsFromArgs(const ips::Args& a) {
   }
   setIfGiven("--mi-levels", p.mi_levels);
   setIfGiven("--mi-coarse-iterations", p.mi_coarse_iterations);
+  if (a.has("--mi-regions")) {
+    const std::string grid = a.get("--mi-regions");
+    char rest = 0;
+    if (std::sscanf(grid.c_str(), "%dx%d%c", &p.mi_region_columns, &p.mi_region_rows, &rest) != 2)
+      throw std::invalid_argument("--mi-regions: expected COLUMNSxROWS (e.g. 6x3), got '" + grid + "'");
+  }
+  setIfGiven("--mi-region-min-pixels", p.mi_region_min_pixels);
   setIfGiven("--num-disparities", p.num_disparities);
   setIfGiven("--min-disparity", p.min_disparity);
   setIfGiven("--p1", p.p1);

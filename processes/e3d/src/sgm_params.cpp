@@ -4,6 +4,7 @@
 
 #include "ips/config.hpp"
 #include "ips/e3d/sgm.hpp"
+#include "ips/e3d_shaders/interface.h"
 
 namespace ips {
 namespace e3d {
@@ -50,6 +51,10 @@ void SgmParams::validate() const {
   if (mi_levels < 1 || mi_levels > 8) fail("mi_levels must be 1..8");
   if (mi_coarse_iterations < 1 || mi_coarse_iterations > 8) fail("mi_coarse_iterations must be 1..8");
   if (mi_window != 1 && mi_window != 3) fail("mi_window must be 1 or 3, got " + std::to_string(mi_window));
+  if (mi_region_columns < 1 || mi_region_rows < 1 || mi_region_columns * mi_region_rows > E3D_MAX_MI_REGIONS)
+    fail("mi_region_columns x mi_region_rows must be 1.." + std::to_string(E3D_MAX_MI_REGIONS) + " regions, got " +
+         std::to_string(mi_region_columns) + "x" + std::to_string(mi_region_rows));
+  if (mi_region_min_pixels < 0) fail("mi_region_min_pixels must be >= 0");
   if (p2_slope < 0 || p2_slope > 4096) fail("p2_slope must be 0..4096");
   if (paths != 8 && paths != 4) fail("paths must be 4 or 8, got " + std::to_string(paths));
   if (uniqueness < 0 || uniqueness > 99) fail("uniqueness must be 0..99 percent");
@@ -118,6 +123,9 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   p.fill_invalid = c.getBool("fill_invalid", p.fill_invalid);
   p.mi_levels = c.getInt("mi_levels", p.mi_levels);
   p.mi_coarse_iterations = c.getInt("mi_coarse_iterations", p.mi_coarse_iterations);
+  p.mi_region_columns = c.getInt("mi_region_columns", p.mi_region_columns);
+  p.mi_region_rows = c.getInt("mi_region_rows", p.mi_region_rows);
+  p.mi_region_min_pixels = c.getInt("mi_region_min_pixels", p.mi_region_min_pixels);
   try {
     p.validate();
   } catch (const std::invalid_argument& e) {
@@ -126,10 +134,21 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   return p;
 }
 
+SgmParams miLevelParams(const SgmParams& p, int level, cv::Size level_size) {
+  SgmParams lp = p;
+  levelRange(p.min_disparity, p.num_disparities, level, lp.min_disparity, lp.num_disparities);
+  const int64_t smallest_region =
+      static_cast<int64_t>(level_size.width / p.mi_region_columns) * (level_size.height / p.mi_region_rows);
+  if (smallest_region < p.mi_region_min_pixels) lp.mi_region_columns = lp.mi_region_rows = 1;
+  return lp;
+}
+
 std::string SgmParams::describe() const {
   std::ostringstream s;
   s << toString(cost);
-  if (cost == Cost::mi) s << " levels=" << mi_levels << "x" << mi_coarse_iterations << " window=" << mi_window;
+  if (cost == Cost::mi)
+    s << " levels=" << mi_levels << "x" << mi_coarse_iterations << " window=" << mi_window
+      << " regions=" << mi_region_columns << "x" << mi_region_rows << "/" << mi_region_min_pixels;
   s << " D=" << num_disparities << " dmin=" << min_disparity << " P1=" << p1 << " P2=" << p2 << " p2_slope=" << p2_slope
     << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel << " median=" << median
     << " lr=" << lr_max_diff << " right=" << toString(right_map) << " fill=" << fill_invalid

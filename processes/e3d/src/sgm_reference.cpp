@@ -149,27 +149,18 @@ void rawMaps(const cv::Mat& left, const std::vector<uint8_t>& cost, const SgmPar
   winnerTakesAll(aggregateCosts(left, cost, p), left.size(), p, dl, dr);
 }
 
-// The parameters of pyramid level l (0 = full resolution) of the Mutual Information hierarchy: the level's
-// search range (the tables learn from the checked maps, before any fill).
-SgmParams levelParams(const SgmParams& p, int level) {
-  SgmParams lp = p;
-  levelRange(p.min_disparity, p.num_disparities, level, lp.min_disparity, lp.num_disparities);
-  return lp;
-}
-
-// One match with a given Mutual Information table (ignored by the other costs): steps 3-6 (no fill).
-SgmResult matchWithTable(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, const cv::Mat& mi_table) {
+// One match with given Mutual Information tables (ignored by the other costs): steps 3-6 (no fill).
+SgmResult matchWithTables(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, const MiTables& mi_tables) {
   cv::Mat dl, dr;
-  rawMaps(left, costVolume(left, right, p, mi_table), p, dl, dr);
+  rawMaps(left, costVolume(left, right, p, mi_tables), p, dl, dr);
   if (p.right_map == RightMap::match) {
     // The right image's map from a second match, right to left: the mirrored pair (mirrored right image as the
     // left one) has the same disparities; its left map, mirrored back, is the right map. The Mutual Information
-    // table of the swapped pair is the transposed one.
-    cv::Mat mirrored_left, mirrored_right, mirrored_map, unused, swapped_table;
+    // tables of the swapped pair are the transposed ones, their regions mirrored.
+    cv::Mat mirrored_left, mirrored_right, mirrored_map, unused;
     cv::flip(right, mirrored_left, 1);
     cv::flip(left, mirrored_right, 1);
-    if (!mi_table.empty()) cv::transpose(mi_table, swapped_table);
-    rawMaps(mirrored_left, costVolume(mirrored_left, mirrored_right, p, swapped_table), p, mirrored_map, unused);
+    rawMaps(mirrored_left, costVolume(mirrored_left, mirrored_right, p, mi_tables.swapped()), p, mirrored_map, unused);
     cv::flip(mirrored_map, dr, 1);
   }
 
@@ -214,7 +205,7 @@ SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParam
   if (left.empty() || left.type() != CV_8UC1 || right.type() != CV_8UC1 || left.size() != right.size())
     throw std::invalid_argument("sgmReference: need two CV_8UC1 images of the same size");
   if (p.cost != Cost::mi) {
-    SgmResult result = matchWithTable(left, right, p, cv::Mat());
+    SgmResult result = matchWithTables(left, right, p, MiTables());
     if (p.fill_invalid) fillInvalid(result.left);
     return result;
   }
@@ -228,11 +219,12 @@ SgmResult sgmReference(const cv::Mat& left, const cv::Mat& right, const SgmParam
   cv::Mat guide;  // the disparity the next table learns from, at the next level's resolution
   SgmResult result;
   for (int l = p.mi_levels - 1; l >= 0; --l) {
-    SgmParams lp = levelParams(p, l);
+    const SgmParams lp = miLevelParams(p, l, lefts[l].size());
     const int iterations = l == p.mi_levels - 1 ? p.mi_coarse_iterations : 1;
     if (l == p.mi_levels - 1) guide = miStartDisparity(lefts[l].size(), lp.min_disparity, lp.num_disparities);
     for (int it = 0; it < iterations; ++it) {
-      result = matchWithTable(lefts[l], rights[l], lp, miTable(lefts[l], rights[l], guide));
+      result = matchWithTables(lefts[l], rights[l], lp,
+                               miTables(lefts[l], rights[l], guide, lp.mi_region_columns, lp.mi_region_rows));
       guide = result.left;
     }
     if (l > 0) guide = doubleDisparity(result.left, lefts[l - 1].size());

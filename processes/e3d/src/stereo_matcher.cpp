@@ -32,10 +32,8 @@ struct StereoMatcher::Impl {
     for (int l = 1; hierarchy && l < params.mi_levels; ++l)
       sizes.push_back(cv::Size((sizes.back().width + 1) / 2, (sizes.back().height + 1) / 2));
     for (size_t l = 0; l < sizes.size(); ++l) {
-      SgmParams lp = params;
+      SgmParams lp = params.cost == Cost::mi ? miLevelParams(params, static_cast<int>(l), sizes[l]) : params;
       if (l > 0) {
-        levelRange(params.min_disparity, params.num_disparities, static_cast<int>(l), lp.min_disparity,
-                   lp.num_disparities);
         lp.mi_levels = 1;
         lp.fill_invalid = false;
       }

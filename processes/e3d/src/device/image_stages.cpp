@@ -86,8 +86,15 @@ MiHistogramStage::MiHistogramStage(const vk::DescriptorPool& pool, cv::Size size
     : pipeline_(pool, "mi_histogram", {{0, image_words[0]}, {1, image_words[1]}, {2, guide}, {3, histogram}},
                 sizeof(shader::MiHistogramParams)),
       histogram_(histogram),
-      pc_{size.width, size.height,          guide_size.width,      guide_size.height,
-          0,          params.min_disparity, params.num_disparities} {}
+      pc_{size.width,
+          size.height,
+          guide_size.width,
+          guide_size.height,
+          0,
+          params.min_disparity,
+          params.num_disparities,
+          params.mi_region_columns,
+          params.mi_region_rows} {}
 
 void MiHistogramStage::record(VkCommandBuffer cmd, Guide guide) const {
   vk::fillZero(cmd, histogram_);
@@ -101,17 +108,19 @@ void MiHistogramStage::record(VkCommandBuffer cmd, Guide guide) const {
 
 MiTableStage::MiTableStage(const vk::DescriptorPool& pool, const vk::Buffer& histogram,
                            const vk::Buffer& log2_fractions, const vk::Buffer& work64, const vk::Buffer& work32,
-                           const vk::Buffer& table) {
+                           const vk::Buffer& table, int regions)
+    : regions_(regions) {
   for (int step = 0; step < E3D_MI_TABLE_STEPS; ++step)
-    steps_[step] =
-        vk::Pipeline(pool, "mi_table", {{0, histogram}, {1, log2_fractions}, {2, work64}, {3, work32}, {4, table}}, 0,
-                     {{E3D_SPEC_MI_TABLE_STEP, step}});
+    steps_[step] = vk::Pipeline(
+        pool, "mi_table",
+        {{0, histogram}, vk::Binding::uniformBuffer(1, log2_fractions), {2, work64}, {3, work32}, {4, table}}, 0,
+        {{E3D_SPEC_MI_TABLE_STEP, step}});
 }
 
 void MiTableStage::record(VkCommandBuffer cmd) const {
   for (const vk::Pipeline& step : steps_) {
     step.bind(cmd);
-    vkCmdDispatch(cmd, 256 / E3D_MI_TABLE_GROUP, 1, 1);
+    vkCmdDispatch(cmd, 256 / E3D_MI_TABLE_GROUP, static_cast<uint32_t>(regions_), 1);
     vk::computeBarrier(cmd);
   }
 }

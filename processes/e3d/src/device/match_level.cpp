@@ -129,17 +129,18 @@ void MatchLevel::initCostStages(const std::vector<vk::Descriptor>& chunks, int b
   }
 }
 
-// Mutual Information: the histogram from this level's start disparity or own checked map and the table. The
-// histogram from the level below is wired by learnFrom.
+// Mutual Information: the histograms (one per region) from this level's start disparity or own checked map and the
+// tables. The histogram from the level below is wired by learnFrom.
 void MatchLevel::initMutualInformation(cv::Size guide_size) {
-  mi_histogram_ = buffer((65536 + 1) * 4, false);
-  mi_table_ = buffer(65536, false);
-  mi_work64_ = buffer(E3D_MI_WORK64_ENTRIES * 8, false);
-  mi_work32_ = buffer(E3D_MI_WORK32_ENTRIES * 4, false);
+  const int regions = params_.mi_region_columns * params_.mi_region_rows;
+  mi_histogram_ = buffer(static_cast<size_t>(regions) * E3D_MI_HISTOGRAM_ENTRIES * 4, false);
+  mi_table_ = buffer(static_cast<size_t>(regions) * E3D_MI_TABLE_BYTES, false);
+  mi_work64_ = buffer(static_cast<size_t>(regions) * E3D_MI_WORK64_ENTRIES * 8, false);
+  mi_work32_ = buffer(static_cast<size_t>(regions) * E3D_MI_WORK32_ENTRIES * 4, false);
   mi_log2_ = buffer(256 * 4, true);
   std::memcpy(mi_log2_.mapped(), log2FractionTable().data(), 256 * 4);
   mi_start_histogram_.emplace(pool_, size_, guide_size, image_words_, checkedLeft(), mi_histogram_, params_);
-  mi_table_stage_.emplace(pool_, mi_histogram_, mi_log2_, mi_work64_, mi_work32_, mi_table_);
+  mi_table_stage_.emplace(pool_, mi_histogram_, mi_log2_, mi_work64_, mi_work32_, mi_table_, regions);
 }
 
 void MatchLevel::readImagesFrom(const MatchLevel& above) {

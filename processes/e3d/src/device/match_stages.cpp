@@ -40,24 +40,56 @@ CostStage CostStage::intensity(const vk::DescriptorPool& pool, const vk::Special
                                const SgmParams& params, const vk::BufferView& image_left,
                                const vk::BufferView& image_right, const std::vector<vk::Descriptor>& chunks,
                                const vk::Buffer* mi_table, int base_row, int rows_per_chunk, int row_words) {
+  const bool mi = params.cost == Cost::mi;
   std::vector<vk::Binding> bindings = {{0, image_left}, {1, image_right}, {4, chunks}};
-  if (params.cost == Cost::mi) bindings.push_back(vk::Binding::uniformBuffer(5, *mi_table));
+  if (mi) bindings.push_back(vk::Binding::dynamicUniformBuffer(5, *mi_table, E3D_MI_TABLE_BYTES));
   const int rows_per_group = isWindowCost(params) ? E3D_WINDOW_ROWS : 1;
   CostStage stage(vk::Pipeline(pool, std::string("cost_") + toString(params.cost), bindings,
                                sizeof(shader::CostVolumeParams), spec),
-                  (size.height + rows_per_group - 1) / rows_per_group);
-  stage.volume_pc_ = {size.width,     size.height, params.num_disparities, params.min_disparity, base_row,
-                      rows_per_chunk, row_words};
+                  0);
+  // The regions' pixels; the mirrored match (the second) walks the mirrored image, so region column i covers the
+  // mirrored columns [W - x_end, W - x_begin).
+  const bool mirrored = std::any_of(spec.begin(), spec.end(), [](const std::pair<uint32_t, int32_t>& s) {
+    return s.first == E3D_SPEC_MIRROR && s.second != 0;
+  });
+  const int columns = mi ? params.mi_region_columns : 1, rows = mi ? params.mi_region_rows : 1;
+  const int W = size.width, H = size.height;
+  for (int j = 0; j < rows; ++j)
+    for (int i = 0; i < columns; ++i) {
+      // Region i starts at floor(i * extent / n), the first coordinate E3D_REGION_OF puts into it.
+      const int x_begin = i * W / columns, x_end = (i + 1) * W / columns;
+      const int y_begin = j * H / rows, y_end = (j + 1) * H / rows;
+      Part part;
+      part.pc = {W,
+                 H,
+                 params.num_disparities,
+                 params.min_disparity,
+                 base_row,
+                 rows_per_chunk,
+                 row_words,
+                 mirrored ? W - x_end : x_begin,
+                 mirrored ? W - x_begin : x_end,
+                 y_begin,
+                 y_end};
+      part.table_offset = static_cast<uint32_t>((j * columns + i) * E3D_MI_TABLE_BYTES);
+      part.groups = (y_end - y_begin + rows_per_group - 1) / rows_per_group;
+      if (x_end > x_begin && part.groups > 0) stage.parts_.push_back(part);
+    }
   return stage;
 }
 
 void CostStage::record(VkCommandBuffer cmd) const {
-  pipeline_.bind(cmd);
-  if (census_)
+  if (census_) {
+    pipeline_.bind(cmd);
     pipeline_.push(cmd, census_pc_);
-  else
-    pipeline_.push(cmd, volume_pc_);
-  vkCmdDispatch(cmd, static_cast<uint32_t>(groups_), 1, 1);
+    vkCmdDispatch(cmd, static_cast<uint32_t>(groups_), 1, 1);
+  }
+  // The regions write disjoint pixels of the volume: no barrier between them.
+  for (const Part& part : parts_) {
+    pipeline_.bind(cmd, part.table_offset);
+    pipeline_.push(cmd, part.pc);
+    vkCmdDispatch(cmd, static_cast<uint32_t>(part.groups), 1, 1);
+  }
   vk::computeBarrier(cmd);
 }
 

@@ -97,8 +97,9 @@ class DownsampleStage {
   cv::Size size_;
 };
 
-// mi_histogram: the joint histogram (zeroed first) of the matched pixels of a disparity map (the guide: this
-// level's map, or the map of the level below, doubled, or none: the start disparity).
+// mi_histogram: the joint histograms (zeroed first) of the matched pixels of a disparity map (the guide: this
+// level's map, or the map of the level below, doubled, or none: the start disparity), one per region of
+// params.mi_region_columns x mi_region_rows.
 class MiHistogramStage {
  public:
   enum class Guide { start = 0, own = 1, below = 2 };
@@ -113,16 +114,17 @@ class MiHistogramStage {
   shader::MiHistogramParams pc_;
 };
 
-// mi_table: the 256 x 256 cost table from the histogram, in four dispatches (mi_table.comp's steps). work64 and
-// work32 hold E3D_MI_WORK64_ENTRIES and E3D_MI_WORK32_ENTRIES entries.
+// mi_table: the 256 x 256 cost table of each region from its histogram, in four dispatches (mi_table.comp's steps)
+// over all regions. work64 and work32 hold E3D_MI_WORK64_ENTRIES and E3D_MI_WORK32_ENTRIES entries per region.
 class MiTableStage {
  public:
   MiTableStage(const vk::DescriptorPool& pool, const vk::Buffer& histogram, const vk::Buffer& log2_fractions,
-               const vk::Buffer& work64, const vk::Buffer& work32, const vk::Buffer& table);
+               const vk::Buffer& work64, const vk::Buffer& work32, const vk::Buffer& table, int regions);
   void record(VkCommandBuffer cmd) const;
 
  private:
   vk::Pipeline steps_[E3D_MI_TABLE_STEPS];
+  int regions_;
 };
 
 // The cost stage of one match: census costs into the lines' cost slice (cost_census), or the intensity costs
@@ -134,7 +136,8 @@ class CostStage {
   static CostStage census(const vk::DescriptorPool& pool, const vk::Specialisation& spec, cv::Size size,
                           const SgmParams& params, const vk::Buffer& census_left, const vk::Buffer& census_right,
                           const std::vector<vk::Descriptor>& chunks, const LinesPlan& plan);
-  // cost_<cost> from the images (four pixels per texel); mi reads the table as a uniform buffer.
+  // cost_<cost> from the images (four pixels per texel); mi reads each region's table (params.mi_region_columns x
+  // mi_region_rows, E3D_MI_TABLE_BYTES each in mi_tables) as a uniform buffer, one dispatch per region.
   static CostStage intensity(const vk::DescriptorPool& pool, const vk::Specialisation& spec, cv::Size size,
                              const SgmParams& params, const vk::BufferView& image_left,
                              const vk::BufferView& image_right, const std::vector<vk::Descriptor>& chunks,
@@ -142,12 +145,19 @@ class CostStage {
   void record(VkCommandBuffer cmd) const;
 
  private:
+  // One dispatch: the pixels [x_begin, x_end) x [y_begin, y_end) of its push constants, the table at
+  // table_offset (mi: one dispatch per region; the other costs: one for the image).
+  struct Part {
+    shader::CostVolumeParams pc;
+    uint32_t table_offset;
+    int groups;
+  };
   CostStage(vk::Pipeline pipeline, int groups) : pipeline_(std::move(pipeline)), groups_(groups) {}
   vk::Pipeline pipeline_;
   bool census_ = false;
   shader::CensusCostParams census_pc_{};
-  shader::CostVolumeParams volume_pc_{};
-  int groups_;  // workgroups of the dispatch
+  std::vector<Part> parts_;
+  int groups_;  // workgroups of the census dispatch
 };
 
 // sgm_aggregate (lines): one dispatch per path direction, one subgroup per image line.

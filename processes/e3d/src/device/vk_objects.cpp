@@ -79,19 +79,22 @@ void BufferView::reset() {
 
 VkDescriptorType Binding::type() const {
   if (items.front().view) return VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER;
-  return items.front().uniform ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER : VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
+  if (items.front().uniform)
+    return items.front().dynamic ? VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC : VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER;
+  return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
 DescriptorPool::DescriptorPool(VkDevice dev, uint32_t max_sets, uint32_t storage_buffers, uint32_t texel_buffers,
                                uint32_t uniform_buffers)
     : dev_(dev) {
-  VkDescriptorPoolSize sizes[3] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, storage_buffers},
+  VkDescriptorPoolSize sizes[4] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, storage_buffers},
                                    {VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, texel_buffers},
-                                   {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, uniform_buffers}};
+                                   {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, uniform_buffers},
+                                   {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC, uniform_buffers}};
   VkDescriptorPoolCreateInfo pi{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
   pi.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
   pi.maxSets = max_sets;
-  pi.poolSizeCount = 3;
+  pi.poolSizeCount = 4;
   pi.pPoolSizes = sizes;
   vkCheck(vkCreateDescriptorPool(dev_, &pi, nullptr, &pool_), "vkCreateDescriptorPool");
 }
@@ -118,6 +121,7 @@ Pipeline::Pipeline(const DescriptorPool& pool, const std::string& shader, const 
     l.binding = b.binding;
     l.descriptorType = b.type();
     l.descriptorCount = static_cast<uint32_t>(b.items.size());
+    if (l.descriptorType == VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER_DYNAMIC) dynamic_buffers_ += l.descriptorCount;
     l.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
     layout_bindings.push_back(l);
   }
@@ -197,6 +201,7 @@ Pipeline& Pipeline::operator=(Pipeline&& other) noexcept {
     pipeline_ = take(other.pipeline_);
     set_ = take(other.set_);
     push_bytes_ = other.push_bytes_;
+    dynamic_buffers_ = other.dynamic_buffers_;
   }
   return *this;
 }
@@ -212,9 +217,10 @@ void Pipeline::reset() {
   set_ = VK_NULL_HANDLE;
 }
 
-void Pipeline::bind(VkCommandBuffer cmd) const {
+void Pipeline::bind(VkCommandBuffer cmd, uint32_t dynamic_offset) const {
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set_, 0, nullptr);
+  const std::vector<uint32_t> offsets(dynamic_buffers_, dynamic_offset);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_, 0, 1, &set_, dynamic_buffers_, offsets.data());
 }
 
 void Pipeline::pushBytes(VkCommandBuffer cmd, const void* data, uint32_t bytes) const {

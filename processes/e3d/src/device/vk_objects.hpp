@@ -65,12 +65,14 @@ class BufferView {
   VkBufferView view_ = VK_NULL_HANDLE;
 };
 
-// One descriptor: a storage (or uniform) buffer range, or a storage texel buffer (`view`).
+// One descriptor: a storage (or uniform) buffer range, or a storage texel buffer (`view`). A dynamic uniform
+// buffer's range starts at the offset given when the pipeline is bound (Pipeline::bind).
 struct Descriptor {
   VkBuffer buffer = VK_NULL_HANDLE;
   VkDeviceSize offset = 0, range = VK_WHOLE_SIZE;
   VkBufferView view = VK_NULL_HANDLE;
   bool uniform = false;
+  bool dynamic = false;
 };
 
 // A binding of a descriptor set: one descriptor, or an array of them.
@@ -83,6 +85,10 @@ struct Binding {
   static Binding uniformBuffer(uint32_t b, const Buffer& buffer) {
     return Binding(b, std::vector<Descriptor>{{buffer.handle(), 0, VK_WHOLE_SIZE, VK_NULL_HANDLE, true}});
   }
+  // `range` bytes of `buffer` from the offset bound with the pipeline.
+  static Binding dynamicUniformBuffer(uint32_t b, const Buffer& buffer, VkDeviceSize range) {
+    return Binding(b, std::vector<Descriptor>{{buffer.handle(), 0, range, VK_NULL_HANDLE, true, true}});
+  }
   VkDescriptorType type() const;
 };
 
@@ -90,7 +96,7 @@ class DescriptorPool {
  public:
   DescriptorPool() = default;
   // Room for `max_sets` sets with up to `storage_buffers` storage buffers, `texel_buffers` texel buffers and
-  // `uniform_buffers` uniform buffers in all.
+  // `uniform_buffers` uniform buffers in all (and as many dynamic uniform buffers).
   DescriptorPool(VkDevice dev, uint32_t max_sets, uint32_t storage_buffers, uint32_t texel_buffers,
                  uint32_t uniform_buffers);
   ~DescriptorPool();
@@ -124,8 +130,8 @@ class Pipeline {
   explicit operator bool() const { return pipeline_ != VK_NULL_HANDLE; }
   void reset();
 
-  // Binds the pipeline and its descriptor set.
-  void bind(VkCommandBuffer cmd) const;
+  // Binds the pipeline and its descriptor set, every dynamic uniform buffer at `dynamic_offset` bytes.
+  void bind(VkCommandBuffer cmd, uint32_t dynamic_offset = 0) const;
   // Pushes the stage's push constants (the struct of its ips/e3d_shaders header).
   template <typename T>
   void push(VkCommandBuffer cmd, const T& values) const {
@@ -141,6 +147,7 @@ class Pipeline {
   VkPipeline pipeline_ = VK_NULL_HANDLE;
   VkDescriptorSet set_ = VK_NULL_HANDLE;
   uint32_t push_bytes_ = 0;
+  uint32_t dynamic_buffers_ = 0;
 };
 
 // The primary command buffer of a matcher, its pool and fence, and the timestamp queries of its stages.

@@ -40,8 +40,16 @@
 // so that lavapipe spreads each over its threads; its work buffers' sizes in entries (see mi_table.comp).
 #define E3D_MI_TABLE_GROUP 16
 #define E3D_MI_TABLE_STEPS 4
-#define E3D_MI_WORK64_ENTRIES (65536 + 2 * 256)
+#define E3D_MI_WORK64_ENTRIES (65536 + 256)
 #define E3D_MI_WORK32_ENTRIES (2 * 65536 + 4 * 256)
+// Mutual Information per image region (SgmParams::mi_region_columns, mi_region_rows): one joint histogram of
+// E3D_MI_HISTOGRAM_ENTRIES (65536 bins and the count) and one table of 65536 bytes per region, region-major. The
+// region of a coordinate c in [0, extent) split into n regions, region i starting at floor(i * extent / n): the one
+// rule of the reference (ips::e3d::miRegionOf) and the shaders.
+#define E3D_MI_HISTOGRAM_ENTRIES (65536 + 1)
+#define E3D_MI_TABLE_BYTES 65536
+#define E3D_MAX_MI_REGIONS 64
+#define E3D_REGION_OF(c, n, extent) ((((c) + 1) * (n)-1) / (extent))
 
 #ifdef __cplusplus
 #include <cstddef>

@@ -18,6 +18,10 @@
 //  5. mi(i, k) = l(i) + r(k) - j(i, k) (bits); cost = clamp(32 - round(4 mi), 0, 63): 1/4 bit per cost unit.
 // log2q8(v) = 256 * floor(log2 v) + kLog2Fraction[the 8 bits after the leading one], the fraction table rounded
 // from log2; all other steps are integer, so the device computes the same table bit for bit.
+//
+// Regions (SgmParams::mi_region_columns, mi_region_rows): a grid over the image, each region with its own table
+// learnt from the matched pixels of the region (the left pixel's position); the cost of pixel (x, y) reads the table
+// of (x, y)'s region for every pair of its window.
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
@@ -38,8 +42,28 @@ bool isWindowCost(const SgmParams& params);
 // Census 5x5 transform (CV_32S holding the 24-bit codes).
 cv::Mat census5x5(const cv::Mat& image);
 
+// The region of a coordinate in [0, extent) split into `regions` parts, region i starting at floor(i * extent /
+// regions) (E3D_REGION_OF, the same on the device).
+int miRegionOf(int coordinate, int regions, int extent);
+
+// Mutual Information tables (CV_8UC1 256x256, [left grey][right grey]), one per region of a columns x rows grid,
+// row-major (region (i, j) at j * columns + i). `mirrored`: the tables of the mirrored pair (the mirrored right
+// image as the left one; transposed tables), whose column x is column width - 1 - x of the images the regions
+// were laid on.
+struct MiTables {
+  int columns = 1, rows = 1;
+  std::vector<cv::Mat> tables;
+  bool mirrored = false;
+  // The table of pixel (x, y) of an image of `size`.
+  const cv::Mat& at(int x, int y, cv::Size size) const;
+  // The tables of the swapped pair (each transposed, mirrored flipped).
+  MiTables swapped() const;
+};
+
 // Matching costs [y][x][k] (k = 0..num_disparities-1, d = min_disparity + k) of a rectified CV_8UC1 pair.
-// mi_table (CV_8UC1 256x256, [left grey][right grey]) is used when params.cost is "mi".
+// mi_tables (or the single mi_table) are used when params.cost is "mi".
+std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const SgmParams& params,
+                                const MiTables& mi_tables);
 std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const SgmParams& params,
                                 const cv::Mat& mi_table = cv::Mat());
 
@@ -55,11 +79,17 @@ struct JointHistogram {
   uint64_t count = 0;
 };
 JointHistogram miJointHistogram(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16);
+// The histograms of the regions of a columns x rows grid (row-major), each of its region's left pixels.
+std::vector<JointHistogram> miJointHistograms(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16,
+                                              int columns, int rows);
 
 // The Mutual Information cost table (CV_8UC1 256x256) of a pair and a disparity map of the left image (CV_16S,
 // disparity x 16, kInvalidDisparity where none): from miJointHistogram. An empty histogram gives the table of a
 // uniform one.
 cv::Mat miTable(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16);
+cv::Mat miTable(const JointHistogram& histogram);
+// One table per region of a columns x rows grid, each from its region's histogram (miJointHistograms).
+MiTables miTables(const cv::Mat& left, const cv::Mat& right, const cv::Mat& disparity16, int columns, int rows);
 
 // The start of the hierarchy: a pseudo-random disparity in [min_disparity, min_disparity + num_disparities)
 // (x 16) for every pixel, the same on the device.

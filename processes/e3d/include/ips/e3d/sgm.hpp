@@ -64,6 +64,17 @@ struct SgmParams {
   // mean over nine pairs separates the true disparity from its neighbours, as census does with its 5x5 window
   // (processes/e3d/README.md: KITTI's road 18.4 -> 16.4 % bad 2.0, the mean of six scenes 7.06 -> 6.36 %).
   int mi_window = kDefaultMiWindow;
+  // mi: one table per region of a mi_region_columns x mi_region_rows grid over the image: each region's table learns
+  // from the matched pixels of that region, and a pixel's cost reads its region's table. Why: vignetting and the
+  // lens's fall-off change the grey relation between the cameras across the field of view (KITTI's road towards
+  // the lower corners), which one table cannot follow. The grid is fixed in the image, not in pixels, because that
+  // radiometry is a function of the position in the field of view. A level of the hierarchy takes the regions only
+  // when each holds at least mi_region_min_pixels pixels, else one table: a histogram of 65536 bins learns little
+  // from a few hundred pixels (4096, 1/16 of the bins: the full resolution of every scene, the half resolution of
+  // the larger ones). processes/e3d/README.md: the grids and rules measured.
+  int mi_region_columns = 6;
+  int mi_region_rows = 3;
+  int mi_region_min_pixels = 4096;
   // Defaults: the values of rSGM (Spangenberg et al. 2014; its public code kbatsos/Real-Time-Stereo, CPU/sgm) for
   // the same 5x5 census cost, set by its authors and not fitted here (processes/e3d/README.md shows them on the
   // six scenes of ../shared/data/stereo, beside a grid around them). P1 is under a third of the cost range, so a
@@ -108,6 +119,11 @@ struct SgmResult {
   cv::Mat left;   // CV_16S disparity of the left image (after median and LR check)
   cv::Mat right;  // CV_16S disparity of the right image (diagonal search, after median)
 };
+
+// The parameters of level `level` (0 = full resolution) of the Mutual Information hierarchy: the level's search
+// range, and one region (the whole image) unless the level's (of `level_size`) smallest region holds
+// mi_region_min_pixels pixels. The reference and the device both.
+SgmParams miLevelParams(const SgmParams& params, int level, cv::Size level_size);
 
 // Plain C++ reference of the algorithm above (single-threaded, slow; for tests and for checking).
 // left, right: CV_8UC1, same size. Throws std::invalid_argument on bad input.
