@@ -517,6 +517,20 @@ TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
   expectDeviceEqualsReference(left, right, p);
 }
 
+// Bad 2.0 % of a CV_16S map of cones against its ground truth (all pixels with one, invalid counted as bad).
+double conesBad2(const cv::Mat& d16) {
+  const cv::Mat gt = cv::imread(ips::dataDir() + "/stereo/cones/disp_gt.png", cv::IMREAD_GRAYSCALE);
+  int bad = 0, n = 0;
+  for (int y = 0; y < gt.rows; ++y)
+    for (int x = 0; x < gt.cols; ++x) {
+      if (gt.at<uint8_t>(y, x) == 0) continue;
+      ++n;
+      const int v = d16.at<int16_t>(y, x);
+      bad += v == kInvalidDisparity || std::abs(v / 16.0 - gt.at<uint8_t>(y, x) / 4.0) > 2.0;
+    }
+  return 100.0 * bad / n;
+}
+
 TEST(StereoMatcher, MutualInformationRegionsFollowVignetting) {
   IPS_REQUIRE_SHARED_DATA("stereo");
   // The right image 40 % darker towards its corners (the illumination falling with the distance to the centre, as
@@ -529,24 +543,14 @@ TEST(StereoMatcher, MutualInformationRegionsFollowVignetting) {
     for (int x = 0; x < right.cols; ++x)
       vignetted.at<uint8_t>(y, x) = cv::saturate_cast<uint8_t>(
           right.at<uint8_t>(y, x) * (1.0 - 0.4 * ((x - cx) * (x - cx) + (y - cy) * (y - cy)) / r2max));
-  const cv::Mat gt = cv::imread(ips::dataDir() + "/stereo/cones/disp_gt.png", cv::IMREAD_GRAYSCALE);
-  const auto bad2 = [&](const cv::Mat& d16) {  // invalid counted as bad, no fill
-    int bad = 0, n = 0;
-    for (int y = 0; y < gt.rows; ++y)
-      for (int x = 0; x < gt.cols; ++x) {
-        if (gt.at<uint8_t>(y, x) == 0) continue;
-        ++n;
-        const int v = d16.at<int16_t>(y, x);
-        bad += v == kInvalidDisparity || std::abs(v / 16.0 - gt.at<uint8_t>(y, x) / 4.0) > 2.0;
-      }
-    return 100.0 * bad / n;
-  };
   SgmParams regions = SgmParams::forCost(Cost::mi);
   regions.num_disparities = 64;
   SgmParams one_table = regions;
   one_table.mi_region_columns = one_table.mi_region_rows = 1;
-  const double with_regions = bad2(StereoMatcher(context(), left.size(), regions).match(left, vignetted).disparity);
-  const double with_one_table = bad2(StereoMatcher(context(), left.size(), one_table).match(left, vignetted).disparity);
+  const double with_regions =
+      conesBad2(StereoMatcher(context(), left.size(), regions).match(left, vignetted).disparity);
+  const double with_one_table =
+      conesBad2(StereoMatcher(context(), left.size(), one_table).match(left, vignetted).disparity);
   std::cout << "vignetted cones, bad 2.0 %: " << regions.mi_region_columns << "x" << regions.mi_region_rows
             << " regions " << with_regions << ", one table " << with_one_table << "\n";
   EXPECT_LT(with_regions, with_one_table - 2.0);
@@ -561,26 +565,14 @@ TEST(StereoMatcher, MutualInformationAndCensusHoldWhereTheRightImageIsDarkerAndA
     for (int x = 0; x < right.cols; ++x)
       changed.at<uint8_t>(y, x) =
           cv::saturate_cast<uint8_t>(0.6 * 255.0 * std::pow(right.at<uint8_t>(y, x) / 255.0, 1.3));
-  cv::Mat gt = cv::imread(ips::dataDir() + "/stereo/cones/disp_gt.png", cv::IMREAD_GRAYSCALE);
-  auto bad2 = [&](const cv::Mat& d16) {
-    int bad = 0, n = 0;
-    for (int y = 0; y < gt.rows; ++y)
-      for (int x = 0; x < gt.cols; ++x) {
-        if (gt.at<uint8_t>(y, x) == 0) continue;
-        ++n;
-        const int v = d16.at<int16_t>(y, x);
-        bad += v == kInvalidDisparity || std::abs(v / 16.0 - gt.at<uint8_t>(y, x) / 4.0) > 2.0;
-      }
-    return 100.0 * bad / n;
-  };
   std::map<std::string, double> growth;
   for (const char* cost : {"census", "mi", "ad"}) {
     SgmParams p = SgmParams::forCost(parseCost(cost));
     p.num_disparities = 64;
     p.fill_invalid = true;
     StereoMatcher matcher(context(), left.size(), p);
-    const double before = bad2(matcher.match(left, right).disparity);
-    const double after = bad2(matcher.match(left, changed).disparity);
+    const double before = conesBad2(matcher.match(left, right).disparity);
+    const double after = conesBad2(matcher.match(left, changed).disparity);
     growth[cost] = after - before;
   }
   EXPECT_LT(growth["census"], 2.0);
