@@ -512,7 +512,8 @@ TEST(StereoMatcher, MutualInformationHierarchyEqualsReference) {
   p = defaults;
   p.mi_levels = 1;  // the full resolution only, learning from the start disparity and then from itself
   p.mi_coarse_iterations = 3;
-  p.right_map = RightMap::match;
+  p.right_map = RightMap::match;  // its regions mirrored with the images
+  p.mi_region_min_pixels = 0;
   p.fill_invalid = true;
   expectDeviceEqualsReference(left, right, p);
 }
