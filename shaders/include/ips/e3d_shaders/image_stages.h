@@ -2,6 +2,8 @@
 #ifndef IPS_E3D_SHADERS_IMAGE_STAGES_H
 #define IPS_E3D_SHADERS_IMAGE_STAGES_H
 #include "ips/e3d_shaders/interface.h"
+// The push-constant macros expand to GLSL blocks whose instance name follows the brace: keep it there.
+// clang-format off
 E3D_INTERFACE_BEGIN
 
 #if defined(__cplusplus) || defined(E3D_IMAGE_PARAMS)
@@ -37,4 +39,5 @@ E3D_CHECK_SIZE(DownsampleParams, 16);
 #endif
 
 E3D_INTERFACE_END
+// clang-format on
 #endif

@@ -3,6 +3,8 @@
 #ifndef IPS_E3D_SHADERS_MATCH_STAGES_H
 #define IPS_E3D_SHADERS_MATCH_STAGES_H
 #include "ips/e3d_shaders/interface.h"
+// The push-constant macros expand to GLSL blocks whose instance name follows the brace: keep it there.
+// clang-format off
 E3D_INTERFACE_BEGIN
 
 #if defined(__cplusplus) || defined(E3D_CENSUS_COST_PARAMS)
@@ -10,8 +12,7 @@ E3D_INTERFACE_BEGIN
 E3D_PUSH_CONSTANTS(CensusCostParams) {
   int width, height, num_disp, min_disp;
   int cost_slice, rows_per_chunk, row_words;  // volume addressing: row g = cost_slice * height + y
-}
-E3D_PUSH_INSTANCE(pc);
+} E3D_PUSH_INSTANCE(pc);
 E3D_CHECK_SIZE(CensusCostParams, 28);
 #endif
 
@@ -22,8 +23,7 @@ E3D_PUSH_CONSTANTS(CostVolumeParams) {
   int width, height, num_disp, min_disp;
   int base_row, rows_per_chunk, row_words;  // row g = base_row + y
   int x_begin, x_end, y_begin, y_end;
-}
-E3D_PUSH_INSTANCE(pc);
+} E3D_PUSH_INSTANCE(pc);
 E3D_CHECK_SIZE(CostVolumeParams, 44);
 #endif
 
@@ -34,8 +34,7 @@ E3D_PUSH_CONSTANTS(AggregateParams) {
   int p1, p2, p2_slope, path;
   int dx, dy, rows_per_chunk, row_words;  // volume addressing: row g = slice * height + y
   int cost_slice;
-}
-E3D_PUSH_INSTANCE(pc);
+} E3D_PUSH_INSTANCE(pc);
 E3D_CHECK_SIZE(AggregateParams, 52);
 #endif
 
@@ -45,8 +44,7 @@ E3D_PUSH_CONSTANTS(WtaParams) {
   int width, height, num_disp, min_disp;
   int num_paths, uniqueness, subpixel, rows_per_chunk;
   int row_words;
-}
-E3D_PUSH_INSTANCE(pc);
+} E3D_PUSH_INSTANCE(pc);
 E3D_CHECK_SIZE(WtaParams, 36);
 #endif
 
@@ -56,8 +54,7 @@ E3D_PUSH_CONSTANTS(RowPassParams) {
   int width, height, p1, p2;
   int p2_slope, rows_per_chunk, uniqueness, subpixel;
   ivec2 begin, end;
-}
-E3D_PUSH_INSTANCE(pc);
+} E3D_PUSH_INSTANCE(pc);
 E3D_CHECK_SIZE(RowPassParams, 48);
 #ifdef __cplusplus
 static_assert(offsetof(RowPassParams, begin) == 32 && offsetof(RowPassParams, end) == 40,
@@ -72,10 +69,10 @@ E3D_PUSH_CONSTANTS(MiHistogramParams) {
   int width, height, guide_width, guide_height;
   int mode, min_disp, num_disp, region_columns;
   int region_rows;
-}
-E3D_PUSH_INSTANCE(pc);
+} E3D_PUSH_INSTANCE(pc);
 E3D_CHECK_SIZE(MiHistogramParams, 36);
 #endif
 
 E3D_INTERFACE_END
+// clang-format on
 #endif
