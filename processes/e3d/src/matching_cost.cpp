@@ -22,25 +22,27 @@ constexpr int kBins = 256;
 // The Parzen window: binomial (1 6 15 20 15 6 1), sum 64.
 constexpr int kParzen[7] = {1, 6, 15, 20, 15, 6, 1};
 
-// The costs [y][x][k] of sad and of windowed mi: the mean of pair_cost(x, y, L, R) (x, y the centre pixel) over
-// the 3x3 windows around x and x - d, every column and row clamped into the image, rounded and truncated:
+// The costs [y][x][k] of sad and of windowed mi: the mean of the centre pixel's pair cost, pair_cost_at(x, y)(L,
+// R), over the 3x3 windows around x and x - d, every column and row clamped into the image, rounded and truncated:
 // min((sum + 4) / 9, 63).
-template <typename PairCost>
+template <typename PairCostAt>
 void window3x3Mean(const cv::Mat& left, const cv::Mat& right, const SgmParams& p, std::vector<uint8_t>& cost,
-                   PairCost pair_cost) {
+                   PairCostAt pair_cost_at) {
   const int W = left.cols, H = left.rows, D = p.num_disparities;
   for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x)
+    for (int x = 0; x < W; ++x) {
+      const auto pair_cost = pair_cost_at(x, y);
       for (int k = 0; k < D; ++k) {
         int sum = 0;
         for (int dy = -1; dy <= 1; ++dy)
           for (int dx = -1; dx <= 1; ++dx) {
             const int yy = clampi(y + dy, 0, H - 1);
-            sum += pair_cost(x, y, left.at<uint8_t>(yy, clampi(x + dx, 0, W - 1)),
+            sum += pair_cost(left.at<uint8_t>(yy, clampi(x + dx, 0, W - 1)),
                              right.at<uint8_t>(yy, clampi(x + dx - (p.min_disparity + k), 0, W - 1)));
           }
         cost[(static_cast<size_t>(y) * W + x) * D + k] = static_cast<uint8_t>(std::min((sum + 4) / 9, kCostMax));
       }
+    }
 }
 
 }  // namespace
@@ -117,18 +119,23 @@ std::vector<uint8_t> costVolume(const cv::Mat& left, const cv::Mat& right, const
         if (t.type() != CV_8UC1 || t.rows != kBins || t.cols != kBins)
           throw std::invalid_argument("costVolume: cost mi needs 256x256 CV_8UC1 tables");
     }
-    const auto pair_cost = [&](int x, int y, int left_grey, int right_grey) {
-      return p.cost == Cost::mi ? int(mi_tables.at(x, y, left.size()).at<uint8_t>(left_grey, right_grey))
-                                : std::abs(left_grey - right_grey);
+    // The pair cost of centre pixel (x, y): its region's table (mi) or the grey difference.
+    const auto pair_cost_at = [&](int x, int y) {
+      const cv::Mat* table = p.cost == Cost::mi ? &mi_tables.at(x, y, left.size()) : nullptr;
+      return [table](int left_grey, int right_grey) {
+        return table ? int(table->at<uint8_t>(left_grey, right_grey)) : std::abs(left_grey - right_grey);
+      };
     };
     if (isWindowCost(p)) {
-      window3x3Mean(left, right, p, cost, pair_cost);
+      window3x3Mean(left, right, p, cost, pair_cost_at);
     } else {
       for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x)
+        for (int x = 0; x < W; ++x) {
+          const auto pair_cost = pair_cost_at(x, y);
           for (int k = 0; k < D; ++k)
             at(y, x, k) = static_cast<uint8_t>(
-                std::min(pair_cost(x, y, left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k))), kCostMax));
+                std::min(pair_cost(left.at<uint8_t>(y, x), right.at<uint8_t>(y, column(x, k))), kCostMax));
+        }
     }
   }
   return cost;
