@@ -56,9 +56,8 @@ CostStage CostStage::intensity(const vk::DescriptorPool& pool, const vk::Special
   const int W = size.width, H = size.height;
   for (int j = 0; j < rows; ++j)
     for (int i = 0; i < columns; ++i) {
-      // Region i starts at floor(i * extent / n), the first coordinate E3D_REGION_OF puts into it.
-      const int x_begin = i * W / columns, x_end = (i + 1) * W / columns;
-      const int y_begin = j * H / rows, y_end = (j + 1) * H / rows;
+      const int x_begin = E3D_REGION_BEGIN(i, columns, W), x_end = E3D_REGION_BEGIN(i + 1, columns, W);
+      const int y_begin = E3D_REGION_BEGIN(j, rows, H), y_end = E3D_REGION_BEGIN(j + 1, rows, H);
       Part part;
       part.pc = {W,
                  H,

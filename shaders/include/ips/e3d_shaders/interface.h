@@ -49,7 +49,8 @@
 #define E3D_MI_HISTOGRAM_ENTRIES (65536 + 1)
 #define E3D_MI_TABLE_BYTES 65536
 #define E3D_MAX_MI_REGIONS 64
-#define E3D_REGION_OF(c, n, extent) ((((c) + 1) * (n)-1) / (extent))
+#define E3D_REGION_OF(c, n, extent) (((n) * ((c) + 1) - 1) / (extent))
+#define E3D_REGION_BEGIN(i, n, extent) ((i) * (extent) / (n))  // region i's first coordinate
 
 #ifdef __cplusplus
 #include <cstddef>
