@@ -17,9 +17,11 @@
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/shared_data_test.hpp"
+#include "ips/test_support/temp_yaml.hpp"
 
 using namespace ips;
 using namespace ips::e3d;
+using ips::test_support::writeTempYaml;
 
 namespace {
 
@@ -308,43 +310,16 @@ TEST(SgmParams, MutualInformationTakesThePenaltiesOfItsWindow) {
   census.mi_window = 1;
   EXPECT_EQ(census.withCost(Cost::mi).p1, pixelwise.p1);
   // A config without penalties takes those of its cost and window; given penalties win.
-  const std::string path = ::testing::TempDir() + "/sgm_mi_window.yaml";
-  {
-    cv::FileStorage fs(path, cv::FileStorage::WRITE);
-    fs << "a"
-       << "{"
-       << "cost"
-       << "mi"
-       << "mi_window" << 1 << "}";
-    fs << "b"
-       << "{"
-       << "cost"
-       << "mi"
-       << "mi_window" << 1 << "p1" << 5 << "}";
-    fs << "c"
-       << "{"
-       << "cost"
-       << "mi"
-       << "mi_window" << 2 << "}";
-  }
-  const Config config(path);
+  const Config config(writeTempYaml("sgm_mi_window.yaml",
+                                    "a: {cost: mi, mi_window: 1}\n"
+                                    "b: {cost: mi, mi_window: 1, p1: 5}\n"
+                                    "c: {cost: mi, mi_window: 2}\n"));
   const SgmParams a = SgmParams::fromConfig(config.section("a"));
   EXPECT_EQ(a.mi_window, 1);
   EXPECT_EQ(a.p1, pixelwise.p1);
   EXPECT_EQ(a.p2, pixelwise.p2);
   EXPECT_EQ(SgmParams::fromConfig(config.section("b")).p1, 5);
   EXPECT_THROW(SgmParams::fromConfig(config.section("c")), ConfigError);
-}
-
-// The tools' SGM options: --mi-window takes mi's penalties for that window, and leaves another cost's alone.
-SgmParams paramsFromCommandLine(std::vector<std::string> words) {
-  words.insert(words.begin(), "e3d_tool");
-  std::vector<char*> argv;
-  for (std::string& w : words) argv.push_back(w.data());
-  Args args(static_cast<int>(argv.size()), argv.data(), "test");
-  addSgmOptions(args);
-  EXPECT_TRUE(args.parse());
-  return sgmParamsFromArgs(args);
 }
 
 TEST(SgmParams, MutualInformationLevelsTakeRegionsThatHoldEnoughPixels) {
@@ -364,6 +339,17 @@ TEST(SgmParams, MutualInformationLevelsTakeRegionsThatHoldEnoughPixels) {
   EXPECT_EQ(small.mi_region_columns * small.mi_region_rows, 1);
 }
 
+// The tools' SGM options: --mi-window takes mi's penalties for that window, and leaves another cost's alone.
+SgmParams paramsFromCommandLine(std::vector<std::string> words) {
+  words.insert(words.begin(), "e3d_tool");
+  std::vector<char*> argv;
+  for (std::string& w : words) argv.push_back(w.data());
+  Args args(static_cast<int>(argv.size()), argv.data(), "test");
+  addSgmOptions(args);
+  EXPECT_TRUE(args.parse());
+  return sgmParamsFromArgs(args);
+}
+
 TEST(SgmOptions, MiWindowTakesTheMiPenaltiesOfThatWindowOnly) {
   const SgmParams pixelwise = SgmParams::forCost(Cost::mi, 1);
   const SgmParams mi1 = paramsFromCommandLine({"--cost", "mi", "--mi-window", "1"});
@@ -372,15 +358,7 @@ TEST(SgmOptions, MiWindowTakesTheMiPenaltiesOfThatWindowOnly) {
   EXPECT_EQ(mi1.p2, pixelwise.p2);
   EXPECT_EQ(paramsFromCommandLine({"--cost", "mi", "--mi-window", "1", "--p1", "5"}).p1, 5);  // given wins
   // A census configuration with its own penalties keeps them whatever the MI window.
-  const std::string path = ::testing::TempDir() + "/sgm_census_penalties.yaml";
-  {
-    cv::FileStorage fs(path, cv::FileStorage::WRITE);
-    fs << "sgm"
-       << "{"
-       << "cost"
-       << "census"
-       << "p1" << 9 << "p2" << 60 << "}";
-  }
+  const std::string path = writeTempYaml("sgm_census_penalties.yaml", "sgm: {cost: census, p1: 9, p2: 60}\n");
   const SgmParams census = paramsFromCommandLine({"--config", path, "--mi-window", "1"});
   EXPECT_EQ(census.cost, Cost::census);
   EXPECT_EQ(census.mi_window, 1);

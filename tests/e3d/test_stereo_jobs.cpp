@@ -2,9 +2,10 @@
 // queue in replay whose pairs wait for the tracker's INTEGRITY of the pair before them, and the process/ keys.
 #include <gtest/gtest.h>
 
-#include <fstream>
-
 #include "ips/e3d/stereo_jobs.hpp"
+#include "ips/test_support/temp_yaml.hpp"
+
+using ips::test_support::writeTempYaml;
 
 namespace {
 
@@ -62,15 +63,9 @@ TEST(StereoJobQueue, ReplayAPairWaitsForTheIntegrityOfThePairBeforeIt) {
   EXPECT_TRUE(q.frontReady());
 }
 
-std::string writeTemp(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + name;
-  std::ofstream(path) << "%YAML:1.0\n---\n" << text;
-  return path;
-}
-
 TEST(E3dProcessParams, ConfigKeysWithTheCommandLineOverAndRangesChecked) {
   const ips::Config cfg(
-      writeTemp("e3d_process.yaml", "process:\n  output_scale: 0.5\n  every_nth: 3\n  max_queue: 4\n"));
+      writeTempYaml("e3d_process.yaml", "process:\n  output_scale: 0.5\n  every_nth: 3\n  max_queue: 4\n"));
   ips::e3d::ProcessParams p = ips::e3d::loadProcessParams(cfg, std::nullopt, false);
   EXPECT_EQ(p.output_scale, 0.5);
   EXPECT_EQ(p.every_nth, 3);
@@ -78,8 +73,8 @@ TEST(E3dProcessParams, ConfigKeysWithTheCommandLineOverAndRangesChecked) {
   EXPECT_EQ(p.max_queue, 4u);
   EXPECT_TRUE(p.apply_integrity);  // the default
   EXPECT_FALSE(
-      ips::e3d::loadProcessParams(ips::Config(writeTemp("e3d_no_integrity.yaml", "process:\n  apply_integrity: 0\n")),
-                                  std::nullopt, false)
+      ips::e3d::loadProcessParams(
+          ips::Config(writeTempYaml("e3d_no_integrity.yaml", "process:\n  apply_integrity: 0\n")), std::nullopt, false)
           .apply_integrity);
   p = ips::e3d::loadProcessParams(cfg, 8, true);
   EXPECT_EQ(p.every_nth, 8);
@@ -88,12 +83,12 @@ TEST(E3dProcessParams, ConfigKeysWithTheCommandLineOverAndRangesChecked) {
   EXPECT_THROW(ips::e3d::loadProcessParams(cfg, 1LL << 40, false), ips::ConfigError);
   for (const char* bad : {"output_scale: 0", "output_scale: 1.5", "max_queue: 0", "max_queue: 257", "every_nth: -2"})
     EXPECT_THROW(
-        ips::e3d::loadProcessParams(ips::Config(writeTemp("e3d_bad.yaml", std::string("process:\n  ") + bad + "\n")),
-                                    std::nullopt, false),
+        ips::e3d::loadProcessParams(
+            ips::Config(writeTempYaml("e3d_bad.yaml", std::string("process:\n  ") + bad + "\n")), std::nullopt, false),
         ips::ConfigError)
         << bad;
   const ips::e3d::ProcessParams def =
-      ips::e3d::loadProcessParams(ips::Config(writeTemp("e3d_empty.yaml", "other: 1\n")), std::nullopt, false);
+      ips::e3d::loadProcessParams(ips::Config(writeTempYaml("e3d_empty.yaml", "other: 1\n")), std::nullopt, false);
   EXPECT_EQ(def.every_nth, 1);
   EXPECT_EQ(def.max_queue, 16u);
   EXPECT_EQ(def.output_scale, 1.0);

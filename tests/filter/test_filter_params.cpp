@@ -2,19 +2,14 @@
 // config/filter.yaml against the built-in defaults.
 #include <gtest/gtest.h>
 
-#include <fstream>
-
 #include "ips/filter/params.hpp"
+#include "ips/test_support/temp_yaml.hpp"
+
+using ips::test_support::writeTempYaml;
 
 namespace {
 
 using ips::filter::FilterType;
-
-std::string writeTemp(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + name;
-  std::ofstream(path) << "%YAML:1.0\n---\n" << text;
-  return path;
-}
 
 TEST(FilterParams, TheFilterTypeByName) {
   EXPECT_EQ(ips::filter::filterTypeFromString("ekf"), FilterType::Ekf);
@@ -25,10 +20,11 @@ TEST(FilterParams, TheFilterTypeByName) {
 }
 
 TEST(FilterParams, TypeFromTheConfigAndAnUnknownOneRefused) {
-  EXPECT_EQ(ips::filter::loadFilterParams(ips::Config(writeTemp("ukf.yaml", "type: ukf\n"))).type, FilterType::Ukf);
-  EXPECT_EQ(ips::filter::loadFilterParams(ips::Config(writeTemp("none.yaml", "gravity: 9.8\n"))).type, FilterType::Ekf);
+  EXPECT_EQ(ips::filter::loadFilterParams(ips::Config(writeTempYaml("ukf.yaml", "type: ukf\n"))).type, FilterType::Ukf);
+  EXPECT_EQ(ips::filter::loadFilterParams(ips::Config(writeTempYaml("none.yaml", "gravity: 9.8\n"))).type,
+            FilterType::Ekf);
   try {
-    ips::filter::loadFilterParams(ips::Config(writeTemp("bad_type.yaml", "type: pf\n")));
+    ips::filter::loadFilterParams(ips::Config(writeTempYaml("bad_type.yaml", "type: pf\n")));
     FAIL() << "type pf taken";
   } catch (const ips::ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("key 'type' must be 'ekf' or 'ukf', not 'pf'"), std::string::npos) << e.what();

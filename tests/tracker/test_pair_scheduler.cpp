@@ -2,9 +2,10 @@
 // the pair (live: a bounded number of newer pairs; replay: until the map or a later one), and which map it gets.
 #include <gtest/gtest.h>
 
-#include <fstream>
-
+#include "ips/test_support/temp_yaml.hpp"
 #include "ips/tracker/pair_scheduler.hpp"
+
+using ips::test_support::writeTempYaml;
 
 namespace {
 
@@ -172,16 +173,10 @@ TEST(PriorReady, TheFilterPriorOfTheImageTimeElseGyroUpToItElseNothingToWaitFor)
   EXPECT_TRUE(ips::tracker::priorReady(b, 1'000'000));
 }
 
-std::string writeTemp(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + name;
-  std::ofstream(path) << "%YAML:1.0\n---\n" << text;
-  return path;
-}
-
 TEST(LoadDisparityWait, ReadsTheProcessKeysAndRefusesValuesOutOfRange) {
   const DisparityWait w = ips::tracker::loadDisparityWait(
-      ips::Config(writeTemp("wait.yaml",
-                            "process:\n  intra_from_disparity: 1\n  disparity_every_nth: 3\n  max_backlog_s: 0.5\n")),
+      ips::Config(writeTempYaml(
+          "wait.yaml", "process:\n  intra_from_disparity: 1\n  disparity_every_nth: 3\n  max_backlog_s: 0.5\n")),
       true);
   EXPECT_TRUE(w.enabled);
   EXPECT_EQ(w.every_nth, 3);
@@ -192,20 +187,20 @@ TEST(LoadDisparityWait, ReadsTheProcessKeysAndRefusesValuesOutOfRange) {
   for (const char* bad :
        {"disparity_every_nth: 0", "disparity_wait_pairs: -1", "disparity_max_pending: 1", "max_backlog_s: 0"})
     EXPECT_THROW(ips::tracker::loadDisparityWait(
-                     ips::Config(writeTemp("wait_bad.yaml", std::string("process:\n  ") + bad + "\n")), false),
+                     ips::Config(writeTempYaml("wait_bad.yaml", std::string("process:\n  ") + bad + "\n")), false),
                  ips::ConfigError)
         << bad;
 }
 
 TEST(LoadPriorBuilderParams, ReadsTheProcessKeysAndRefusesValuesOutOfRange) {
   const ips::tracker::PriorBuilderParams p = ips::tracker::loadPriorBuilderParams(
-      ips::Config(writeTemp("prior.yaml", "process:\n  max_filter_priors: 8\n  gyro_window_s: 2.5\n")));
+      ips::Config(writeTempYaml("prior.yaml", "process:\n  max_filter_priors: 8\n  gyro_window_s: 2.5\n")));
   EXPECT_EQ(p.max_filter_states, 8);
   EXPECT_EQ(p.gyro_window_s, 2.5);
   EXPECT_EQ(p.gyro_rate_sigma, ips::tracker::PriorBuilderParams{}.gyro_rate_sigma);
   for (const char* bad : {"gyro_rate_sigma: 0", "filter_prior_rotation_floor: -1", "max_filter_priors: 1"})
     EXPECT_THROW(ips::tracker::loadPriorBuilderParams(
-                     ips::Config(writeTemp("prior_bad.yaml", std::string("process:\n  ") + bad + "\n"))),
+                     ips::Config(writeTempYaml("prior_bad.yaml", std::string("process:\n  ") + bad + "\n"))),
                  ips::ConfigError)
         << bad;
 }

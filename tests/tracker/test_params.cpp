@@ -2,19 +2,12 @@
 // reported with file and key.
 #include <gtest/gtest.h>
 
-#include <fstream>
-
+#include "ips/test_support/temp_yaml.hpp"
 #include "ips/tracker/params.hpp"
 
-using namespace ips::tracker;
+using ips::test_support::writeTempYaml;
 
-namespace {
-std::string writeTemp(const std::string& name, const std::string& text) {
-  const std::string path = ::testing::TempDir() + name;
-  std::ofstream(path) << "%YAML:1.0\n---\n" << text;
-  return path;
-}
-}  // namespace
+using namespace ips::tracker;
 
 TEST(Params, ConfigFileWritesOutTheDefaults) {
   const TrackerParams file = loadTrackerParams(std::string(IPS_SOURCE_DIR) + "/config/tracker.yaml");
@@ -43,9 +36,9 @@ TEST(Params, ConfigFileWritesOutTheDefaults) {
 }
 
 TEST(Params, PartialFileOverridesOnlyItsKeys) {
-  const TrackerParams p = loadTrackerParams(writeTemp("partial.yaml",
-                                                      "detector:\n  response: min_eigen\n"
-                                                      "matcher:\n  ncc_half_window: 7\n"));
+  const TrackerParams p = loadTrackerParams(writeTempYaml("partial.yaml",
+                                                          "detector:\n  response: min_eigen\n"
+                                                          "matcher:\n  ncc_half_window: 7\n"));
   EXPECT_EQ(p.detector.response, CornerResponse::MinEigen);
   EXPECT_EQ(p.matcher.ncc_half_window, 7);
   EXPECT_EQ(p.detector.grid_cols, TrackerParams().detector.grid_cols);
@@ -56,7 +49,7 @@ TEST(Params, BadValuesNameFileAndKey) {
        {std::string("detector:\n  response: fast\n"), std::string("matcher:\n  ncc_half_window: 0\n"),
         std::string("detector:\n  sobel_size: 4\n"), std::string("motion:\n  min_inliers: 2\n"),
         std::string("matcher:\n  max_disparity: 0.5\n"), std::string("disparity_offset:\n  apply_sigmas: -1\n")}) {
-    const std::string path = writeTemp("bad.yaml", text);
+    const std::string path = writeTempYaml("bad.yaml", text);
     try {
       loadTrackerParams(path);
       FAIL() << "accepted: " << text;
