@@ -275,6 +275,52 @@ TEST(StereoMatcher, DeviceRectificationMatchesCpuRemap) {
   EXPECT_EQ(out.stages.front().name, "rectify");
 }
 
+TEST(StereoMatcher, FlatFieldLiftsTheCornersForMutualInformationAndNotForCensus) {
+  IPS_REQUIRE_SHARED_DATA("stereo");
+  // A wide-angle pinhole head whose lenses have natural cos^4 vignetting (gain (1 + t)^2: 1.7 in the corners here):
+  // the device's rectification for MI is rectifyPair's with the gains, within cv::remap's position rounding (times
+  // the gain); census takes the plain remap.
+  StereoCalibration calib;
+  for (CameraIntrinsics* cam : {&calib.cam0, &calib.cam1}) {
+    cam->width = 384;
+    cam->height = 288;
+    cam->K << 260, 0, 190, 0, 260, 146, 0, 0, 1;
+    cam->vignetting_gain = Eigen::Vector3d(2, 1, 0);
+  }
+  calib.t_cam1_cam0 = Eigen::Vector3d(-0.2, 0, 0);
+  const StereoRectification rect = computeRectification(calib, 0.0);
+  ASSERT_TRUE(rect.hasFlatField());
+  const cv::Mat raw0 = loadGrey("tsukuba", "left.png"), raw1 = loadGrey("tsukuba", "right.png");
+  cv::Mat flat[2], plain[2];
+  rectifyPair(rect, raw0, raw1, flat[0], flat[1]);
+  StereoRectification without = rect;
+  without.gain0 = without.gain1 = cv::Mat();
+  rectifyPair(without, raw0, raw1, plain[0], plain[1]);
+  const cv::Point corner(5, 5), centre(rect.size.width / 2, rect.size.height / 2);
+  EXPECT_NEAR(rect.gain0.at<float>(centre), 1.0, 0.01);
+  EXPECT_GT(rect.gain0.at<float>(corner), 1.6);
+  for (Cost cost : {Cost::mi, Cost::census}) {
+    SgmParams p = SgmParams::forCost(cost);
+    p.num_disparities = 16;
+    p.mi_levels = 2;
+    StereoMatcher matcher(context(), rect.size, p);
+    matcher.setRectification(rect, raw0.size());
+    cv::Mat device[2];
+    matcher.matchRaw(raw0, raw1, &device[0], &device[1]);
+    const cv::Mat* expected = cost == Cost::mi ? flat : plain;
+    for (int c = 0; c < 2; ++c) {
+      cv::Mat diff;
+      cv::absdiff(expected[c], device[c], diff);
+      double max_diff = 0;
+      cv::minMaxLoc(diff, nullptr, &max_diff);
+      EXPECT_LE(max_diff, 4.0 * 1.8) << "camera " << c << " cost " << static_cast<int>(cost);
+      EXPECT_LT(cv::countNonZero(diff > 2), int(diff.total() / 200)) << "camera " << c;
+    }
+  }
+  // The flat field made a difference worth testing: the corners' greys lifted.
+  EXPECT_GT(cv::mean(flat[0](cv::Rect(0, 0, 40, 40)))[0], 1.3 * cv::mean(plain[0](cv::Rect(0, 0, 40, 40)))[0]);
+}
+
 TEST(StereoMatcher, BadInputThrows) {
   SgmParams p;
   p.num_disparities = 16;

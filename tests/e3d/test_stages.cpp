@@ -326,9 +326,16 @@ void expectRectifyEqualsReference(const StereoRectification& rect, cv::Size raw_
   const cv::Size size = rect.size;
   const size_t n = size.area();
   vk::Buffer raw_buffers[2] = {imageBuffer(raw[0]), imageBuffer(raw[1])};
-  vk::Buffer maps = hostBuffer(4 * n * sizeof(float));
-  const cv::Mat* planes[4] = {&rect.map0x, &rect.map0y, &rect.map1x, &rect.map1y};
-  for (int i = 0; i < 4; ++i) {
+  // The maps and the gains, as StereoMatcher::setRectification lays them out (gains 1 without a flat field).
+  vk::Buffer maps = hostBuffer(6 * n * sizeof(float));
+  const cv::Mat unit_gain(size, CV_32F, cv::Scalar(1.0f));
+  const cv::Mat* planes[6] = {&rect.map0x,
+                              &rect.map0y,
+                              &rect.map1x,
+                              &rect.map1y,
+                              rect.hasFlatField() ? &rect.gain0 : &unit_gain,
+                              rect.hasFlatField() ? &rect.gain1 : &unit_gain};
+  for (int i = 0; i < 6; ++i) {
     cv::Mat plane(size, CV_32F, static_cast<float*>(maps.mapped()) + i * n);
     planes[i]->copyTo(plane);
   }
@@ -346,7 +353,7 @@ void expectRectifyEqualsReference(const StereoRectification& rect, cv::Size raw_
     const cv::Mat device = readImage(out[cam], size);
     int different = 0, ties = 0;
     for (int i = 0; i < static_cast<int>(n); ++i) {
-      const float v = exact.at<float>(i);
+      const float v = exact.at<float>(i) * planes[4 + cam]->at<float>(i);
       ties += std::abs(v - std::floor(v) - 0.5f) < 1e-3f;
       different += device.at<uint8_t>(i) != cpu[cam].at<uint8_t>(i);
     }
@@ -364,15 +371,35 @@ cv::Mat gridMap(cv::Size size, uint64_t seed, int raw_extent) {
   return map;
 }
 
-TEST(RectifyStage, EqualsRemapOnItsSampleGrid) {
-  const cv::Size raw_size(41, 29);
+// Maps of 37x23 rectified pixels on cv::remap's grid into raw images of raw_size.
+StereoRectification gridRectification(cv::Size raw_size) {
   StereoRectification rect;
   rect.size = cv::Size(37, 23);
   rect.map0x = gridMap(rect.size, 43, raw_size.width);
   rect.map0y = gridMap(rect.size, 44, raw_size.height);
   rect.map1x = gridMap(rect.size, 45, raw_size.width);
   rect.map1y = gridMap(rect.size, 46, raw_size.height);
+  return rect;
+}
+
+TEST(RectifyStage, EqualsRemapOnItsSampleGrid) {
+  const cv::Size raw_size(41, 29);
+  expectRectifyEqualsReference(gridRectification(raw_size), raw_size);
+}
+
+TEST(RectifyStage, FlatFieldGainsEqualRemapTimesGain) {
+  // Gains from 0.5 to 3.5 (a wide-angle lens's corners need about 3.4): each grey is the sample times its gain,
+  // rounded half up, clamped to 255 where the gain lifts it past.
+  const cv::Size raw_size(41, 29);
+  StereoRectification rect = gridRectification(raw_size);
+  for (cv::Mat* gain : {&rect.gain0, &rect.gain1}) {
+    gain->create(rect.size, CV_32F);
+    cv::randu(*gain, 0.5f, 3.5f);
+  }
   expectRectifyEqualsReference(rect, raw_size);
+  cv::Mat cpu[2];
+  rectifyPair(rect, randomImage(raw_size, 41), randomImage(raw_size, 42), cpu[0], cpu[1]);
+  EXPECT_GT(cv::countNonZero(cpu[0] == 255), 0) << "no grey lifted past 255: the clamp is not tested";
 }
 
 TEST(RectifyStage, IdentityAndOutsideMaps) {

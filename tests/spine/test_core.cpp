@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "ips/args.hpp"
 #include "ips/calibration.hpp"
@@ -169,6 +170,91 @@ TEST(Calibration, RectifiedGeometryPutsMatchesOnOneRow) {
     EXPECT_NEAR(mx, raw[0].x, 1.5);  // within the rounding of the rectified pixel
     EXPECT_NEAR(my, raw[0].y, 1.5);
   }
+}
+
+TEST(Calibration, VignettingGainRoundTripAndErrors) {
+  ips::StereoCalibration c = exampleHead();
+  c.cam1.vignetting_gain = Eigen::Vector3d(2, 1, -0.25);
+  const std::string p = tempPath("vignetting.calib.yaml");
+  ips::saveCalibration(p, c);
+  const ips::StereoCalibration r = ips::loadCalibration(p);
+  EXPECT_FALSE(r.cam0.hasVignetting());  // written only when there is one, absent = none
+  EXPECT_NEAR((r.cam1.vignetting_gain - c.cam1.vignetting_gain).norm(), 0, 1e-12);
+  EXPECT_DOUBLE_EQ(r.cam1.flatFieldGain(0.5), 1 + 2 * 0.5 + 0.25 - 0.25 * 0.125);
+  // A gain that turns negative inside the image would invert greys: refused, naming the key.
+  c.cam1.vignetting_gain = Eigen::Vector3d(-3, 0, 0);
+  ips::saveCalibration(p, c);
+  try {
+    ips::loadCalibration(p);
+    FAIL();
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("cam1/vignetting_gain"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Calibration, RayAngleOfEveryPixelThroughBothLensModels) {
+  // rayTan2Image's ray of a pixel, projected back through the lens (OpenCV's projectPoints), lands on the pixel.
+  ips::CameraIntrinsics radtan = exampleHead().cam0, fisheye = radtan;
+  fisheye.model = ips::DistortionModel::kEquidistant;
+  fisheye.distortion << 0.02, -0.01, 0.003, -0.001, 0;
+  for (const ips::CameraIntrinsics& cam : {radtan, fisheye}) {
+    const cv::Mat tan2 = ips::rayTan2Image(cam);
+    ASSERT_EQ(tan2.size(), cv::Size(cam.width, cam.height));
+    for (const cv::Point pixel : {cv::Point(0, 0), cv::Point(1359, 1023), cv::Point(680, 512), cv::Point(100, 900)}) {
+      // The ray at the pixel's angle, in the pixel's direction from the principal point (distortion is radial
+      // about it up to the small tangential terms, so the direction is found by a 1-D search).
+      const double t = tan2.at<float>(pixel);
+      const auto miss = [&](double phi) {
+        std::vector<cv::Point3d> ray{{std::sqrt(t) * std::cos(phi), std::sqrt(t) * std::sin(phi), 1.0}};
+        std::vector<cv::Point2d> image;
+        if (cam.model == ips::DistortionModel::kEquidistant)
+          cv::fisheye::projectPoints(ray, image, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cam.cvK(), cam.cvDistortion());
+        else
+          cv::projectPoints(ray, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cam.cvK(), cam.cvDistortion(), image);
+        return std::hypot(image[0].x - pixel.x, image[0].y - pixel.y);
+      };
+      // Every 0.1 deg, then 1/1000 of that about the best.
+      const double coarse = 2 * M_PI / 3600;
+      double best = 1e9, best_phi = 0;
+      for (int k = 0; k < 3600; ++k)
+        if (miss(k * coarse) < best) best = miss(best_phi = k * coarse);
+      for (int k = -1000; k <= 1000; ++k) best = std::min(best, miss(best_phi + k * coarse / 1000));
+      EXPECT_LT(best, 0.05) << pixel << " fisheye " << (cam.model == ips::DistortionModel::kEquidistant);
+    }
+  }
+}
+
+TEST(Calibration, FlatFieldGainOfEachRectifiedPixelIsThatOfTheRawPixelItSamples) {
+  // Natural vignetting (gain (1 + t)^2): the gain at a rectified pixel is that of the raw pixel its map samples,
+  // whose ray comes from undistorting that pixel (rayTan2Image, independent of the rectification's rotations), at
+  // full and half scale and with a right-camera correction that turns, scales and moves the right map.
+  ips::StereoCalibration c = exampleHead();
+  for (ips::CameraIntrinsics* cam : {&c.cam0, &c.cam1}) cam->vignetting_gain = Eigen::Vector3d(2, 1, 0);
+  const cv::Mat raw_tan2[2] = {ips::rayTan2Image(c.cam0), ips::rayTan2Image(c.cam1)};
+  ips::RightCameraCorrection correction;
+  correction.rotation = Eigen::Vector3d(0.002, 0.003, -0.001);
+  correction.focal_scale = 0.001;
+  correction.disparity_offset_px = 1.5;
+  for (const ips::RightCameraCorrection& right : {ips::RightCameraCorrection{}, correction})
+    for (double scale : {1.0, 0.5}) {
+      const ips::StereoRectification rect = ips::scaledRectification(c, scale, right);
+      ASSERT_TRUE(rect.hasFlatField());
+      ASSERT_EQ(rect.gain1.size(), rect.size);
+      for (const cv::Point pixel : {cv::Point(rect.size.width / 2, rect.size.height / 2), cv::Point(10, 10),
+                                    cv::Point(rect.size.width - 20, rect.size.height - 30)})
+        for (int cam = 0; cam < 2; ++cam) {
+          const cv::Mat& map_x = cam == 0 ? rect.map0x : rect.map1x;
+          const cv::Mat& map_y = cam == 0 ? rect.map0y : rect.map1y;
+          cv::Mat t;
+          cv::getRectSubPix(raw_tan2[cam], cv::Size(1, 1), cv::Point2f(map_x.at<float>(pixel), map_y.at<float>(pixel)),
+                            t);
+          const double expected = (1 + t.at<float>(0)) * (1 + t.at<float>(0));
+          const float gain = (cam == 0 ? rect.gain0 : rect.gain1).at<float>(pixel);
+          EXPECT_NEAR(gain, expected, 0.003 * expected) << pixel << " camera " << cam << " scale " << scale;
+        }
+    }
+  // Without vignetting_gain there are no gains, and rectifyPair is cv::remap as before.
+  EXPECT_FALSE(ips::computeRectification(exampleHead()).hasFlatField());
 }
 
 TEST(Args, OptionsFlagsAndErrors) {

@@ -24,6 +24,47 @@ cv::Mat CameraIntrinsics::cvDistortion() const {
   return model == DistortionModel::kEquidistant ? d.colRange(0, 4).clone() : d;
 }
 
+namespace {
+
+// tan^2 of the rays of the given pixels (CV_64FC2, N x 1), through the camera's distortion model.
+std::vector<double> rayTan2(const CameraIntrinsics& cam, const cv::Mat& pixels) {
+  cv::Mat normalised;
+  if (cam.model == DistortionModel::kEquidistant)
+    cv::fisheye::undistortPoints(pixels, normalised, cam.cvK(), cam.cvDistortion());
+  else
+    // 20 iterations: OpenCV's default 5 leave 0.05 px in the corners of a strongly distorted lens.
+    cv::undistortPoints(pixels, normalised, cam.cvK(), cam.cvDistortion(), cv::noArray(), cv::noArray(),
+                        cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 1e-10));
+  std::vector<double> tan2(normalised.total());
+  for (size_t i = 0; i < tan2.size(); ++i) {
+    const cv::Vec2d n = normalised.at<cv::Vec2d>(static_cast<int>(i));
+    tan2[i] = n[0] * n[0] + n[1] * n[1];
+  }
+  return tan2;
+}
+
+}  // namespace
+
+cv::Mat rayTan2Image(const CameraIntrinsics& cam) {
+  const cv::Size size(cam.width, cam.height);
+  cv::Mat pixels(static_cast<int>(size.area()), 1, CV_64FC2);
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) pixels.at<cv::Vec2d>(y * size.width + x) = cv::Vec2d(x, y);
+  const std::vector<double> tan2 = rayTan2(cam, pixels);
+  cv::Mat out(size, CV_32FC1);
+  for (size_t i = 0; i < tan2.size(); ++i) out.at<float>(static_cast<int>(i)) = static_cast<float>(tan2[i]);
+  return out;
+}
+
+double widestRayTan2(const CameraIntrinsics& cam) {
+  // The widest ray lies on the image's border (the angle grows outwards from the principal point).
+  std::vector<cv::Vec2d> border;
+  for (int x = 0; x < cam.width; ++x) border.insert(border.end(), {cv::Vec2d(x, 0), cv::Vec2d(x, cam.height - 1)});
+  for (int y = 0; y < cam.height; ++y) border.insert(border.end(), {cv::Vec2d(0, y), cv::Vec2d(cam.width - 1, y)});
+  const std::vector<double> tan2 = rayTan2(cam, cv::Mat(border, true));
+  return *std::max_element(tan2.begin(), tan2.end());
+}
+
 static const char* distortionModelName(DistortionModel m) {
   return m == DistortionModel::kEquidistant ? "equidistant" : "radtan";
 }
@@ -39,6 +80,12 @@ float bilinearClamped(const cv::Mat& map, double x, double y) {
   const float* r0 = map.ptr<float>(y0);
   const float* r1 = map.ptr<float>(y0 + 1);
   return static_cast<float>((1 - b) * ((1 - a) * r0[x0] + a * r0[x0 + 1]) + b * ((1 - a) * r1[x0] + a * r1[x0 + 1]));
+}
+
+cv::Mat toCv(const Eigen::MatrixXd& m) {
+  cv::Mat out;
+  cv::eigen2cv(m, out);
+  return out;
 }
 
 CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
@@ -61,6 +108,16 @@ CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
   cam.serial = cfg.getString(name + "/serial", "");
   if (cam.K(0, 0) <= 0 || cam.K(1, 1) <= 0)
     throw ConfigError(cfg.path() + ": key '" + name + "/K' has no positive focal length");
+  if (cfg.has(name + "/vignetting_gain")) {
+    cam.vignetting_gain = cfg.getMatrix(name + "/vignetting_gain", 1, 3).transpose();
+    // The gain must stay positive over the field of view, else the flat field would turn greys negative.
+    const double widest = widestRayTan2(cam);
+    double lowest = 1;
+    for (int i = 0; i <= 100; ++i) lowest = std::min(lowest, cam.flatFieldGain(widest * i / 100));
+    if (!cam.vignetting_gain.allFinite() || !(lowest > 0))
+      throw ConfigError(cfg.path() + ": key '" + name + "/vignetting_gain' gives a gain of " + std::to_string(lowest) +
+                        " in the image, need a positive one");
+  }
   return cam;
 }
 
@@ -72,13 +129,9 @@ void writeCamera(cv::FileStorage& fs, const std::string& name, const CameraIntri
   if (cam.model != DistortionModel::kRadialTangential) fs << "distortion_model" << distortionModelName(cam.model);
   fs << "distortion" << cam.cvDistortion();
   fs << "serial" << cam.serial;
+  // Written only when there is one, so files without vignetting stay as they were.
+  if (cam.hasVignetting()) fs << "vignetting_gain" << toCv(cam.vignetting_gain.transpose());
   fs << "}";
-}
-
-cv::Mat toCv(const Eigen::MatrixXd& m) {
-  cv::Mat out;
-  cv::eigen2cv(m, out);
-  return out;
 }
 
 Eigen::Matrix3d orthonormalize(const Eigen::Matrix3d& r) {
@@ -118,7 +171,8 @@ void saveCalibration(const std::string& path, const StereoCalibration& c,
   fs.writeComment(
       "Stereo head calibration (ips). Camera frames: x right, y down, z forward. T_a_b maps points from b to a.\n"
       "distortion: OpenCV radial-tangential k1 k2 p1 p2 k3, or with distortion_model: equidistant the fisheye\n"
-      "k1 k2 k3 k4. Lengths in metres.");
+      "k1 k2 k3 k4. vignetting_gain (optional): g1 g2 g3 of the flat-field gain 1 + g1 t + g2 t^2 + g3 t^3,\n"
+      "t = tan^2 of a ray's angle to the optical axis. Lengths in metres.");
   writeCamera(fs, "cam0", c.cam0);
   writeCamera(fs, "cam1", c.cam1);
   fs << "R_cam1_cam0" << toCv(c.R_cam1_cam0);
@@ -187,6 +241,27 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
     out.map1x = moved_x;
     out.map1y = moved_y;
   }
+  if (c.cam0.hasVignetting() || c.cam1.hasVignetting()) {
+    // The gain of the ray each rectified pixel sees, the ray turned from the rectified frame into the camera's (the
+    // maps sample the raw pixel of that ray, so no undistortion is needed); the right camera's pixel moved as its
+    // map was by the yaw's keystone and the disparity offset.
+    const auto gains = [&](const CameraIntrinsics& cam, const Eigen::Matrix3d& R_rect_cam, double offset_px,
+                           double yaw_rad) {
+      cv::Mat gain(out.size, CV_32FC1);
+      const Eigen::Matrix3d R_cam_rect = R_rect_cam.transpose();
+      for (int y = 0; y < out.size.height; ++y)
+        for (int x = 0; x < out.size.width; ++x) {
+          const double u = (x + offset_px - out.cx) / out.f, v0 = (y - out.cy) / out.f;
+          const double v = v0 - u * v0 * yaw_rad;
+          const Eigen::Vector3d ray = R_cam_rect * Eigen::Vector3d(u, v, 1);
+          const double tan2 = (ray.x() * ray.x() + ray.y() * ray.y()) / (ray.z() * ray.z());
+          gain.at<float>(y, x) = static_cast<float>(cam.flatFieldGain(tan2));
+        }
+      return gain;
+    };
+    out.gain0 = gains(c.cam0, out.R_rect0_cam0, 0, 0);
+    out.gain1 = gains(cam1, out.R_rect1_cam1, offset, yaw);
+  }
   return out;
 }
 
@@ -204,7 +279,8 @@ StereoRectification scaledRectification(const StereoCalibration& calib, double s
       fx.at<float>(v, u) = static_cast<float>((u + 0.5) / scale - 0.5);
       fy.at<float>(v, u) = static_cast<float>((v + 0.5) / scale - 0.5);
     }
-  for (cv::Mat* map : {&rect.map0x, &rect.map0y, &rect.map1x, &rect.map1y}) {
+  for (cv::Mat* map : {&rect.map0x, &rect.map0y, &rect.map1x, &rect.map1y, &rect.gain0, &rect.gain1}) {
+    if (map->empty()) continue;  // the gains, without vignetting
     cv::Mat scaled;
     cv::remap(*map, scaled, fx, fy, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     *map = scaled;
@@ -216,8 +292,30 @@ StereoRectification scaledRectification(const StereoCalibration& calib, double s
   return rect;
 }
 
+namespace {
+
+// cv::remap of a grey image times the flat-field gain, in float as the device computes it (bilinear sample times
+// gain, rounded half up).
+void remapFlatField(const cv::Mat& raw, const cv::Mat& map_x, const cv::Mat& map_y, const cv::Mat& gain, cv::Mat& out) {
+  cv::Mat raw_float, sampled;
+  raw.convertTo(raw_float, CV_32F);
+  cv::remap(raw_float, sampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
+  out.create(sampled.size(), CV_8UC1);
+  for (int i = 0; i < static_cast<int>(sampled.total()); ++i) {
+    const float v = sampled.at<float>(i) * gain.at<float>(i);
+    out.at<uint8_t>(i) = static_cast<uint8_t>(std::clamp(std::floor(v + 0.5f), 0.0f, 255.0f));
+  }
+}
+
+}  // namespace
+
 void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat& out0,
                  cv::Mat& out1) {
+  if (rect.hasFlatField()) {
+    remapFlatField(raw0, rect.map0x, rect.map0y, rect.gain0, out0);
+    remapFlatField(raw1, rect.map1x, rect.map1y, rect.gain1, out1);
+    return;
+  }
   cv::remap(raw0, out0, rect.map0x, rect.map0y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
   cv::remap(raw1, out1, rect.map1x, rect.map1y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(0));
 }

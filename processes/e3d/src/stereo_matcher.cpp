@@ -140,6 +140,10 @@ void StereoMatcher::setRectification(const StereoRectification& rect, cv::Size r
   for (const cv::Mat* mp : maps)
     if (mp->type() != CV_32FC1 || mp->size() != rect_size)
       throw std::invalid_argument("StereoMatcher::setRectification: maps must be CV_32FC1 of the rectified size");
+  if (rect.hasFlatField())
+    for (const cv::Mat* gain : {&rect.gain0, &rect.gain1})
+      if (gain->type() != CV_32FC1 || gain->size() != rect_size)
+        throw std::invalid_argument("StereoMatcher::setRectification: gains must be CV_32FC1 of the rectified size");
   if (raw_size.width < 1 || raw_size.height < 1) throw std::invalid_argument("setRectification: empty raw size");
   vkDeviceWaitIdle(m.ctx.device());
   m.rectify.reset();
@@ -148,10 +152,20 @@ void StereoMatcher::setRectification(const StereoRectification& rect, cv::Size r
   const size_t raw_pixels = static_cast<size_t>(raw_size.area());
   const size_t n = static_cast<size_t>(rect_size.area());
   for (auto& r : m.raw) r = vk::Buffer(m.ctx, (raw_pixels + 3) / 4 * 4, true, &m.rect_bytes);
-  m.maps = vk::Buffer(m.ctx, 4 * n * sizeof(float), true, &m.rect_bytes);
-  for (int i = 0; i < 4; ++i) {
+  // The four maps, then both cameras' flat-field gains (1 without them: the stage multiplies always). Census
+  // takes no flat field: it compares greys within 5x5 windows, whose order a smooth gain does not change, while the
+  // gain lifts bright corners past 255 (the simulated hard walk: census 14.2 % bad without, 15.3 % with; MI 28.9 %
+  // without, 12.4 % with).
+  const bool flat_field = rect.hasFlatField() && m.params.cost != Cost::census;
+  m.maps = vk::Buffer(m.ctx, 6 * n * sizeof(float), true, &m.rect_bytes);
+  for (int i = 0; i < 6; ++i) {
     cv::Mat dst(rect_size, CV_32F, static_cast<float*>(m.maps.mapped()) + i * n);
-    maps[i]->copyTo(dst);
+    if (i < 4)
+      maps[i]->copyTo(dst);
+    else if (flat_field)
+      (i == 4 ? rect.gain0 : rect.gain1).copyTo(dst);
+    else
+      dst.setTo(1.0f);
   }
   m.raw_size = raw_size;
   m.rectify.emplace(m.rect_pool, rect_size, raw_size, m.raw, m.maps, m.top().images());

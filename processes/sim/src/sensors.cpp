@@ -44,6 +44,9 @@ SensorHead SensorHead::make(const Scenario& s) {
   cal.cam1.distortion = c.distortion_right;
   cal.cam0.serial = "SIM-LEFT";
   cal.cam1.serial = "SIM-RIGHT";
+  // The renderer's natural vignetting, cos^4 theta = 1 / (1 + tan^2 theta)^2, is undone exactly by the flat-field
+  // gain (1 + t)^2 = 1 + 2 t + t^2 (CameraIntrinsics::vignetting_gain).
+  if (c.vignetting) cal.cam0.vignetting_gain = cal.cam1.vignetting_gain = Eigen::Vector3d(2, 1, 0);
 
   const Eigen::Vector3d rv = c.relative_rotation_deg * kDeg;
   const Eigen::Matrix3d R10 =

@@ -29,10 +29,27 @@ struct CameraIntrinsics {
   // Radial-tangential: k1 k2 p1 p2 k3. Equidistant: k1 k2 k3 k4, the fifth element zero.
   Eigen::Matrix<double, 5, 1> distortion = Eigen::Matrix<double, 5, 1>::Zero();
   std::string serial;  // camera serial number, informational
+  // Flat-field gain of the lens (vignetting; key `vignetting_gain`, absent = none): the grey of a raw pixel whose ray
+  // makes the angle theta with the optical axis is multiplied by G = 1 + g1 t + g2 t^2 + g3 t^3, t = tan^2 theta, to
+  // undo the fall-off of the illumination towards the image corners. A polynomial in tan^2 theta because natural
+  // vignetting, cos^4 theta = 1 / (1 + t)^2, is then exactly G = (1 + t)^2 (g = 2, 1, 0), and the mechanical
+  // vignetting of a real lens adds a smooth term of its own. calibrate_vignetting estimates it (ips_calib).
+  Eigen::Vector3d vignetting_gain = Eigen::Vector3d::Zero();
 
   cv::Mat cvK() const;
   cv::Mat cvDistortion() const;  // 1x5 (radial-tangential) or 1x4 (equidistant, as cv::fisheye takes it)
+  bool hasVignetting() const { return !vignetting_gain.isZero(0); }
+  double flatFieldGain(double tan2_theta) const {
+    const Eigen::Vector3d& g = vignetting_gain;
+    return 1 + tan2_theta * (g[0] + tan2_theta * (g[1] + tan2_theta * g[2]));
+  }
 };
+
+// tan^2 of the angle between each raw pixel's ray and the optical axis (CV_32FC1 of the camera's size), through
+// the camera's distortion model: what a lens's vignetting is a function of.
+cv::Mat rayTan2Image(const CameraIntrinsics& cam);
+// The largest tan^2 theta of the image (its border's widest ray).
+double widestRayTan2(const CameraIntrinsics& cam);
 
 struct StereoCalibration {
   CameraIntrinsics cam0;  // left
@@ -67,6 +84,11 @@ struct StereoRectification {
   Eigen::Matrix3d R_rect1_cam1 = Eigen::Matrix3d::Identity();
   // For each rectified pixel, where to sample the raw image (CV_32FC1, as cv::remap takes them).
   cv::Mat map0x, map0y, map1x, map1y;
+  // For each rectified pixel, the flat-field gain of the raw position it samples (CV_32FC1, the cameras'
+  // vignetting_gain); both empty when neither camera has one. rectifyPair and E3D's device rectification multiply
+  // the sampled grey by it.
+  cv::Mat gain0, gain1;
+  bool hasFlatField() const { return !gain0.empty(); }
 };
 
 // A correction of the right camera for a head that has changed since calibration (a knock, temperature), as the
@@ -122,7 +144,8 @@ StereoRectification computeRectification(const StereoCalibration& calib, double 
 StereoRectification scaledRectification(const StereoCalibration& calib, double scale,
                                         const RightCameraCorrection& right_correction = {});
 
-// Remaps a raw pair into the rectified geometry on the CPU (the reference for the device stage).
+// Remaps a raw pair into the rectified geometry on the CPU (the reference for the device stage). With flat-field
+// gains each grey is the bilinear sample (in float) times the gain, rounded half up and clamped to 0..255.
 void rectifyPair(const StereoRectification& rect, const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat& out0,
                  cv::Mat& out1);
 

@@ -72,7 +72,8 @@ class FillStage {
   cv::Size size_;
 };
 
-// rectify: bilinear remap of the raw pair (maps: map0x, map0y, map1x, map1y of the rectified size, floats).
+// rectify: bilinear remap of the raw pair times the flat-field gain (maps: map0x, map0y, map1x, map1y, gain0, gain1
+// of the rectified size, floats).
 class RectifyStage {
  public:
   RectifyStage(const vk::DescriptorPool& pool, cv::Size size, cv::Size raw_size, const vk::Buffer (&raw)[2],

@@ -40,7 +40,8 @@ class StereoMatcher {
   MatchOutput match(const cv::Mat& left, const cv::Mat& right, bool want_right = false);
 
   // Enables matchRaw: raw images of raw_size are remapped on the device with the maps of `rect`
-  // (rect.size must equal the matcher's size).
+  // (rect.size must equal the matcher's size), times its flat-field gains for the grey-value costs (ad, sad, mi;
+  // census, which a smooth gain does not change, takes the plain remap).
   void setRectification(const StereoRectification& rect, cv::Size raw_size);
   // Raw pair -> rectified -> disparity, all on the device. rectified0/1 receive the rectified images if given.
   MatchOutput matchRaw(const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat* rectified0 = nullptr,
