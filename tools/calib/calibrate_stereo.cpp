@@ -2,8 +2,6 @@
 // or the head's LCM log), written as the project's calibration file. The library (ips/calib/stereo_calibration.hpp)
 // does the work; this reads the images and prints the figures. The last line is `rms_px=... epipolar_px=...
 // heldout_epipolar_px=...`.
-#include <glob.h>
-
 #include <cmath>
 #include <cstdio>
 #include <ips/stereo_pair_t.hpp>
@@ -13,22 +11,13 @@
 
 #include "ips/args.hpp"
 #include "ips/calib/charuco.hpp"
+#include "ips/calib/image_files.hpp"
 #include "ips/calib/stereo_calibration.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/validate.hpp"
 
 namespace {
-
-std::vector<std::string> matching(const std::string& pattern) {
-  // POSIX glob (sorted): the shell's syntax, including [..] sets, which cv::glob lacks.
-  glob_t found{};
-  std::vector<std::string> files;
-  if (::glob(pattern.c_str(), 0, nullptr, &found) == 0)
-    for (size_t i = 0; i < found.gl_pathc; ++i) files.emplace_back(found.gl_pathv[i]);
-  globfree(&found);
-  return files;
-}
 
 // A printed sheet of the ChArUco board: 300 dots per inch, so that printed at 100 % the squares have the size asked
 // for (to the nearest dot); a white margin of half a square.
@@ -196,7 +185,8 @@ int main(int argc, char** argv) {
                        : ips::calib::calibrateStereoFromCorners(names, left_corners, right_corners, board, size,
                                                                 options, rejected);
     } else {
-      const std::vector<std::string> left = matching(args.get("--left")), right = matching(args.get("--right"));
+      const std::vector<std::string> left = ips::calib::matchingFiles(args.get("--left")),
+                                     right = ips::calib::matchingFiles(args.get("--right"));
       if (left.empty()) throw std::runtime_error("--left " + args.get("--left") + ": no files matched");
       if (right.empty()) throw std::runtime_error("--right " + args.get("--right") + ": no files matched");
       if (left.size() != right.size())
