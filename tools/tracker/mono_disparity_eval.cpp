@@ -101,7 +101,13 @@ int main(int argc, char** argv) {
         .option("--every", "N", "scores every N-th frame", "80")
         .option("--duration", "SECONDS", "simulated time (default: the scenario's walk)")
         .option("--params", "TRACKER.yaml", "also with the tracker's own pose (its motion chained over the gap)")
-        .option("--quiet", "0|1", "1: no line per frame, only the summaries", "0");
+        .option("--quiet", "0|1", "1: no line per frame, only the summaries", "0")
+        .option("--vignetting-from", "CALIB.yaml",
+                "the stereo map with the lenses' vignetting_gain of this calibration file (calibrate_vignetting's "
+                "estimate) instead of the simulator's own")
+        .flag("--no-flat-field",
+              "the stereo map without the lenses' flat-field gain (vignetting_gain of a scenario with vignetting), "
+              "as for a head whose vignetting is not calibrated");
     if (!args.parse()) return 0;
     const std::string scenario_path = args.get("--scenario");
     const sim::Scenario sc = scenario_path.empty() ? sim::Scenario::defaults() : sim::Scenario::load(scenario_path);
@@ -134,7 +140,15 @@ int main(int argc, char** argv) {
         PolarRectificationParams::fromConfig(e3d_cfg.has("mono") ? e3d_cfg.section("mono") : e3d_cfg);
     const e3d::SgmParams sgm = e3d::SgmParams::fromConfig(e3d_cfg.has("sgm") ? e3d_cfg.section("sgm") : e3d_cfg);
     e3d::VulkanContext ctx;
-    eval::E3dScorer stereo(head.calibration, args.get("--e3d-config"), &ctx);
+    StereoCalibration stereo_calibration = head.calibration;
+    if (args.has("--vignetting-from")) {
+      const StereoCalibration estimated = loadCalibration(args.get("--vignetting-from"));
+      stereo_calibration.cam0.vignetting_gain = estimated.cam0.vignetting_gain;
+      stereo_calibration.cam1.vignetting_gain = estimated.cam1.vignetting_gain;
+    }
+    if (args.has("--no-flat-field"))
+      stereo_calibration.cam0.vignetting_gain = stereo_calibration.cam1.vignetting_gain = Eigen::Vector3d::Zero();
+    eval::E3dScorer stereo(stereo_calibration, args.get("--e3d-config"), &ctx);
     e3d::StereoMatcher mono(ctx, polar_params.size, sgm);
     const cv::Size raw_size(head.calibration.cam0.width, head.calibration.cam0.height);
 
