@@ -7,12 +7,18 @@
 
 #include <cmath>
 #include <filesystem>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <string>
 
+#include "ips/calib/formats.hpp"
+#include "ips/calib/image_files.hpp"
 #include "ips/calib/vignetting.hpp"
 #include "ips/calibration.hpp"
+#include "ips/data_dir.hpp"
+#include "ips/shared_data_test.hpp"
 #include "ips/sim/rig.hpp"
 #include "ips/test_support/command_output.hpp"
 
@@ -174,4 +180,102 @@ TEST(Vignetting, ToolWritesBothCamerasGainsIntoTheCalibration) {
   EXPECT_NE(refused.find("need at least 50"), std::string::npos) << refused;
   EXPECT_NE(refused.find("exit=1"), std::string::npos) << refused;
   fs::remove_all(dir);
+}
+
+TEST(Vignetting, SimulatedStereoPairsFollowTheFlatField) {
+  // The flat field of a rectified pair checked by the other camera: a point seen in both images of a pair lies at
+  // another place of each lens's fall-off, so the log grey ratio of its two patches is log G_right(its right
+  // position) - log G_left(its left position), plus the pair's exposure difference. Regressed on that prediction
+  // (StereoRectification's gains of the simulated hard head's true lenses), the ratios of the plain rectified pairs
+  // follow it (slope 1) and those of the flat-fielded pairs do not (slope 0). Matches from OpenCV's StereoSGBM on
+  // the plain pair, the same matches for both.
+  ips::sim::Scenario scenario = ips::sim::Scenario::load(std::string(IPS_SOURCE_DIR) + "/config/sim_hard.yaml");
+  const ips::sim::Rig rig(scenario);
+  const ips::StereoRectification flat = ips::computeRectification(rig.head.calibration);
+  ASSERT_TRUE(flat.hasFlatField());
+  ips::StereoRectification plain = flat;
+  plain.gain0 = plain.gain1 = cv::Mat();
+  const cv::Ptr<cv::StereoSGBM> sgbm = cv::StereoSGBM::create(0, 128, 5, 8 * 25, 32 * 25, 1, 0, 10, 100, 2);
+  double covariance[2] = {0, 0}, variance = 0;
+  size_t matches = 0;
+  for (int64_t k = 100; k < 700; k += 40) {
+    const ips::sim::StereoFrame f = rig.renderer.render(k, false);
+    if (f.left.empty()) continue;
+    cv::Mat images[2][2], disparity;
+    rectifyPair(plain, f.left, f.right, images[0][0], images[0][1]);
+    rectifyPair(flat, f.left, f.right, images[1][0], images[1][1]);
+    sgbm->compute(images[0][0], images[0][1], disparity);
+    cv::Mat mean[2][2];
+    for (int version = 0; version < 2; ++version)
+      for (int c = 0; c < 2; ++c) cv::blur(images[version][c], mean[version][c], cv::Size(5, 5));
+    std::vector<double> predicted, ratio[2];
+    for (int y = 8; y < disparity.rows - 8; y += 4)
+      for (int x = 136; x < disparity.cols - 8; x += 4) {
+        const int d16 = disparity.at<int16_t>(y, x);
+        if (d16 <= 0) continue;
+        const int xr = x - (d16 + 8) / 16;
+        double r[2];
+        bool usable = true;
+        for (int version = 0; version < 2; ++version) {
+          const uint8_t l = mean[version][0].at<uint8_t>(y, x), g = mean[version][1].at<uint8_t>(y, xr);
+          usable &= l >= 10 && g >= 10 && l <= 245 && g <= 245;
+          r[version] = std::log(double(l)) - std::log(double(g));
+        }
+        if (!usable) continue;
+        predicted.push_back(std::log(flat.gain1.at<float>(y, xr)) - std::log(flat.gain0.at<float>(y, x)));
+        for (int version = 0; version < 2; ++version) ratio[version].push_back(r[version]);
+      }
+    // Centred per pair: the pair's exposure difference.
+    const auto centre = [](std::vector<double>& v) {
+      double m = 0;
+      for (double a : v) m += a;
+      m /= static_cast<double>(v.size());
+      for (double& a : v) a -= m;
+    };
+    centre(predicted);
+    for (int version = 0; version < 2; ++version) centre(ratio[version]);
+    for (size_t i = 0; i < predicted.size(); ++i) {
+      variance += predicted[i] * predicted[i];
+      for (int version = 0; version < 2; ++version) covariance[version] += predicted[i] * ratio[version][i];
+    }
+    matches += predicted.size();
+  }
+  const double slope_plain = covariance[0] / variance, slope_flat = covariance[1] / variance;
+  std::cout << matches << " stereo matches: the grey ratio follows the predicted fall-off (spread "
+            << std::sqrt(variance / static_cast<double>(matches)) << ") with slope " << slope_plain
+            << " on the plain pairs, " << slope_flat << " on the flat-fielded ones\n";
+  ASSERT_GT(matches, 100000u);
+  EXPECT_NEAR(slope_plain, 1.0, 0.15);
+  EXPECT_NEAR(slope_flat, 0.0, 0.15);
+}
+
+TEST(Vignetting, EurocCamerasAndDirectionsAgree) {
+  // A real head: EuRoC MH_01's two cameras (752x480, the same wide-angle lens model), the flat field estimated from
+  // the 150 consecutive images of each camera. There is no flat-field truth; what must hold is consistency: the two
+  // cameras, estimated from their own images, and the images taken in reverse order (an effect of the motion, such
+  // as approaching a surface, would change with the direction; the lens's fall-off does not).
+  IPS_REQUIRE_SHARED_DATA("euroc/MH_01_easy_first150/mav0");
+  const std::string mav0 = ips::dataDir() + "/euroc/MH_01_easy_first150/mav0";
+  const ips::StereoCalibration calib = readEuroc(mav0 + "/cam0/sensor.yaml", mav0 + "/cam1/sensor.yaml");
+  const std::vector<std::string> files[2] = {matchingFiles(mav0 + "/cam0/data/*.png"),
+                                             matchingFiles(mav0 + "/cam1/data/*.png")};
+  ASSERT_EQ(files[0].size(), 150u);
+  VignettingAccumulator left(calib.cam0), right(calib.cam1), left_reversed(calib.cam0);
+  for (const std::string& file : files[0]) left.add(cv::imread(file, cv::IMREAD_GRAYSCALE));
+  for (const std::string& file : files[1]) right.add(cv::imread(file, cv::IMREAD_GRAYSCALE));
+  for (auto file = files[0].rbegin(); file != files[0].rend(); ++file)
+    left_reversed.add(cv::imread(*file, cv::IMREAD_GRAYSCALE));
+  const VignettingEstimate e[3] = {left.estimate(), right.estimate(), left_reversed.estimate()};
+  std::cout << "EuRoC MH_01: corners lifted " << e[0].corner_gain << " (left), " << e[1].corner_gain << " (right), "
+            << e[2].corner_gain << " (left, images reversed); residual " << 100 * e[0].relative_residual << " %\n";
+  EXPECT_NEAR(e[1].corner_gain / e[0].corner_gain, 1.0, 0.05);
+  EXPECT_NEAR(e[2].corner_gain / e[0].corner_gain, 1.0, 0.02);
+  for (const VignettingEstimate& estimate : e) EXPECT_LT(estimate.relative_residual, 0.03);
+  // The same images taken for a flat target: their mean is no flat field, and the fit says so rather than writing a
+  // gain that turns negative in the corners.
+  VignettingOptions flat_target;
+  flat_target.source = FlatFieldSource::kFlatTarget;
+  VignettingAccumulator wrong_source(calib.cam0, flat_target);
+  for (const std::string& file : files[0]) wrong_source.add(cv::imread(file, cv::IMREAD_GRAYSCALE));
+  EXPECT_THROW(wrong_source.estimate(), std::runtime_error);
 }

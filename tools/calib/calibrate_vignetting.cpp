@@ -19,13 +19,16 @@
 
 namespace {
 
+// Image file i of every N and its successor i + 1 (the tracks need consecutive images), as from a log.
 void addFiles(const std::string& pattern, ips::calib::VignettingAccumulator& camera, int every) {
   const std::vector<std::string> files = ips::calib::matchingFiles(pattern);
   if (files.empty()) throw std::runtime_error("no image matches " + pattern);
-  for (size_t i = 0; i < files.size(); i += static_cast<size_t>(every)) {
+  for (size_t i = 0; i < files.size(); ++i) {
+    const bool successor = i > 0 && (i - 1) % static_cast<size_t>(every) == 0;
+    if (i % static_cast<size_t>(every) != 0 && !successor) continue;
     const cv::Mat image = cv::imread(files[i], cv::IMREAD_GRAYSCALE);
     if (image.empty()) throw std::runtime_error(files[i] + ": cannot read the image");
-    camera.add(image);
+    camera.add(image, successor);
   }
 }
 

@@ -130,6 +130,15 @@ VignettingEstimate VignettingAccumulator::finish(const Eigen::Vector3d& gain, do
   CameraIntrinsics corrected = camera_;
   corrected.vignetting_gain = gain;
   out.corner_gain = corrected.flatFieldGain(widest);
+  // A gain that is not positive somewhere in the image would turn greys negative (and loadCalibration refuses it):
+  // the images did not show what the source says (a scene given as a flat target, too few views).
+  for (int i = 0; i <= 100; ++i) {
+    const double t = widest * i / 100;
+    if (!(corrected.flatFieldGain(t) > 0))
+      throw std::runtime_error("vignetting: the fitted gain is " + std::to_string(corrected.flatFieldGain(t)) +
+                               " at tan^2 theta = " + std::to_string(t) +
+                               ": the images do not show the lens's fall-off as the source says");
+  }
   return out;
 }
 
