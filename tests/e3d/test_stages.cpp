@@ -388,13 +388,13 @@ TEST(RectifyStage, EqualsRemapOnItsSampleGrid) {
 }
 
 TEST(RectifyStage, FlatFieldGainsEqualRemapTimesGain) {
-  // Gains from 0.5 to 3.5 (a wide-angle lens's corners need about 3.4): each grey is the sample times its gain,
-  // rounded half up, clamped to 255 where the gain lifts it past.
+  // Gains from 0.5 to 7 (the raw corners of the simulated head's 85 deg lenses need 6.8): each grey is the sample
+  // times its gain, rounded half up, clamped to 255 where the gain lifts it past.
   const cv::Size raw_size(41, 29);
   StereoRectification rect = gridRectification(raw_size);
   for (cv::Mat* gain : {&rect.gain0, &rect.gain1}) {
     gain->create(rect.size, CV_32F);
-    cv::randu(*gain, 0.5f, 3.5f);
+    cv::randu(*gain, 0.5f, 7.0f);
   }
   expectRectifyEqualsReference(rect, raw_size);
   cv::Mat cpu[2];
