@@ -54,10 +54,9 @@ int main(int argc, char** argv) {
     ips::e3d_app::E3dProcess process(node, calib, matcher, rect, process_params, mono.get());
     IPS_INFO("matching " << rect.size.width << "x" << rect.size.height << " on " << ctx.info().name << ", "
                          << params.describe());
-    // The calibration's flat field applies to the grey-value costs only (StereoMatcher::setRectification).
     if (rect.hasFlatField())
       IPS_INFO("the lenses' flat-field gain (vignetting_gain): "
-               << (params.cost == ips::e3d::Cost::census ? "not applied, census does not need it" : "applied"));
+               << (matcher.appliesFlatField() ? "applied" : "not applied (census does not need it)"));
     const int rc = node.run();
     process.stop(true);
     node.publishHealth(1.0);

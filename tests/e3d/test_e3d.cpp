@@ -305,6 +305,7 @@ TEST(StereoMatcher, FlatFieldLiftsTheCornersForMutualInformationAndNotForCensus)
     p.mi_levels = 2;
     StereoMatcher matcher(context(), rect.size, p);
     matcher.setRectification(rect, raw0.size());
+    EXPECT_EQ(matcher.appliesFlatField(), cost == Cost::mi);
     cv::Mat device[2];
     matcher.matchRaw(raw0, raw1, &device[0], &device[1]);
     const cv::Mat* expected = cost == Cost::mi ? flat : plain;

@@ -132,13 +132,10 @@ VignettingEstimate VignettingAccumulator::finish(const Eigen::Vector3d& gain, do
   out.corner_gain = corrected.flatFieldGain(widest);
   // A gain that is not positive somewhere in the image would turn greys negative (and loadCalibration refuses it):
   // the images did not show what the source says (a scene given as a flat target, too few views).
-  for (int i = 0; i <= 100; ++i) {
-    const double t = widest * i / 100;
-    if (!(corrected.flatFieldGain(t) > 0))
-      throw std::runtime_error("vignetting: the fitted gain is " + std::to_string(corrected.flatFieldGain(t)) +
-                               " at tan^2 theta = " + std::to_string(t) +
-                               ": the images do not show the lens's fall-off as the source says");
-  }
+  const double lowest = lowestFlatFieldGain(corrected, widest);
+  if (!(lowest > 0))
+    throw std::runtime_error("vignetting: the fitted gain falls to " + std::to_string(lowest) +
+                             " in the image: the images do not show the lens's fall-off as the source says");
   return out;
 }
 
@@ -198,6 +195,7 @@ VignettingEstimate VignettingAccumulator::estimateMovingScene() const {
   // exposure change). Gauss-Newton on g from G = 1; then tracks beyond 3 sigma (people walking, occlusions, specular
   // light) are dropped and the fit repeated.
   std::vector<uint8_t> used(tracks_.size(), 1);
+  std::vector<double> centred(tracks_.size(), 0.0);  // each used track's residual, its pair's mean taken out
   Eigen::Vector3d g = Eigen::Vector3d::Zero();
   double rms = 0;
   for (int round = 0; round < 2; ++round) {
@@ -225,7 +223,7 @@ VignettingEstimate VignettingAccumulator::estimateMovingScene() const {
       for (size_t i = 0; i < tracks_.size(); ++i) {
         if (!used[i]) continue;
         const auto p = static_cast<size_t>(tracks_[i].pair);
-        const double r = residual[i] - pair_residual[p] / pair_count[p];
+        const double r = centred[i] = residual[i] - pair_residual[p] / pair_count[p];
         const Eigen::Vector3d j = jacobian[i] - pair_jacobian[p] / pair_count[p];
         normal += j * j.transpose();
         gradient += j * r;
@@ -237,22 +235,9 @@ VignettingEstimate VignettingAccumulator::estimateMovingScene() const {
       g += step;
       if (step.norm() < 1e-7) break;
     }
-    if (round == 0) {
-      // Drop the outliers of the fit so far, each pair's level taken with them in (a small bias, gone in round 1).
-      const auto misfit = [&](const Track& k) {
-        return k.log_ratio + logGain(g, k.tan2_to, nullptr) - logGain(g, k.tan2_from, nullptr);
-      };
-      std::vector<double> level(static_cast<size_t>(pairs_), 0.0);
-      std::vector<int> members(static_cast<size_t>(pairs_), 0);
-      for (const Track& k : tracks_) {
-        level[static_cast<size_t>(k.pair)] += misfit(k);
-        ++members[static_cast<size_t>(k.pair)];
-      }
-      for (size_t i = 0; i < tracks_.size(); ++i) {
-        const auto p = static_cast<size_t>(tracks_[i].pair);
-        used[i] = std::abs(misfit(tracks_[i]) - level[p] / members[p]) <= 3 * rms;
-      }
-    }
+    // Drop the outliers of the converged fit (its last iteration's residuals) and fit again.
+    if (round == 0)
+      for (size_t i = 0; i < tracks_.size(); ++i) used[i] = std::abs(centred[i]) <= 3 * rms;
   }
   return finish(g, rms);
 }

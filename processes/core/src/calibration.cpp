@@ -65,6 +65,12 @@ double widestRayTan2(const CameraIntrinsics& cam) {
   return *std::max_element(tan2.begin(), tan2.end());
 }
 
+double lowestFlatFieldGain(const CameraIntrinsics& cam, double widest_tan2) {
+  double lowest = 1;  // G(0)
+  for (int i = 1; i <= 100; ++i) lowest = std::min(lowest, cam.flatFieldGain(widest_tan2 * i / 100));
+  return lowest;
+}
+
 static const char* distortionModelName(DistortionModel m) {
   return m == DistortionModel::kEquidistant ? "equidistant" : "radtan";
 }
@@ -111,9 +117,7 @@ CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
   if (cfg.has(name + "/vignetting_gain")) {
     cam.vignetting_gain = cfg.getMatrix(name + "/vignetting_gain", 1, 3).transpose();
     // The gain must stay positive over the field of view, else the flat field would turn greys negative.
-    const double widest = widestRayTan2(cam);
-    double lowest = 1;
-    for (int i = 0; i <= 100; ++i) lowest = std::min(lowest, cam.flatFieldGain(widest * i / 100));
+    const double lowest = lowestFlatFieldGain(cam, widestRayTan2(cam));
     if (!cam.vignetting_gain.allFinite() || !(lowest > 0))
       throw ConfigError(cfg.path() + ": key '" + name + "/vignetting_gain' gives a gain of " + std::to_string(lowest) +
                         " in the image, need a positive one");

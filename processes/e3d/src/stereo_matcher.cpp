@@ -22,6 +22,7 @@ struct StereoMatcher::Impl {
   vk::DescriptorPool rect_pool;
   vk::Buffer raw[2], maps;
   std::optional<RectifyStage> rectify;
+  bool flat_field = false;  // the maps buffer holds the rectification's gains, not ones
   cv::Size raw_size;
   size_t rect_bytes = 0;
 
@@ -156,13 +157,13 @@ void StereoMatcher::setRectification(const StereoRectification& rect, cv::Size r
   // takes no flat field: it compares greys within 5x5 windows, whose order a smooth gain does not change, while the
   // gain lifts bright corners past 255 (the simulated hard walk: census 14.2 % bad without, 15.3 % with; MI 28.9 %
   // without, 12.4 % with).
-  const bool flat_field = rect.hasFlatField() && m.params.cost != Cost::census;
+  m.flat_field = rect.hasFlatField() && m.params.cost != Cost::census;
   m.maps = vk::Buffer(m.ctx, 6 * n * sizeof(float), true, &m.rect_bytes);
   for (int i = 0; i < 6; ++i) {
     cv::Mat dst(rect_size, CV_32F, static_cast<float*>(m.maps.mapped()) + i * n);
     if (i < 4)
       maps[i]->copyTo(dst);
-    else if (flat_field)
+    else if (m.flat_field)
       (i == 4 ? rect.gain0 : rect.gain1).copyTo(dst);
     else
       dst.setTo(1.0f);
@@ -185,6 +186,7 @@ MatchOutput StereoMatcher::matchRaw(const cv::Mat& raw0, const cv::Mat& raw1, cv
 
 cv::Size StereoMatcher::size() const { return impl_->levels.front()->size(); }
 const SgmParams& StereoMatcher::params() const { return impl_->params; }
+bool StereoMatcher::appliesFlatField() const { return impl_->flat_field; }
 size_t StereoMatcher::deviceMemoryBytes() const {
   size_t bytes = impl_->rect_bytes;
   for (const auto& level : impl_->levels) bytes += level->memoryBytes();

@@ -50,6 +50,8 @@ struct CameraIntrinsics {
 cv::Mat rayTan2Image(const CameraIntrinsics& cam);
 // The largest tan^2 theta of the image (its border's widest ray).
 double widestRayTan2(const CameraIntrinsics& cam);
+// The smallest flat-field gain of rays up to widest_tan2 (101 samples; the gain is a cubic): it must be positive.
+double lowestFlatFieldGain(const CameraIntrinsics& cam, double widest_tan2);
 
 struct StereoCalibration {
   CameraIntrinsics cam0;  // left

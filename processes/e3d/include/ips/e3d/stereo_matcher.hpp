@@ -47,6 +47,9 @@ class StereoMatcher {
   MatchOutput matchRaw(const cv::Mat& raw0, const cv::Mat& raw1, cv::Mat* rectified0 = nullptr,
                        cv::Mat* rectified1 = nullptr, bool want_right = false);
 
+  // Whether matchRaw multiplies by the rectification's flat-field gains (set by setRectification: there are gains
+  // and the cost is not census).
+  bool appliesFlatField() const;
   cv::Size size() const;
   const SgmParams& params() const;
   // Device memory allocated by this matcher, in bytes (the path-cost volume dominates: paths*W*H*D').
