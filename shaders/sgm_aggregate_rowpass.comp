@@ -11,7 +11,9 @@
 //    The other costs (COST_VOLUME) are read from the cost volume their cost stage wrote (one texel per pixel).
 //  - The horizontal path stays in registers. The three paths that come from the previous row read its path costs
 //    from a scratch buffer (two rows per pass, one byte per disparity: L <= maxCost + P2 <= 255) and write the
-//    current row's.
+//    current row's. Paths 0 and 1 of a lane lie side by side and are written by one store when they fit in 32
+//    bytes (K <= 16): a store costs a loop over the lanes whatever its size (below); one store less per pixel
+//    made the match about 10 % faster on lavapipe.
 //  - The image is split at row `split`. In the first dispatches (PHASE 0) the forward pass walks the rows above
 //    it and the backward pass the rows below it, each storing the sum of its paths (16 bits per disparity); then
 //    (PHASE 1) each walks on into the other part, adds the sums stored there by the other pass and selects the
@@ -56,9 +58,11 @@ layout(binding = 2, r32ui) uniform readonly uimageBuffer census_right;
 // The scratch rows, read as texels (one access per lane for 8 or 16 bytes) and written as a storage buffer.
 layout(binding = 3, rgba32ui) uniform readonly uimageBuffer scratch_read16;
 layout(binding = 4, rg32ui) uniform readonly uimageBuffer scratch_read8;
-// 64-bit components: lavapipe stores a vector component by component in a loop over the lanes.
+// 64-bit components: lavapipe stores a vector in one loop over the lanes, each component checked and stored in it,
+// so few and wide stores are the cheap ones.
 layout(std430, binding = 5) writeonly buffer ScratchWrite16 { u64vec2 scratch_write16[]; };
 layout(std430, binding = 5) writeonly buffer ScratchWrite8 { uint64_t scratch_write8[]; };
+layout(std430, binding = 5) writeonly buffer ScratchWrite32 { u64vec4 scratch_write32[]; };
 // The sums [y][x][lane][K x 16 bits] (rows above split: forward, from split on: backward), stored in ranges of
 // at most maxStorageBufferRange rows and read as texels.
 layout(std430, binding = 6) writeonly buffer Sums32 { u64vec4 v[]; } sums32[E3D_MAX_CHUNKS];
@@ -116,9 +120,12 @@ uint adaptiveP2(uint a, uint b) {
   return uint(max(pc.p1, pc.p2 - (pc.p2_slope * abs(int(a) - int(b))) / 16));
 }
 
-// Index of this lane's first 8-byte word in the scratch row (pass, half, dir) at column x.
+// Index of this lane's first 8-byte word of path dir in the scratch row (pass, half) at column x. Layout: paths 0 and
+// 1 as [pass][half][x][lane][path 0, path 1][K bytes], then path 2 as [pass][half][x][lane][K bytes].
 int scratchIndex(int pass, int half_row, int dir, int x) {
-  return ((((pass * 2 + half_row) * 3 + dir) * pc.width + x) * int(SG) + int(lane)) * (K / 8);
+  const int lane_row = ((pass * 2 + half_row) * pc.width + x) * int(SG) + int(lane);
+  const int pair_words = 4 * pc.width * int(SG) * 2 * (K / 8);
+  return dir < 2 ? (lane_row * 2 + dir) * (K / 8) : pair_words + lane_row * (K / 8);
 }
 
 // This lane's K bytes at 8-byte word index8 of the scratch rows or (from_costs) of the cost volume: one texel load
@@ -143,15 +150,32 @@ uint packBytes(uint a, uint b, uint c, uint d) {
   return a | (b << 8) | (c << 16) | (d << 24);
 }
 
+// Bytes 8q .. 8q + 7 of this lane's K path costs.
+uint64_t scratchWord(uint v[K], int q) {
+  return packUint2x32(uvec2(packBytes(v[8 * q], v[8 * q + 1], v[8 * q + 2], v[8 * q + 3]),
+                            packBytes(v[8 * q + 4], v[8 * q + 5], v[8 * q + 6], v[8 * q + 7])));
+}
+
 void storeScratch(int index8, uint v[K]) {
   uint64_t words[K / 8];
-  [[unroll]] for (int q = 0; q < K / 8; ++q)
-    words[q] = packUint2x32(uvec2(packBytes(v[8 * q], v[8 * q + 1], v[8 * q + 2], v[8 * q + 3]),
-                                  packBytes(v[8 * q + 4], v[8 * q + 5], v[8 * q + 6], v[8 * q + 7])));
+  [[unroll]] for (int q = 0; q < K / 8; ++q) words[q] = scratchWord(v, q);
   if (WIDE) {
     [[unroll]] for (int q = 0; q < K / 16; ++q) scratch_write16[index8 / 2 + q] = u64vec2(words[2 * q], words[2 * q + 1]);
   } else {
     [[unroll]] for (int q = 0; q < K / 8; ++q) scratch_write8[index8 + q] = words[q];
+  }
+}
+
+// Paths 0 and 1 of this lane, side by side at index8 (= scratchIndex of path 0): one store for both when they fit
+// in 32 bytes.
+void storeScratchPair(int index8, uint v0[K], uint v1[K]) {
+  if (K == 16) {
+    scratch_write32[index8 / 4] = u64vec4(scratchWord(v0, 0), scratchWord(v0, 1), scratchWord(v1, 0), scratchWord(v1, 1));
+  } else if (K == 8) {
+    scratch_write16[index8 / 2] = u64vec2(scratchWord(v0, 0), scratchWord(v1, 0));
+  } else {
+    storeScratch(index8, v0);
+    storeScratch(index8 + K / 8, v1);
   }
 }
 
@@ -287,6 +311,7 @@ void main() {
       }
       pixel_prev = pixel;
 
+      uint path0[K];  // this row's costs of path 0, stored with path 1's
       // dir 0 comes from (x, y_prev), dir 1 from (x - step, y_prev), dir 2 from (x + step, y_prev).
       [[unroll]] for (int dir = 0; dir < ROW_DIRS; ++dir) {
         const int from = x + (dir == 1 ? -step : (dir == 2 ? step : 0));
@@ -298,7 +323,15 @@ void main() {
         const uint above = dir == 0 ? row_here : (dir == 1 ? row_behind : row_ahead);
         pathStep(prev, cost, prev_min, adaptiveP2(pixel, above), cur);
         [[unroll]] for (int k = 0; k < K; ++k) sum[k] += cur[k];
-        storeScratch(scratchIndex(pass, write_half, dir, x), cur);
+        if (dir == 0 && ROW_DIRS == 1) {  // 4 paths: path 0 alone
+          storeScratch(scratchIndex(pass, write_half, 0, x), cur);
+        } else if (dir == 0) {
+          [[unroll]] for (int k = 0; k < K; ++k) path0[k] = cur[k];
+        } else if (dir == 1) {
+          storeScratchPair(scratchIndex(pass, write_half, 0, x), path0, cur);
+        } else {
+          storeScratch(scratchIndex(pass, write_half, dir, x), cur);
+        }
       }
 
       if (PHASE == 0) {
