@@ -1,0 +1,88 @@
+#include "filter_messages.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "ips/framework/filter_state_layout.hpp"
+#include "ips/framework/message_arrays.hpp"
+
+namespace ips::filter_app {
+
+namespace {
+
+// An estimated block of the filter's output (an Eigen vector) into the message's fixed array of the same size.
+template <class Vector, int N>
+void copyBlock(const Vector& from, double (&to)[N]) {
+  static_assert(Vector::SizeAtCompileTime == N, "the message's array and the filter's block differ in size");
+  for (int i = 0; i < N; ++i) to[i] = from[i];
+}
+
+}  // namespace
+
+ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
+  ips::filter_state_t m{};
+  const ips::filter::NavState& s = out.state;
+  m.utime = s.utime;
+  m.filter_type = static_cast<int8_t>(out.type);
+  m.a_priori = out.a_priori;
+  for (int i = 0; i < 3; ++i) {
+    m.position[i] = s.position[i];
+    m.velocity[i] = s.velocity[i];
+    m.acceleration[i] = s.acceleration[i];
+    m.accel_bias[i] = s.accel_bias[i];
+    m.angular_rate[i] = s.angular_rate[i];
+    m.gyro_bias[i] = s.gyro_bias[i];
+  }
+  const Eigen::Vector4d q_wxyz(s.orientation.w(), s.orientation.x(), s.orientation.y(), s.orientation.z());
+  for (int i = 0; i < 4; ++i) m.orientation[i] = q_wxyz[i];
+  namespace layout = ips::fw::filter_state_layout;
+  static_assert(layout::kVelocity == ips::filter::kErrV && layout::kAngularRate == ips::filter::kErrW &&
+                layout::kGyroBias == ips::filter::kErrBg && layout::kDim == ips::filter::kCoreErrorDim);
+  m.cov_dim = layout::kDim;
+  m.covariance.assign(layout::kDim, std::vector<double>(layout::kDim));
+  for (int r = 0; r < layout::kDim; ++r)
+    for (int c = 0; c < layout::kDim; ++c) m.covariance[r][c] = out.covariance(r, c);
+  m.lever_arm_estimated = out.lever_arm_estimated;
+  copyBlock(out.lever_arm, m.lever_arm);
+  for (int i = 0; i < 3; ++i) m.lever_arm_sigma[i] = std::sqrt(std::max(0.0, out.lever_arm_covariance(i, i)));
+  m.delta_scale_estimated = out.delta_scale_estimated;
+  m.delta_scale = out.delta_scale;
+  m.delta_scale_sigma = out.delta_scale_sigma;
+  m.delta_direction_estimated = out.delta_direction_estimated;
+  copyBlock(out.delta_direction, m.delta_direction);
+  copyBlock(out.delta_direction_sigma, m.delta_direction_sigma);
+  m.delta_rotation_drift_estimated = out.delta_rotation_drift_estimated;
+  copyBlock(out.delta_rotation_drift, m.delta_rotation_drift);
+  copyBlock(out.delta_rotation_drift_sigma, m.delta_rotation_drift_sigma);
+  m.tilt_offset_estimated = out.tilt_offset_estimated;
+  copyBlock(out.tilt_offset, m.tilt_offset);
+  copyBlock(out.tilt_offset_sigma, m.tilt_offset_sigma);
+  m.camera_alignment_estimated = out.camera_alignment_estimated;
+  copyBlock(out.camera_alignment, m.camera_alignment);
+  copyBlock(out.camera_alignment_sigma, m.camera_alignment_sigma);
+  for (const auto& sensor : out.sensors) {
+    if (!sensor.name || !*sensor.name) continue;
+    m.sensor_names.push_back(sensor.name);
+    m.accepted.push_back(sensor.accepted);
+    m.rejected.push_back(sensor.rejected);
+    m.too_late.push_back(sensor.too_late);
+  }
+  m.num_sensors = static_cast<int32_t>(m.sensor_names.size());
+  return m;
+}
+
+ips::filter::TrackerDelta toDelta(const ips::tracker_delta_t& m) {
+  ips::filter::TrackerDelta d;
+  d.utime = m.utime;
+  d.utime_prev = m.utime_prev;
+  d.valid = m.valid;
+  d.far_valid = m.far_valid;
+  d.far_rotation = ips::fw::quaternionFromArray(m.far_rotation).normalized();
+  d.far_covariance = ips::fw::matrixFromArray<3>(m.far_rotation_covariance);
+  d.translation = ips::fw::vectorFromArray(m.translation);
+  d.rotation = ips::fw::quaternionFromArray(m.rotation).normalized();
+  d.covariance = ips::fw::matrixFromArray<6>(m.covariance);
+  return d;
+}
+
+}  // namespace ips::filter_app
