@@ -5,15 +5,14 @@
 # (out/latest points at it).
 # Environment: IPS_VIEWER_PORT (port of the live view; default a free one, printed), IPS_DURATION (seconds of the
 # walk; default the whole walk), IPS_SEED, IPS_SCENARIO (a sim scenario file instead of config/sim_hard.yaml, e.g.
-# config/sim_walk.yaml for the easy walk; config/filter_<name>.yaml and config/e3d_<name>.yaml, where there are ones
-# for config/sim_<name>.yaml, then replace filter_sim.yaml and e3d_sim.yaml), IPS_REPLAY_SPEED (default 1),
-# IPS_CONFIG (the config folder; default config/),
+# config/sim_walk.yaml for the easy walk), IPS_REPLAY_SPEED (default 1), IPS_CONFIG (the config folder; default
+# config/; which file of it each process reads is chosen below, "2. configurations"),
 # IPS_SIM_LOG (reuse a simulated log and its .calib.yaml instead of simulating), IPS_CALIB (a calibration file the
 # processes run on instead of the log's; the log's is then the truth the report compares with), IPS_SEEDS (the
 # job once per seed 1..N, summarised by ips_seeds), LCM_DEFAULT_URL.
-# IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder or KITTI odometry folder, told
-# apart by layout): dataset_to_lcm writes it as the head's log, the tracker runs with the head's config
-# (config/euroc.yaml, config/kitti.yaml), the filters when it has IMU, and the report adds the recording figures
+# IPS_DATASET=DIR runs a public recording instead of the walk (EuRoC ASL folder, KITTI odometry folder or KITTI raw
+# drive, told apart by layout): dataset_to_lcm writes it as the head's log with the head's IMU description, the
+# tracker runs with the head's config (config/euroc.yaml, config/kitti.yaml), the filters when it has IMU, and the report adds the recording figures
 # (relative errors over 1/2 m on EuRoC, 10/20/40 m on KITTI). IPS_DATASET_ARGS passes more options
 # (e.g. "--first 0 --last 149").
 set -euo pipefail
@@ -60,20 +59,15 @@ say "output in $run"
 export IPS_CONFIG=${IPS_CONFIG:-$ROOT/config}
 report_args=()
 if [ -n "${IPS_DATASET:-}" ]; then
-  if [ -f "$IPS_DATASET/mav0/cam0/data.csv" ]; then format=euroc lengths=1,2
-  elif [ -d "$IPS_DATASET/sequences" ]; then format=kitti lengths=10,20,40
-  else say "IPS_DATASET=$IPS_DATASET is neither an EuRoC (mav0/cam0/data.csv) nor a KITTI (sequences/) folder"; exit 1
+  if [ -f "$IPS_DATASET/mav0/cam0/data.csv" ]; then format=euroc lengths=1,2 head=euroc
+  elif [ -d "$IPS_DATASET/sequences" ]; then format=kitti lengths=10,20,40 head=kitti
+  elif [ -f "$IPS_DATASET/oxts/timestamps.txt" ]; then format=kitti_raw lengths=10,20,40 head=kitti
+  else say "IPS_DATASET=$IPS_DATASET is neither an EuRoC (mav0/cam0/data.csv), a KITTI odometry (sequences/) nor a KITTI raw (oxts/) folder"; exit 1
   fi
   say "1/4 converting the $format recording $IPS_DATASET (build/bin/dataset_to_lcm)"
   # shellcheck disable=SC2086
   dataset_to_lcm --format $format --in "$IPS_DATASET" --out "$run/walk.lcmlog" ${IPS_DATASET_ARGS:-} 2>&1 | tee "$run/dataset.txt" | sed -u 's/^/    /'
   [ "${PIPESTATUS[0]}" = 0 ] || exit 1
-  # procman/main_job.pmd reads $IPS_CONFIG/tracker.yaml: the run's config folder holds the head's file under it.
-  mkdir -p "$run/config"
-  for f in "$ROOT"/config/*.yaml; do ln -sf "$f" "$run/config/"; done
-  ln -sf "$ROOT/config/$format.yaml" "$run/config/tracker.yaml"
-  ln -sf "$ROOT/config/e3d_recording.yaml" "$run/config/e3d_sim.yaml"
-  IPS_CONFIG=$run/config
   report_args=(--lengths "$lengths")
   # Without IMU no filter runs: the map is placed by the tracker's increments, in the body frame at the first
   # image, which nothing levels. KITTI's body is camera 0 (x right, y down, z forward): up is -y; EuRoC's is its
@@ -106,25 +100,30 @@ if [ -n "${IPS_CALIB:-}" ]; then
   cp "$IPS_CALIB" "$run/walk.lcmlog.calib.yaml"
   say "    the processes run on $IPS_CALIB"
 fi
-# A simulated scenario may come with its own filter and E3D settings: config/filter_<name>.yaml and
-# config/e3d_<name>.yaml for config/sim_<name>.yaml take the places of filter_sim.yaml and e3d_sim.yaml (a car's body
-# vibration needs another process noise than a walker's gait; past plain walls the filters fuse the alignment of
-# E3D's maps, one per second).
-if [ -z "${IPS_DATASET:-}" ] && [ -n "${IPS_SCENARIO:-}" ]; then
-  scenario_name=$(basename "$IPS_SCENARIO" .yaml)
-  scenario_config=$IPS_CONFIG
-  for process in filter e3d; do
-    scenario_file=$scenario_config/${process}_${scenario_name#sim_}.yaml
-    [ -f "$scenario_file" ] || continue
-    if [ "$IPS_CONFIG" = "$scenario_config" ]; then
-      mkdir -p "$run/config"
-      for f in "$scenario_config"/*.yaml; do ln -sf "$(realpath "$f")" "$run/config/"; done
-      IPS_CONFIG=$run/config
-    fi
-    ln -sf "$(realpath "$scenario_file")" "$run/config/${process}_sim.yaml"
-    say "    $process runs with $scenario_file"
-  done
+# Configurations: the one place that says which file each process reads. A recording runs with its head's tracker
+# file (config/euroc.yaml, config/kitti.yaml), the filter's method for a real head (config/filter_recording.yaml;
+# the head's IMU is in the recording's calibration) and E3D's recording settings; the simulated head with
+# config/filter_sim.yaml and config/e3d_sim.yaml, or a scenario's own config/filter_<name>.yaml and
+# config/e3d_<name>.yaml for config/sim_<name>.yaml where there are ones (a car's body vibration needs another
+# process noise than a walker's gait; past plain walls the filters fuse the alignment of E3D's maps).
+config_file() {  # the file $1 of the config folder, else $2 of it
+  if [ -f "$IPS_CONFIG/$1" ]; then echo "$IPS_CONFIG/$1"; else echo "$IPS_CONFIG/$2"; fi
+}
+export IPS_MAPPER_CONFIG=$IPS_CONFIG/mapper.yaml IPS_VIEWER_CONFIG=$IPS_CONFIG/viewer.yaml
+if [ -n "${IPS_DATASET:-}" ]; then
+  export IPS_TRACKER_CONFIG=$IPS_CONFIG/$head.yaml IPS_FILTER_CONFIG=$IPS_CONFIG/filter_recording.yaml
+  export IPS_E3D_CONFIG=$IPS_CONFIG/e3d_recording.yaml
+else
+  scenario_name=$(basename "${IPS_SCENARIO:-sim_hard.yaml}" .yaml)
+  export IPS_TRACKER_CONFIG=$IPS_CONFIG/tracker.yaml
+  IPS_FILTER_CONFIG=$(config_file "filter_${scenario_name#sim_}.yaml" filter_sim.yaml)
+  IPS_E3D_CONFIG=$(config_file "e3d_${scenario_name#sim_}.yaml" e3d_sim.yaml)
+  export IPS_FILTER_CONFIG IPS_E3D_CONFIG
 fi
+for process in tracker filter e3d mapper viewer; do
+  var=IPS_$(echo $process | tr a-z A-Z)_CONFIG
+  say "    $process reads ${!var#$ROOT/}"
+done
 walk_s=$(lcm-logplayer --help >/dev/null 2>&1; python3 - "$run/walk.lcmlog" <<'PY' 2>/dev/null || echo 0
 import struct, sys
 f = open(sys.argv[1], 'rb'); first = last = None

@@ -29,6 +29,12 @@ int main(int argc, char** argv) {
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
     const ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
+    // The IMU's noise is the head's own (processes/filter/README.md, "Describing the head's IMU").
+    if (!calib.imu)
+      throw ips::ConfigError(args.get("--calib") +
+                             ": no 'imu' block: the filter needs the head's IMU (rate, noise densities, bias random "
+                             "walks, turn-on biases); dataset_to_lcm and the simulator write it, calib_convert --imu "
+                             "adds it from EuRoC's or Kalibr's IMU file");
     const ips::Config cfg(args.get("--config"));
     ips::filter::FilterParams params = ips::filter::loadFilterParams(cfg.has("filter") ? cfg.section("filter") : cfg);
     if (args.has("--filter")) {
@@ -40,7 +46,9 @@ int main(int argc, char** argv) {
     ips::fw::Node node(args.get("--name"), args.get("--lcm-url"));
     const std::string prior_channel = args.get("--prior-channel") == "none" ? "" : args.get("--prior-channel");
     ips::filter_app::FilterProcess process(node, estimator, args.get("--state-channel"), prior_channel);
-    IPS_INFO("running the " << ips::filter::toString(params.type) << " filter");
+    IPS_INFO("running the " << ips::filter::toString(params.type) << " filter on the IMU "
+                            << (calib.imu->model.empty() ? "of the calibration" : calib.imu->model)
+                            << (calib.tilt ? " and the tilt sensor" : ", no tilt sensor"));
     const int rc = node.run();
     process.flush();
     return rc;

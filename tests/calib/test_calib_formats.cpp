@@ -70,6 +70,32 @@ TEST(CalibFormats, KalibrFormOfEurocEqualsEurocForm) {
   expectSame(euroc, kalibr, 1e-12);
 }
 
+TEST(CalibFormats, ImuNoiseOfEurocAndKalibrFilesAgree) {
+  IPS_REQUIRE_SHARED_DATA("euroc/V1_01_easy");
+  // EuRoC's imu0/sensor.yaml and the same figures in Kalibr's imu.yaml (OpenVINS's copy).
+  const ips::ImuDescription euroc = ips::calib::readImuNoise(kEuroc + "/mav0/imu0/sensor.yaml");
+  const ips::ImuDescription kalibr =
+      ips::calib::readImuNoise(kEuroc + "/calib_openvins/kalibr_imu_chain.yaml", 0.05, 0.2);
+  for (const ips::ImuDescription* d : {&euroc, &kalibr}) {
+    EXPECT_DOUBLE_EQ(d->rate_hz, 200.0);
+    EXPECT_DOUBLE_EQ(d->gyro_noise_density, 1.6968e-04);
+    EXPECT_DOUBLE_EQ(d->gyro_random_walk, 1.9393e-05);
+    EXPECT_DOUBLE_EQ(d->accel_noise_density, 2.0e-3);
+    EXPECT_DOUBLE_EQ(d->accel_random_walk, 3.0e-3);
+  }
+  EXPECT_NE(euroc.model.find("ADIS16448"), std::string::npos) << euroc.model;
+  // Neither file has the turn-on biases: the given ones, else a MEMS IMU's.
+  EXPECT_DOUBLE_EQ(euroc.gyro_bias_sigma, ips::calib::kMemsGyroBiasSigma);
+  EXPECT_DOUBLE_EQ(kalibr.gyro_bias_sigma, 0.05);
+  EXPECT_DOUBLE_EQ(kalibr.accel_bias_sigma, 0.2);
+  const std::string bad = writeTemp("imu_bad.yaml", "rate_hz: 200\ngyroscope_noise_density: fast\n");
+  EXPECT_NE(errorOf([&] { ips::calib::readImuNoise(bad); }).find("gyroscope_noise_density' is 'fast'"),
+            std::string::npos);
+  const std::string missing = writeTemp("imu_missing.yaml", "imu0:\n  update_rate: 100\n");
+  EXPECT_NE(errorOf([&] { ips::calib::readImuNoise(missing); }).find("imu0/gyroscope_noise_density' not found"),
+            std::string::npos);
+}
+
 TEST(CalibFormats, KalibrCamchainWithTcnCnm1AndEquidistantModel) {
   const ips::StereoCalibration c = ips::calib::readKalibr(kFixtures + "/kalibr_imucam_equidistant.yaml");
   EXPECT_EQ(c.cam0.model, ips::DistortionModel::kEquidistant);

@@ -139,6 +139,51 @@ TEST(Calibration, SaveLoadRoundTrip) {
   EXPECT_EQ(r.cam1.serial, "02-2110A");
 }
 
+TEST(Calibration, ImuAndTiltDescriptionsRoundTripAndErrors) {
+  ips::StereoCalibration c = exampleHead();
+  EXPECT_FALSE(c.imu || c.tilt);
+  const std::string plain = tempPath("plain.calib.yaml");
+  ips::saveCalibration(plain, c);
+  EXPECT_FALSE(ips::loadCalibration(plain).imu.has_value());  // written only when there is one
+  ips::ImuDescription imu;
+  imu.model = "ADIS16448";
+  imu.rate_hz = 200;
+  imu.gyro_noise_density = 1.6968e-4;
+  imu.gyro_random_walk = 1.9393e-5;
+  imu.accel_noise_density = 2e-3;
+  imu.accel_random_walk = 3e-3;
+  imu.gyro_bias_sigma = 0.1;
+  imu.accel_bias_sigma = 0.3;
+  c.imu = imu;
+  ips::TiltDescription tilt;
+  tilt.rate_hz = 14;
+  tilt.accuracy = 8.7e-3;
+  tilt.resolution = 1.75e-3;
+  c.tilt = tilt;
+  const std::string p = tempPath("imu.calib.yaml");
+  ips::saveCalibration(p, c);
+  const ips::StereoCalibration r = ips::loadCalibration(p);
+  ASSERT_TRUE(r.imu && r.tilt);
+  EXPECT_EQ(r.imu->model, "ADIS16448");
+  EXPECT_DOUBLE_EQ(r.imu->gyro_noise_density, 1.6968e-4);
+  EXPECT_DOUBLE_EQ(r.imu->gyro_random_walk, 1.9393e-5);
+  EXPECT_DOUBLE_EQ(r.imu->accel_noise_density, 2e-3);
+  EXPECT_DOUBLE_EQ(r.imu->accel_random_walk, 3e-3);
+  EXPECT_DOUBLE_EQ(r.imu->gyro_bias_sigma, 0.1);
+  EXPECT_DOUBLE_EQ(r.imu->accel_bias_sigma, 0.3);
+  EXPECT_DOUBLE_EQ(r.tilt->accuracy, 8.7e-3);
+  EXPECT_DOUBLE_EQ(r.tilt->resolution, 1.75e-3);
+  // A noise density of zero would make the filter trust every sample absolutely: refused, naming the key.
+  c.imu->accel_noise_density = 0;
+  ips::saveCalibration(p, c);
+  try {
+    ips::loadCalibration(p);
+    FAIL();
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("imu/accel_noise_density"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Calibration, MissingKeyIsNamed) {
   std::string p = writeFile("incomplete.yaml", "%YAML:1.0\n---\ncam0:\n  width: 10\n");
   try {

@@ -23,6 +23,12 @@ int main(int argc, char** argv) {
         .required("--out", "CALIB.yaml", "calibration file to write")
         .option("--size", "WxH", "--from opencv: the image size")
         .option("--units-per-metre", "N", "--from opencv: units of T per metre", "1")
+        .option("--imu", "FILE",
+                "the IMU's noise: EuRoC's imu0/sensor.yaml or Kalibr's imu.yaml (the calibration's imu block)")
+        .option("--gyro-bias-sigma", "RAD_S", "--imu: the gyro's turn-on bias (data sheet), 1 sigma per axis",
+                std::to_string(ips::calib::kMemsGyroBiasSigma))
+        .option("--accel-bias-sigma", "M_S2", "--imu: the accelerometer's turn-on bias, 1 sigma per axis",
+                std::to_string(ips::calib::kMemsAccelBiasSigma))
         .positionals("FILE", "the calibration files of the format", 1, 2);
     if (!args.parse()) return 0;
     const std::string from = args.get("--from"), out = args.get("--out");
@@ -51,10 +57,13 @@ int main(int argc, char** argv) {
     } else {
       throw ips::ArgError("calib_convert: --from needs kalibr, ros, opencv or euroc");
     }
+    if (args.has("--imu"))
+      calib.imu = ips::calib::readImuNoise(args.get("--imu"), args.getDouble("--gyro-bias-sigma"),
+                                           args.getDouble("--accel-bias-sigma"));
     ips::saveCalibration(out, calib);
-    std::printf("wrote %s: %dx%d, %s, baseline %.5f m\n", out.c_str(), calib.cam0.width, calib.cam0.height,
+    std::printf("wrote %s: %dx%d, %s, baseline %.5f m%s\n", out.c_str(), calib.cam0.width, calib.cam0.height,
                 calib.cam0.model == ips::DistortionModel::kEquidistant ? "equidistant" : "radial-tangential",
-                calib.baseline());
+                calib.baseline(), calib.imu ? ", with the IMU's noise" : "");
     return 0;
   } catch (const ips::ArgError& e) {
     std::fprintf(stderr, "%s\n", e.what());  // names the program and the option

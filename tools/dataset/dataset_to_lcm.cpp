@@ -1,5 +1,6 @@
 // dataset_to_lcm: a public recording (EuRoC ASL or KITTI odometry folder) into an LCM log holding what the live
-// head would publish (STEREO, IMU when present, GT_POSE) plus FILE.lcmlog.calib.yaml in the project's format.
+// head would publish (STEREO, IMU when present, GT_POSE) plus FILE.lcmlog.calib.yaml in the project's format, with
+// the IMU's description (its `imu` block: EuRoC's imu0/sensor.yaml) where the recording has an IMU.
 // The log is written under a temporary name and renamed when complete: a bad folder leaves no output.
 #include <filesystem>
 #include <ips/ground_truth_t.hpp>
@@ -36,19 +37,24 @@ void writeGroundTruth(ips::fw::LogWriter& log, const ips::dataset::GroundTruthPo
 int main(int argc, char** argv) {
   return ips::fw::guardedMain("dataset_to_lcm", [&]() {
     ips::Args args(argc, argv, "a EuRoC or KITTI recording into an LCM log (STEREO, IMU, GT_POSE) and its calibration");
-    args.required("--format", "euroc|kitti", "layout of the recording")
-        .required("--in", "DIR", "the recording's folder (EuRoC: holds mav0/; KITTI: holds sequences/ and poses/)")
+    args.required("--format", "euroc|kitti|kitti_raw",
+                  "layout of the recording (kitti: odometry; kitti_raw: a raw drive)")
+        .required("--in", "DIR",
+                  "the recording's folder (EuRoC: holds mav0/; KITTI: holds sequences/ and poses/; KITTI raw: the\n"
+                  "drive's folder, with image_00/, image_01/, oxts/ and the date's calib_*.txt in it or its parent)")
         .required("--out", "FILE.lcmlog", "the log to write (and FILE.lcmlog.calib.yaml)")
         .option("--sequence", "NN", "KITTI sequence (default: the only one in sequences/)")
         .option("--first", "N", "first frame, 0-based", "0")
         .option("--last", "N", "last frame, inclusive (default: the last)", "-1")
-        .option("--gt", "FILE", "EuRoC: ground truth of the body as a TUM file (t tx ty tz qx qy qz qw)");
+        .option("--gt", "FILE", "EuRoC: ground truth of the body as a TUM file (t tx ty tz qx qy qz qw)")
+        .flag("--no-imu", "leave the recording's IMU out: the cameras alone (no filter runs on the log)");
     if (!args.parse()) return 0;
     ips::dataset::ReadOptions opt;
     opt.sequence = args.get("--sequence");
     opt.first = args.getInt("--first");
     opt.last = args.getInt("--last");
     opt.gt_path = args.get("--gt");
+    opt.imu = !args.getFlag("--no-imu");
     const ips::dataset::Recording rec = ips::dataset::readRecording(args.get("--format"), args.get("--in"), opt);
 
     const std::string out = args.get("--out");

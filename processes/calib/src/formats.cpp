@@ -115,6 +115,37 @@ StereoCalibration readEuroc(const std::string& cam0_path, const std::string& cam
   return calib;
 }
 
+ImuDescription readImuNoise(const std::string& path, double gyro_bias_sigma, double accel_bias_sigma) {
+  const std::string text = yaml::load(path);
+  const std::string kalibr = yaml::section(text, "imu0");
+  const std::string& body = kalibr.empty() ? text : kalibr;
+  const std::string prefix = kalibr.empty() ? "" : "imu0/";
+  auto number = [&](const std::string& key) {
+    const std::string v = yaml::scalar(body, key);
+    if (v.empty()) throw ConfigError(path + ": key '" + prefix + key + "' not found");
+    try {
+      size_t used = 0;
+      const double x = std::stod(v, &used);
+      if (used == v.size() && std::isfinite(x)) return x;
+    } catch (const std::exception&) {
+    }
+    throw ConfigError(path + ": key '" + prefix + key + "' is '" + v + "', not a number");
+  };
+  ImuDescription d;
+  d.model = yaml::scalar(body, "comment");
+  d.rate_hz = number(kalibr.empty() ? "rate_hz" : "update_rate");
+  d.gyro_noise_density = number("gyroscope_noise_density");
+  d.gyro_random_walk = number("gyroscope_random_walk");
+  d.accel_noise_density = number("accelerometer_noise_density");
+  d.accel_random_walk = number("accelerometer_random_walk");
+  d.gyro_bias_sigma = gyro_bias_sigma;
+  d.accel_bias_sigma = accel_bias_sigma;
+  if (!(d.rate_hz > 0 && d.gyro_noise_density > 0 && d.accel_noise_density > 0 && d.gyro_random_walk >= 0 &&
+        d.accel_random_walk >= 0 && gyro_bias_sigma > 0 && accel_bias_sigma > 0))
+    throw ConfigError(path + ": the IMU's rate and noise densities must be positive, its random walks not negative");
+  return d;
+}
+
 // ---- Kalibr ----------------------------------------------------------------------------------------------
 
 namespace {

@@ -165,6 +165,38 @@ StereoCalibration loadCalibration(const std::string& path) {
   }
   if (cfg.has("R_tilt_cam0")) c.R_tilt_cam0 = orthonormalize(cfg.getMatrix("R_tilt_cam0", 3, 3));
   if (cfg.has("source")) c.source = cfg.getString("source");
+  if (cfg.has("imu")) {
+    ImuDescription d;
+    d.model = cfg.getString("imu/model", "");
+    d.rate_hz = cfg.getDouble("imu/rate_hz");
+    d.gyro_noise_density = cfg.getDouble("imu/gyro_noise_density");
+    d.gyro_random_walk = cfg.getDouble("imu/gyro_random_walk");
+    d.accel_noise_density = cfg.getDouble("imu/accel_noise_density");
+    d.accel_random_walk = cfg.getDouble("imu/accel_random_walk");
+    d.gyro_bias_sigma = cfg.getDouble("imu/gyro_bias_sigma");
+    d.accel_bias_sigma = cfg.getDouble("imu/accel_bias_sigma");
+    for (const auto& [key, v] : {std::pair{"rate_hz", d.rate_hz},
+                                 {"gyro_noise_density", d.gyro_noise_density},
+                                 {"accel_noise_density", d.accel_noise_density},
+                                 {"gyro_bias_sigma", d.gyro_bias_sigma},
+                                 {"accel_bias_sigma", d.accel_bias_sigma}})
+      if (!(v > 0 && std::isfinite(v))) throw ConfigError(path + ": key 'imu/" + key + "' must be positive");
+    for (const auto& [key, v] :
+         {std::pair{"gyro_random_walk", d.gyro_random_walk}, {"accel_random_walk", d.accel_random_walk}})
+      if (!(v >= 0 && std::isfinite(v))) throw ConfigError(path + ": key 'imu/" + key + "' must not be negative");
+    c.imu = d;
+  }
+  if (cfg.has("tilt")) {
+    TiltDescription d;
+    d.model = cfg.getString("tilt/model", "");
+    d.rate_hz = cfg.getDouble("tilt/rate_hz");
+    d.accuracy = cfg.getDouble("tilt/accuracy");
+    d.resolution = cfg.getDouble("tilt/resolution");
+    for (const auto& [key, v] :
+         {std::pair{"rate_hz", d.rate_hz}, {"accuracy", d.accuracy}, {"resolution", d.resolution}})
+      if (!(v > 0 && std::isfinite(v))) throw ConfigError(path + ": key 'tilt/" + key + "' must be positive");
+    c.tilt = d;
+  }
   return c;
 }
 
@@ -184,6 +216,28 @@ void saveCalibration(const std::string& path, const StereoCalibration& c,
   fs << "T_imu_cam0" << toCv(c.T_imu_cam0.matrix());
   fs << "R_tilt_cam0" << toCv(c.R_tilt_cam0);
   if (!c.source.empty()) fs << "source" << c.source;
+  if (c.imu) {
+    const ImuDescription& d = *c.imu;
+    fs.writeComment(
+        "The IMU (Kalibr's conventions): noise densities [rad/s/sqrt(Hz)], [m/s^2/sqrt(Hz)], bias random walks\n"
+        "[rad/s^2/sqrt(Hz)], [m/s^3/sqrt(Hz)], turn-on bias sigmas [rad/s], [m/s^2] per axis.");
+    fs << "imu"
+       << "{";
+    if (!d.model.empty()) fs << "model" << d.model;
+    fs << "rate_hz" << d.rate_hz << "gyro_noise_density" << d.gyro_noise_density << "gyro_random_walk"
+       << d.gyro_random_walk << "accel_noise_density" << d.accel_noise_density << "accel_random_walk"
+       << d.accel_random_walk << "gyro_bias_sigma" << d.gyro_bias_sigma << "accel_bias_sigma" << d.accel_bias_sigma;
+    fs << "}";
+  }
+  if (c.tilt) {
+    const TiltDescription& d = *c.tilt;
+    fs.writeComment("The tilt sensor: accuracy (its constant offset) and resolution per angle [rad].");
+    fs << "tilt"
+       << "{";
+    if (!d.model.empty()) fs << "model" << d.model;
+    fs << "rate_hz" << d.rate_hz << "accuracy" << d.accuracy << "resolution" << d.resolution;
+    fs << "}";
+  }
   if (write_more) write_more(fs);
 }
 

@@ -1,9 +1,12 @@
 #include "ips/filter/estimator.hpp"
 
+#include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
 
+#include "ips/filter/motion_start.hpp"
 #include "ips/log.hpp"
 
 namespace ips::filter {
@@ -34,7 +37,7 @@ Matrix21d initialCovariance(const InitParams& ip) {
 }
 
 Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
-    : params_(params),
+    : params_(withHeadSensors(params, calib)),
       T_imu_cam0_(calib.T_imu_cam0),
       camera_delay_(params.camera_delay, calib.T_imu_cam0.linear(), params.camera_latency_us),
       R_body_tilt_(calib.T_imu_cam0.linear() * calib.R_tilt_cam0.transpose()) {
@@ -92,6 +95,9 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
   processed_time_ = std::max(processed_time_, state.utime);
   // Anything buffered from before the start is dropped silently.
   buffer_.erase(buffer_.begin(), buffer_.upper_bound(state.utime));
+  init_events_.clear();
+  init_imu_.clear();
+  init_tilt_.clear();
 }
 
 void Estimator::addImu(const ImuSample& s) {
@@ -109,7 +115,7 @@ void Estimator::addImu(const ImuSample& s) {
 }
 
 void Estimator::addTilt(const TiltSample& s) {
-  if (!std::isfinite(s.angle_x) || !std::isfinite(s.angle_y)) {
+  if (!params_.use_tilt || !std::isfinite(s.angle_x) || !std::isfinite(s.angle_y)) {
     ++counters_[kSensorTilt].rejected;
     return;
   }
@@ -164,7 +170,16 @@ void Estimator::addDelta(const TrackerDelta& d, Sensor sensor) {
   if (e.time <= processed_time_) {
     // Deltas come late by nature (after the tracker or the mapper ran): they act on the clones, which are kept.
     if (sensor == kSensorCloud) ++cloud_applied_late_;
-    if (initialized_) process(e);
+    if (initialized_) {
+      process(e);
+    } else if (sensor == kSensorTracker) {
+      // Before the start: kept in time order for the start from the tracker's deltas.
+      const auto at = std::upper_bound(init_events_.begin(), init_events_.end(), e.time,
+                                       [](int64_t t, const Event& x) { return t < x.time; });
+      init_events_.insert(at, e);
+      tracker_seen_ = tracker_seen_ || e.delta.valid;
+      tryMotionStart();
+    }
     return;
   }
   insert(std::move(e));
@@ -383,11 +398,24 @@ void Estimator::process(const Event& e) {
 }
 
 void Estimator::processInit(const Event& e) {
+  if (e.sensor == kSensorImu || e.sensor == kSensorTilt || e.sensor == kSensorImage || e.sensor == kSensorTracker) {
+    init_events_.push_back(e);
+    // What the starts can still use: the static window, the motion window and a second of slack.
+    const int64_t keep_us =
+        static_cast<int64_t>((std::max(params_.init.duration_s, params_.init.motion_window_s) + 1.0) * 1e6);
+    const auto old_end = std::lower_bound(init_events_.begin(), init_events_.end(), e.time - keep_us,
+                                          [](const Event& x, int64_t t) { return x.time < t; });
+    init_events_.erase(init_events_.begin(), old_end);
+    if (e.sensor == kSensorTracker) {
+      tracker_seen_ = tracker_seen_ || e.delta.valid;
+      if (tryMotionStart()) return;
+    }
+  }
   if (e.sensor == kSensorTilt) {
     init_tilt_.push_back(e.tilt);
     return;
   }
-  if (e.sensor != kSensorImu) return;  // images and deltas before the start carry nothing usable
+  if (e.sensor != kSensorImu) return;
   init_imu_.push_back(e.imu);
   const double span = (init_imu_.back().utime - init_imu_.front().utime) * 1e-6;
   if (span < params_.init.duration_s) return;
@@ -406,7 +434,8 @@ void Estimator::processInit(const Event& e) {
   // Per-axis standard deviation (the sums run over three axes).
   if (std::sqrt(var_f / 3.0) > params_.init.max_accel_std || std::sqrt(var_w / 3.0) > params_.init.max_gyro_std ||
       mean_f.norm() < 0.5 * params_.gravity) {
-    if (params_.init.in_motion) {
+    // With a tracker the start comes from its deltas (tryMotionStart); without one, from the mean specific force.
+    if (params_.init.in_motion && !tracker_seen_) {
       initializeInMotion();
     } else {
       IPS_INFO("filter: not at rest yet (accel std " << std::sqrt(var_f / 3.0) << " m/s^2, gyro std "
@@ -451,12 +480,104 @@ NavState Estimator::startState(const Eigen::Vector3d& specific_force_up, double*
   *roll = std::atan2(f.y(), f.z());
   *pitch = std::atan2(-f.x(), std::sqrt(f.y() * f.y() + f.z() * f.z()));
   NavState s;
-  s.utime = init_imu_.back().utime;
+  s.utime = init_imu_.empty() ? 0 : init_imu_.back().utime;
   s.position = params_.init.position;
   s.orientation = Eigen::AngleAxisd(params_.init.heading_rad, Eigen::Vector3d::UnitZ()) *
                   Eigen::AngleAxisd(*pitch, Eigen::Vector3d::UnitY()) *
                   Eigen::AngleAxisd(*roll, Eigen::Vector3d::UnitX());
   return s;
+}
+
+bool Estimator::tryMotionStart() {
+  if (initialized_ || !params_.init.in_motion) return false;
+  // The newest chain of consecutive valid deltas.
+  std::vector<const Event*> chain;
+  for (auto it = init_events_.rbegin(); it != init_events_.rend(); ++it) {
+    if (it->sensor != kSensorTracker) continue;
+    if (!it->delta.valid) break;
+    if (!chain.empty() && it->delta.utime != chain.back()->delta.utime_prev) break;
+    chain.push_back(&*it);
+  }
+  const InitParams& ip = params_.init;
+  if (static_cast<int>(chain.size()) < ip.motion_min_deltas) return false;
+  std::reverse(chain.begin(), chain.end());
+  const int64_t t0 = chain.front()->delta.utime_prev, t1 = chain.back()->delta.utime;
+  if ((t1 - t0) * 1e-6 < ip.motion_window_s) return false;
+  // The IMU up to the newest delta, from the sample holding at its first image.
+  MotionStartInput in;
+  in.T_imu_cam0 = T_imu_cam0_;
+  in.gyro_noise_density = params_.imu.gyro_noise_density;
+  in.accel_noise_density = params_.imu.accel_noise_density;
+  in.gravity = params_.gravity;
+  in.max_gravity_error = ip.motion_max_gravity_error;
+  for (const Event& e : init_events_)
+    if (e.sensor == kSensorImu) {
+      if (e.time <= t0 && !in.imu.empty()) in.imu.clear();
+      in.imu.push_back(e.imu);
+    }
+  if (in.imu.empty() || in.imu.back().utime < t1) return false;  // the IMU has not reached the newest delta yet
+  // At rest the mean over duration_s gives a better start (and the gyro bias from thousands of samples).
+  double accel_var = 0, gyro_var = 0;
+  Eigen::Vector3d mean_f = Eigen::Vector3d::Zero(), mean_w = Eigen::Vector3d::Zero();
+  for (const ImuSample& m : in.imu) mean_f += m.specific_force, mean_w += m.angular_rate;
+  mean_f /= static_cast<double>(in.imu.size());
+  mean_w /= static_cast<double>(in.imu.size());
+  for (const ImuSample& m : in.imu)
+    accel_var += (m.specific_force - mean_f).squaredNorm(), gyro_var += (m.angular_rate - mean_w).squaredNorm();
+  const double n_imu = static_cast<double>(in.imu.size());
+  if (std::sqrt(accel_var / n_imu / 3.0) <= ip.max_accel_std && std::sqrt(gyro_var / n_imu / 3.0) <= ip.max_gyro_std)
+    return false;
+  const Eigen::Matrix<double, 6, 1> min_sigma =
+      (Eigen::Matrix<double, 6, 1>() << Eigen::Vector3d::Constant(params_.tracker_min_sigma_t),
+       Eigen::Vector3d::Constant(params_.tracker_min_sigma_r))
+          .finished();
+  for (const Event* e : chain) {
+    TrackerDelta d = e->delta;
+    d.covariance = symmetrisedWithFloor(d.covariance, min_sigma);
+    in.deltas.push_back(d);
+  }
+  std::string why;
+  const std::optional<MotionStart> start = estimateMotionStart(in, &why);
+  if (!start) {
+    IPS_INFO("filter: no start from the tracker's deltas yet: " << why);
+    return false;
+  }
+  // The state at the chain's first image: level from gravity, the configured position and heading.
+  const Eigen::Vector3d up = -start->gravity_body.normalized();
+  double roll = 0, pitch = 0;
+  NavState s = startState(up, &roll, &pitch);
+  s.utime = t0;
+  const Eigen::Matrix3d R_wb = s.orientation.toRotationMatrix();
+  const ImuSample& first = in.imu.front();
+  s.velocity = R_wb * start->velocity_body;
+  s.acceleration = R_wb * first.specific_force - Eigen::Vector3d(0, 0, params_.gravity);
+  s.gyro_bias = start->gyro_bias;
+  s.angular_rate = first.angular_rate - start->gyro_bias;
+  InitParams cov_ip = ip;
+  cov_ip.sigma_acceleration = ip.moving_sigma_acceleration;
+  cov_ip.sigma_angular_rate = ip.moving_sigma_angular_rate;
+  // Gravity's direction: the fit's uncertainty across it, and no better than an accelerometer bias of
+  // sigma_accel_bias allows (a bias and a tilt look alike until the head turns).
+  const Eigen::Matrix3d P_g = start->covariance.bottomRightCorner<3, 3>();
+  const Eigen::Matrix3d across = Eigen::Matrix3d::Identity() - up * up.transpose();
+  const Eigen::Matrix3d P_tilt = across * P_g * across;
+  cov_ip.sigma_roll_pitch = std::max(
+      std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(P_tilt).eigenvalues().maxCoeff()) / params_.gravity,
+      ip.sigma_accel_bias / params_.gravity);
+  Matrix21d P = initialCovariance(cov_ip);
+  P.block<3, 3>(kErrV, kErrV) = R_wb * start->covariance.topLeftCorner<3, 3>() * R_wb.transpose();
+  P.block<3, 3>(kErrBg, kErrBg) = start->gyro_bias_covariance;
+  const std::vector<Event> since = std::move(init_events_);
+  initialize(s, P);
+  ++starts_in_motion_;
+  IPS_WARN("filter: started in motion at t="
+           << t0 << " us from " << chain.size() << " tracker deltas over " << (t1 - t0) * 1e-6 << " s: gyro bias "
+           << start->gyro_bias.transpose() << " rad/s, speed " << start->velocity_body.norm() << " m/s, gravity misfit "
+           << start->gravity_error * 100 << " %, roll " << roll << " pitch " << pitch << " rad");
+  // The events since the first image, again, now with the filter running.
+  for (const Event& e : since)
+    if (e.time >= t0) process(e);
+  return true;
 }
 
 void Estimator::initializeInMotion() {

@@ -1,5 +1,7 @@
 #include "ips/filter/params.hpp"
 
+#include <algorithm>
+
 namespace ips::filter {
 
 namespace {
@@ -23,6 +25,13 @@ std::optional<FilterType> filterTypeFromString(const std::string& name) {
 
 FilterParams loadFilterParams(const Config& c) {
   FilterParams p;
+  // The sensors' own figures belong to the head's description (the calibration file), not to the method's settings.
+  for (const char* key : {"imu", "process_noise/accel_bias_psd", "process_noise/gyro_bias_psd", "tilt/sigma",
+                          "tilt/offset_noise_sigma", "init/sigma_accel_bias", "init/moving_sigma_gyro_bias"})
+    if (c.has(key))
+      throw ConfigError(c.path() + ": key '" + key +
+                        "' is the sensor's: it is read from the calibration file's imu and tilt blocks (its noise "
+                        "densities, random walks, turn-on biases, the tilt sensor's accuracy and resolution)");
   const std::string type = c.getString("type", "ekf");
   const std::optional<FilterType> t = filterTypeFromString(type);
   if (!t) throw ConfigError(c.path() + ": key 'type' must be 'ekf' or 'ukf', not '" + type + "'");
@@ -37,12 +46,8 @@ FilterParams loadFilterParams(const Config& c) {
 
   p.process.jerk_psd = c.getDouble("process_noise/jerk_psd", p.process.jerk_psd);
   p.process.angular_accel_psd = c.getDouble("process_noise/angular_accel_psd", p.process.angular_accel_psd);
-  p.process.accel_bias_psd = c.getDouble("process_noise/accel_bias_psd", p.process.accel_bias_psd);
-  p.process.gyro_bias_psd = c.getDouble("process_noise/gyro_bias_psd", p.process.gyro_bias_psd);
   positive(c, "process_noise/jerk_psd", p.process.jerk_psd);
   positive(c, "process_noise/angular_accel_psd", p.process.angular_accel_psd);
-  nonNegative(c, "process_noise/accel_bias_psd", p.process.accel_bias_psd);
-  nonNegative(c, "process_noise/gyro_bias_psd", p.process.gyro_bias_psd);
   p.process.delta_scale_psd = c.getDouble("delta_scale/psd", p.process.delta_scale_psd);
   nonNegative(c, "delta_scale/psd", p.process.delta_scale_psd);
   p.process.delta_direction_psd = c.getDouble("delta_direction/psd", p.process.delta_direction_psd);
@@ -50,15 +55,6 @@ FilterParams loadFilterParams(const Config& c) {
   p.process.delta_rotation_drift_psd = c.getDouble("delta_rotation_drift/psd", p.process.delta_rotation_drift_psd);
   nonNegative(c, "delta_rotation_drift/psd", p.process.delta_rotation_drift_psd);
 
-  p.imu.gyro_noise_density = c.getDouble("imu/gyro_noise_density", p.imu.gyro_noise_density);
-  p.imu.accel_noise_density = c.getDouble("imu/accel_noise_density", p.imu.accel_noise_density);
-  p.imu.rate_hz = c.getDouble("imu/rate_hz", p.imu.rate_hz);
-  positive(c, "imu/gyro_noise_density", p.imu.gyro_noise_density);
-  positive(c, "imu/accel_noise_density", p.imu.accel_noise_density);
-  positive(c, "imu/rate_hz", p.imu.rate_hz);
-
-  p.tilt_sigma = c.getDouble("tilt/sigma", p.tilt_sigma);
-  positive(c, "tilt/sigma", p.tilt_sigma);
   p.tilt_max_acceleration = c.getDouble("tilt/max_acceleration", p.tilt_max_acceleration);
   positive(c, "tilt/max_acceleration", p.tilt_max_acceleration);
   p.tilt_specific_force = c.getBool("tilt/specific_force", p.tilt_specific_force);
@@ -95,8 +91,6 @@ FilterParams loadFilterParams(const Config& c) {
   p.lever_arm_sigma = c.getDouble("lever_arm/sigma", p.lever_arm_sigma);
   if (!(p.lever_arm_sigma > 0)) throw ConfigError(c.path() + ": key 'lever_arm/sigma' must be positive");
   p.estimate_tilt_offset = c.getBool("tilt/estimate_offset", p.estimate_tilt_offset);
-  p.tilt_offset_noise_sigma = c.getDouble("tilt/offset_noise_sigma", p.tilt_offset_noise_sigma);
-  positive(c, "tilt/offset_noise_sigma", p.tilt_offset_noise_sigma);
   p.estimate_camera_alignment = c.getBool("camera_alignment/estimate", p.estimate_camera_alignment);
   p.camera_alignment_sigma = c.getDouble("camera_alignment/sigma", p.camera_alignment_sigma);
   positive(c, "camera_alignment/sigma", p.camera_alignment_sigma);
@@ -165,7 +159,6 @@ FilterParams loadFilterParams(const Config& c) {
   i.sigma_position = c.getDouble("init/sigma_position", i.sigma_position);
   i.sigma_velocity = c.getDouble("init/sigma_velocity", i.sigma_velocity);
   i.sigma_acceleration = c.getDouble("init/sigma_acceleration", i.sigma_acceleration);
-  i.sigma_accel_bias = c.getDouble("init/sigma_accel_bias", i.sigma_accel_bias);
   i.sigma_angular_rate = c.getDouble("init/sigma_angular_rate", i.sigma_angular_rate);
   i.sigma_gyro_bias = c.getDouble("init/sigma_gyro_bias", i.sigma_gyro_bias);
   i.sigma_roll_pitch = c.getDouble("init/sigma_roll_pitch", i.sigma_roll_pitch);
@@ -175,15 +168,45 @@ FilterParams loadFilterParams(const Config& c) {
   i.moving_sigma_acceleration = c.getDouble("init/moving_sigma_acceleration", i.moving_sigma_acceleration);
   i.moving_sigma_angular_rate = c.getDouble("init/moving_sigma_angular_rate", i.moving_sigma_angular_rate);
   i.moving_sigma_roll_pitch = c.getDouble("init/moving_sigma_roll_pitch", i.moving_sigma_roll_pitch);
-  i.moving_sigma_gyro_bias = c.getDouble("init/moving_sigma_gyro_bias", i.moving_sigma_gyro_bias);
-  for (const char* k :
-       {"init/moving_sigma_velocity", "init/moving_sigma_acceleration", "init/moving_sigma_angular_rate",
-        "init/moving_sigma_roll_pitch", "init/moving_sigma_gyro_bias"})
+  i.motion_window_s = c.getDouble("init/motion_window_s", i.motion_window_s);
+  positive(c, "init/motion_window_s", i.motion_window_s);
+  i.motion_min_deltas = c.getInt("init/motion_min_deltas", i.motion_min_deltas);
+  if (i.motion_min_deltas < 2) throw ConfigError(c.path() + ": key 'init/motion_min_deltas' must be at least 2");
+  i.motion_max_gravity_error = c.getDouble("init/motion_max_gravity_error", i.motion_max_gravity_error);
+  positive(c, "init/motion_max_gravity_error", i.motion_max_gravity_error);
+  for (const char* k : {"init/moving_sigma_velocity", "init/moving_sigma_acceleration",
+                        "init/moving_sigma_angular_rate", "init/moving_sigma_roll_pitch"})
     positive(c, k, c.getDouble(k, 1.0));
   for (const char* k : {"init/sigma_position", "init/sigma_velocity", "init/sigma_acceleration",
-                        "init/sigma_accel_bias", "init/sigma_angular_rate", "init/sigma_gyro_bias",
-                        "init/sigma_roll_pitch", "init/sigma_heading", "init/max_accel_std", "init/max_gyro_std"})
+                        "init/sigma_angular_rate", "init/sigma_gyro_bias", "init/sigma_roll_pitch",
+                        "init/sigma_heading", "init/max_accel_std", "init/max_gyro_std"})
     positive(c, k, c.getDouble(k, 1.0));
+  return p;
+}
+
+FilterParams withHeadSensors(FilterParams p, const StereoCalibration& calib) {
+  if (!calib.imu) return p;
+  const ImuDescription& imu = *calib.imu;
+  p.imu.rate_hz = imu.rate_hz;
+  p.imu.gyro_noise_density = imu.gyro_noise_density;
+  p.imu.accel_noise_density = imu.accel_noise_density;
+  for (ProcessNoise* q : {&p.process, &p.gap_process}) {
+    q->gyro_bias_psd = imu.gyro_random_walk * imu.gyro_random_walk;
+    q->accel_bias_psd = imu.accel_random_walk * imu.accel_random_walk;
+  }
+  // At a start the accelerometer's bias is its turn-on bias (at rest a bias and a tilt look alike); the gyro's is
+  // unknown until the deltas or a rest have shown it.
+  p.init.sigma_accel_bias = imu.accel_bias_sigma;
+  p.init.moving_sigma_gyro_bias = imu.gyro_bias_sigma;
+  // A gap is a pause of several sample intervals, whatever the rate (a 10 Hz GPS/INS is not in a gap between samples).
+  p.imu_gap_s = std::max(p.imu_gap_s, 3.0 / imu.rate_hz);
+  p.use_tilt = calib.tilt.has_value();
+  if (calib.tilt) {
+    p.tilt_sigma = calib.tilt->accuracy;
+    p.tilt_offset_noise_sigma = calib.tilt->resolution;
+  } else {
+    p.estimate_tilt_offset = false;
+  }
   return p;
 }
 

@@ -29,6 +29,28 @@ Eigen::Matrix3d nominalHeadCamera() {
 
 }  // namespace
 
+ImuDescription imuDescription(const ImuFigures& f) {
+  ImuDescription d;
+  d.model = "simulated MMQ-50 (sim scenario imu figures)";
+  d.rate_hz = f.rate_hz;
+  d.gyro_noise_density = f.gyro_arw_deg_sqrt_h * kDeg / 60.0;  // deg/sqrt(h) -> rad/s/sqrt(Hz)
+  d.accel_noise_density = f.accel_vrw_mg_sqrt_hz * kMg;
+  d.gyro_random_walk = f.gyro_bias_walk_deg_s_sqrt_s * kDeg;
+  d.accel_random_walk = f.accel_bias_walk_mg_sqrt_s * kMg;
+  d.gyro_bias_sigma = f.gyro_bias_deg_s * kDeg;
+  d.accel_bias_sigma = f.accel_bias_mg * kMg;
+  return d;
+}
+
+TiltDescription tiltDescription(const TiltFigures& f) {
+  TiltDescription d;
+  d.model = "simulated PEI-Z260 (sim scenario tilt figures)";
+  d.rate_hz = f.rate_hz;
+  d.accuracy = f.accuracy_deg * kDeg;
+  d.resolution = f.resolution_deg * kDeg;
+  return d;
+}
+
 SensorHead SensorHead::make(const Scenario& s) {
   const CameraFigures& c = s.camera;
   SensorHead head;
@@ -65,6 +87,8 @@ SensorHead SensorHead::make(const Scenario& s) {
   head.R_tilt_imu = smallRotation(rng, s.tilt.misalignment_deg * kDeg) * R_imu_head.transpose();
   cal.T_imu_cam0 = head.T_imu_cam0;
   cal.R_tilt_cam0 = head.R_tilt_imu * head.T_imu_cam0.linear();
+  cal.imu = imuDescription(s.imu);
+  cal.tilt = tiltDescription(s.tilt);
   head.cam1_step = c.relative_rotation_step_deg * kDeg;
   head.cam1_step_s = c.relative_rotation_step_s;
   head.cam1_drift_per_s = c.relative_rotation_drift_deg_per_min * kDeg / 60.0;
@@ -83,6 +107,8 @@ StereoCalibration SensorHead::design(const Scenario& s) {
   cal.T_imu_cam0.linear() = nominalHeadCamera();
   cal.T_imu_cam0.translation() = s.imu.lever_arm_m;
   cal.R_tilt_cam0 = nominalHeadCamera();
+  cal.imu = imuDescription(s.imu);
+  cal.tilt = tiltDescription(s.tilt);
   cal.source = "design";
   return cal;
 }

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <functional>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -53,6 +54,29 @@ double widestRayTan2(const CameraIntrinsics& cam);
 // The smallest flat-field gain of rays up to widest_tan2 (101 samples; the gain is a cubic): it must be positive.
 double lowestFlatFieldGain(const CameraIntrinsics& cam, double widest_tan2);
 
+// The head's IMU as its data sheet or its own calibration gives it (Kalibr's and EuRoC's conventions: continuous-time
+// densities): what the filter takes for the IMU's noise, its biases' random walk and their prior at a start. Keys
+// under `imu` in the calibration file.
+struct ImuDescription {
+  std::string model;               // informational: "ADIS16448 (EuRoC VI-Sensor)"
+  double rate_hz = 0;              // nominal sample rate
+  double gyro_noise_density = 0;   // [rad/s/sqrt(Hz)] white rate noise (angle random walk)
+  double gyro_random_walk = 0;     // [rad/s^2/sqrt(Hz)] bias diffusion
+  double accel_noise_density = 0;  // [m/s^2/sqrt(Hz)] white acceleration noise (velocity random walk)
+  double accel_random_walk = 0;    // [m/s^3/sqrt(Hz)] bias diffusion
+  double gyro_bias_sigma = 0;      // [rad/s] turn-on bias, 1 sigma per axis (before any estimate)
+  double accel_bias_sigma = 0;     // [m/s^2]
+};
+
+// The head's tilt sensor (inclinometer), keys under `tilt`. A calibration file with an `imu` block and no `tilt`
+// block describes a head without one (EuRoC, KITTI).
+struct TiltDescription {
+  std::string model;
+  double rate_hz = 0;
+  double accuracy = 0;    // [rad] 1 sigma per angle: its constant offset (and nonlinearity) at 25 deg C
+  double resolution = 0;  // [rad] its white noise at rest
+};
+
 struct StereoCalibration {
   CameraIntrinsics cam0;  // left
   CameraIntrinsics cam1;  // right
@@ -60,6 +84,9 @@ struct StereoCalibration {
   Eigen::Vector3d t_cam1_cam0 = Eigen::Vector3d::Zero();  // metres; about (-baseline, 0, 0) for a left/right head
   Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
   Eigen::Matrix3d R_tilt_cam0 = Eigen::Matrix3d::Identity();
+  // The inertial sensors (absent in a file without `imu`: a head described by its cameras only).
+  std::optional<ImuDescription> imu;
+  std::optional<TiltDescription> tilt;
   // How it was obtained, so that a run can say what it ran on: "true" (the simulator's own head), "perturbed"
   // (the simulator's head with the errors a good calibration leaves), "estimated" (the calibration tools),
   // "converted" (from another tool's format). Empty when the file does not say.

@@ -13,6 +13,9 @@
 //                camera_matrix, distortion_model plumb_bob|equidistant, distortion_coefficients,
 //                rectification_matrix, projection_matrix; the stereo geometry follows from the rectification
 //                rotations and the right camera's projection matrix (Tx = -fx' * baseline).
+//  IMU noise     EuRoC's imu0/sensor.yaml (rate_hz, gyroscope_noise_density, gyroscope_random_walk,
+//                accelerometer_noise_density, accelerometer_random_walk) or Kalibr's imu.yaml (the same densities
+//                under imu0, update_rate): the ImuDescription of the calibration file's `imu` block.
 //  OpenCV        stereo_calib sample output: M1 D1 M2 D2 (intrinsics.yml) and R T (extrinsics.yml), T in
 //                the calibration target's unit; the image size is not in these files and must be given.
 #include <Eigen/Geometry>
@@ -37,6 +40,17 @@ StereoCalibration readEuroc(const std::string& cam0_path, const std::string& cam
 // T_imu_cam0 from cam0's T_cam_imu (or T_imu_cam); the stereo pair from cam1's T_cn_cnm1 or, without it, from
 // both cameras' IMU transforms. Without any IMU transform, T_imu_cam0 stays identity.
 StereoCalibration readKalibr(const std::string& path);
+
+// Neither EuRoC's nor Kalibr's IMU file gives the turn-on biases; without the data sheet's, a MEMS IMU's: gyros'
+// zero-rate offsets of +-3 to +-10 deg/s (0.1 rad/s, 5.7 deg/s) and accelerometers' zero-g offsets of +-40 to
+// +-60 mg (0.3 m/s^2). Only the filter's start depends on them: its first deltas estimate the gyro bias, and the
+// accelerometer bias shows as the head turns.
+constexpr double kMemsGyroBiasSigma = 0.1;   // [rad/s]
+constexpr double kMemsAccelBiasSigma = 0.3;  // [m/s^2]
+// The IMU's noise from an EuRoC sensor.yaml or a Kalibr imu.yaml (told apart by Kalibr's `imu0:` section), with the
+// turn-on biases given.
+ImuDescription readImuNoise(const std::string& path, double gyro_bias_sigma = kMemsGyroBiasSigma,
+                            double accel_bias_sigma = kMemsAccelBiasSigma);
 
 // ROS files are in metres.
 StereoCalibration readRosCameraInfo(const std::string& cam0_path, const std::string& cam1_path);

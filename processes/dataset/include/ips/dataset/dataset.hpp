@@ -3,6 +3,9 @@
 // frames (image paths and stamps), IMU samples, ground-truth poses of the body, and the head's calibration in
 // the project's format. No LCM here: dataset_to_lcm encodes what these readers return.
 //
+// The IMU's description (ImuDescription: noise densities and rate from EuRoC's imu0/sensor.yaml) is the
+// calibration's `imu` block; a recording without IMU has none, and neither has a tilt sensor.
+//
 // Frames (see tools/dataset/README.md): the body is the IMU frame (EuRoC: imu0 = the "B" frame of T_BS; KITTI has
 // no IMU, there the body is camera 0 and T_imu_cam0 is the identity). Ground truth is the pose of the body in
 // the dataset's world frame; the pose of camera 0 is T_world_body * T_imu_cam0.
@@ -59,6 +62,7 @@ struct ReadOptions {
   int64_t first = 0;     // first frame (0-based, inclusive)
   int64_t last = -1;     // last frame (inclusive); -1 = to the end
   std::string gt_path;   // EuRoC: a TUM file of the body's pose instead of the folder's ground truth
+  bool imu = true;       // false: the recording's IMU is left out (the cameras alone)
 };
 
 // KITTI's times.txt starts at 0 s; the head's clock never reads 0 (a zero stamp is "no stamp" on the bus), so
@@ -70,6 +74,21 @@ std::string detectFormat(const std::string& dir);
 
 Recording readEuroc(const std::string& dir, const ReadOptions& options);
 Recording readKitti(const std::string& dir, const ReadOptions& options);
+
+// A KITTI raw drive (Geiger et al., IJRR 2013): `dir` is the drive's folder (2011_09_26_drive_0001_sync or
+// _extract) with image_00 (left grey), image_01 (right grey), oxts/ (data/*.txt, timestamps.txt), and its date's
+// three calibration files (calib_cam_to_cam.txt, calib_imu_to_velo.txt, calib_velo_to_cam.txt) in `dir` or its
+// parent. Synced-and-rectified drives (images of S_rect_00's size) get the rectified pinhole pair P_rect_00 /
+// P_rect_01; raw ones K_0x, D_0x and R_01 / T_01. The OXTS GPS/INS is both the IMU (wx wy wz, ax ay az in its x
+// forward, y left, z up frame, at its own rate: 10 Hz synced, 100 Hz raw) and the ground truth (lat, lon, alt by
+// the devkit's Mercator projection at the first latitude, z up; roll, pitch, yaw as Rz Ry Rx). The body is the
+// OXTS unit; T_imu_cam0 = (R_rect_00 T_cam_velo T_velo_imu)^-1 for the rectified camera 0. The IMU description is
+// oxtsInsDescription's.
+Recording readKittiRaw(const std::string& dir, const ReadOptions& options);
+// The OXTS outputs as an IMU: the INS's bias-compensated samples at `rate_hz`, their noise densities measured from
+// the samples themselves (each against the mean of its neighbours: at 10 Hz the car's vibration, not the sensors'
+// white noise, is what a snapshot carries), floored at the sensors' own.
+ImuDescription oxtsInsDescription(const std::vector<ImuSample>& samples, double rate_hz);
 Recording readRecording(const std::string& format, const std::string& dir, const ReadOptions& options);
 
 // A frame's image as 8-bit grey; throws DatasetError naming the file when it does not load or its size differs

@@ -1,8 +1,9 @@
 #pragma once
 // The IPS estimator (paper section 4.3): fed message by message in arrival order, it buffers measurements for
 // a configurable window, applies them in time order to the chosen filter (EKF or UKF), initialises itself at
-// rest, clones the pose at image times so that tracker deltas are proper measurements, and queues the
-// posterior states. No middleware: the process main converts LCM messages to and from these structs.
+// rest or, while the head moves, from the tracker's first deltas, clones the pose at image times so that tracker deltas
+// are proper measurements, and queues the posterior states. No middleware: the process main converts LCM messages to
+// and from these structs.
 //
 // Per message:
 //   IMU sample   -> time update to its stamp + IMU measurement update (a full filter cycle), posterior output
@@ -178,7 +179,11 @@ class Estimator {
   void release(int64_t up_to);
   void process(const Event& e);
   void processInit(const Event& e);
+  // The start on the mean specific force (no tracker deltas to start from).
   void initializeInMotion();
+  // The start from the tracker's first deltas (ips/filter/motion_start.hpp) once they span the window; the events
+  // since the chain's first image are then processed again. Returns true when the filter started.
+  bool tryMotionStart();
   // The start state at the newest window sample: level from `specific_force_up`, configured position/heading.
   NavState startState(const Eigen::Vector3d& specific_force_up, double* roll, double* pitch) const;
   // Applies an IMU or tilt event to a runner; returns true if the measurement was applied.
@@ -219,6 +224,10 @@ class Estimator {
   // Static initialisation.
   std::vector<ImuSample> init_imu_;
   std::vector<TiltSample> init_tilt_;
+  // Before the start: every event in time order over the last seconds (IMU, tilt, image times, tracker deltas),
+  // for the start from the tracker's deltas, which begins at their first image and processes them again.
+  std::vector<Event> init_events_;
+  bool tracker_seen_ = false;  // a valid tracker delta has come before the start
 };
 
 }  // namespace ips::filter

@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "ips/calibration.hpp"
 #include "ips/config.hpp"
 
 namespace ips::filter {
@@ -62,6 +63,16 @@ struct InitParams {
   // is 3 degrees
   double moving_sigma_roll_pitch = 0.05;
   double moving_sigma_gyro_bias = 2e-3;  // [rad/s] not observable in motion: the gyro's turn-on bias
+  // The start in motion from the tracker's deltas (ips/filter/motion_start.hpp): once a chain of at least
+  // motion_min_deltas consecutive deltas spans motion_window_s while the IMU shows motion, the gyro bias, the
+  // velocity and gravity's direction at its first image are estimated from it and the filter starts there, at the
+  // chain's first image; without deltas (no tracker) it starts on the mean specific force over duration_s as above.
+  // 1 s: the gyro bias to a few 1e-4 rad/s and gravity's direction to a few 1e-4 rad from a stereo tracker's
+  // millimetres, while the head has hardly moved.
+  double motion_window_s = 1.0;
+  int motion_min_deltas = 5;
+  // |estimated gravity| within this share of `gravity`, else the deltas and the IMU disagree and the start waits.
+  double motion_max_gravity_error = 0.05;
 };
 
 // Online estimation of the camera's delay against the IMU (FilterParams::camera_delay).
@@ -194,6 +205,9 @@ struct FilterParams {
   // unknown, 0.05 % with it known).
   CameraDelayParams camera_delay;
 
+  // Whether the head has a tilt sensor: without one, TILT messages are refused (counted) and no offset state is kept.
+  bool use_tilt = true;
+
   int64_t reorder_window_us = 50'000;  // measurements are held this long so that they can be sorted
   // The IMU's stamps drive that release: it is the densest, most regular stream. Another sensor's stamp may
   // lead the IMU's newest by at most this much before it drives the release itself (the IMU has fallen
@@ -229,6 +243,13 @@ struct FilterParams {
 // Reads the keys of `cfg` (a section such as Config("config/filter.yaml").section("filter")); absent keys
 // keep their defaults, wrong ones throw ConfigError naming file and key.
 FilterParams loadFilterParams(const Config& cfg);
+
+// The parameters with the head's own sensors where its calibration describes them (ips/calibration.hpp
+// ImuDescription, TiltDescription): the IMU's noise densities and rate, its biases' random walks (the process noise
+// of the bias states: density squared) and turn-on sigmas (their prior at a start); the tilt sensor's accuracy and
+// resolution, or no tilt sensor (use_tilt false) where the calibration describes an IMU but no tilt sensor. A
+// calibration without `imu` leaves the parameters as they are (their defaults: the paper's MMQ-50 and PEI Z260).
+FilterParams withHeadSensors(FilterParams params, const StereoCalibration& calib);
 std::string toString(FilterType type);
 // "ekf" or "ukf" (as toString gives them); nothing for any other name.
 std::optional<FilterType> filterTypeFromString(const std::string& name);

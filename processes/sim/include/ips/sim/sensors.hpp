@@ -13,6 +13,11 @@
 
 namespace ips::sim {
 
+// The IMU's and the tilt sensor's figures as the head's description gives them to the processes (its data sheet):
+// what the calibration file written for them carries under `imu` and `tilt`.
+ImuDescription imuDescription(const ImuFigures& f);
+TiltDescription tiltDescription(const TiltFigures& f);
+
 struct SensorHead {
   StereoCalibration calibration;  // the true geometry (project calibration format)
   Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
