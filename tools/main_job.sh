@@ -140,13 +140,23 @@ PY
 # 2. A deputy on this machine, on the run's LCM URL, with the id procman/main_job.pmd names ("mainjob"; a
 #    second main job on the same LCM URL is refused by the deputy's discovery, exit 2).
 export LCM_DEFAULT_URL=${LCM_DEFAULT_URL:-udpm://239.255.76.67:7667?ttl=0}
+# The bulk bus (images, dense maps) on the next port of the same group unless given: no process that reads the IMU
+# has image datagrams in its socket (processes/framework/README.md, "Two buses").
+if [ -z "${IPS_BULK_LCM_URL:-}" ]; then
+  if [[ $LCM_DEFAULT_URL =~ ^(udpm://[^:]+:)([0-9]+)(.*)$ ]]; then
+    IPS_BULK_LCM_URL="${BASH_REMATCH[1]}$(( BASH_REMATCH[2] + 1 ))${BASH_REMATCH[3]}"
+  else
+    IPS_BULK_LCM_URL=$LCM_DEFAULT_URL
+  fi
+fi
+export IPS_BULK_LCM_URL
 export IPS_RUN_DIR=$run IPS_REPLAY_SPEED=${IPS_REPLAY_SPEED:-1.0}
 # The live view: IPS_VIEWER_PORT, else a port free on this machine (a fixed one may be taken by another job).
 IPS_VIEWER_PORT=${IPS_VIEWER_PORT:-$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')}
 export IPS_VIEWER_PORT
 export IPS_MAPPER_POSES=${IPS_MAPPER_POSES:-filter}
 deputy_id=mainjob
-say "2/4 starting procman-deputy '$deputy_id' on $LCM_DEFAULT_URL"
+say "2/4 starting procman-deputy '$deputy_id' on $LCM_DEFAULT_URL (images and maps on $IPS_BULK_LCM_URL)"
 procman-deputy --id "$deputy_id" > "$run/deputy.log" 2>&1 &
 deputy=$!
 trap 'kill -TERM $deputy 2>/dev/null || true; wait $deputy 2>/dev/null || true' EXIT
@@ -176,6 +186,8 @@ report_rc=0
 # The logger writes results.lcmlog.00 (and .01, ... if it was restarted: ips_report then fails the run).
 results=$(ls "$run"/results.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
 [ -n "$results" ] || { say "FAILED: no recording (results.lcmlog.*) in $run"; exit 1; }
+results_bulk=$(ls "$run"/results_bulk.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
+[ -n "$results_bulk" ] && report_args+=(--bulk-log "$results_bulk")
 # Evaluated against the truth when the processes ran on a perturbed calibration (sim with calibration_errors).
 eval_calib=$run/walk.lcmlog.calib.yaml
 [ ! -f "$run/walk.lcmlog.true.calib.yaml" ] || eval_calib=$run/walk.lcmlog.true.calib.yaml

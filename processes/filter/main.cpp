@@ -1,4 +1,4 @@
-// filter: the IPS state estimation as a process. IMU, TILT, STEREO (image times only), TRACKER_DELTA, and E3D's
+// filter: the IPS state estimation as a process. IMU, TILT, STEREO_TIME (image times), TRACKER_DELTA, and E3D's
 // KEYFRAME with the mapper's CLOUD_DELTA (the alignment of successive dense maps) in;
 // FILTER_STATE (a posteriori, at IMU rate or decimated) and FILTER_PRIOR (a priori at every image time, for the
 // tracker's window prediction) out. Time comes from the message stamps only.
@@ -51,6 +51,8 @@ int main(int argc, char** argv) {
                             << (calib.tilt ? " and the tilt sensor" : ", no tilt sensor"));
     const int rc = node.run();
     process.flush();
+    // The counters with what the flush applied: the report reads the last health message.
+    node.publishHealth(1.0);
     return rc;
   });
 }

@@ -26,7 +26,8 @@ procman-sheriff --config "$SRC/procman/replay.pmd" --script replay --timeout 300
 kill $deputy; wait $deputy 2>/dev/null || true
 trap - EXIT
 parts=$(ls "$W"/replay.lcmlog.[0-9]* | paste -sd,)
-ips_report --log "$parts" --images "$W/mh01.lcmlog" --calib "$IPS_CALIB" --filters FILTER_STATE --lengths 1,2 \
+bulk=$(ls "$W"/replay.lcmlog_bulk.[0-9]* | paste -sd,)
+ips_report --log "$parts" --bulk-log "$bulk" --images "$W/mh01.lcmlog" --calib "$IPS_CALIB" --filters FILTER_STATE --lengths 1,2 \
   --pictures 0 --out "$W/report" > "$W/report.txt" 2>&1 ||
   { cat "$W/report.txt"; echo "FAIL: ips_report flags the replay"; exit 1; }
 python3 - "$W/report/report.json" "$pairs" <<'PY'

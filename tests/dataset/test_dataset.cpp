@@ -198,9 +198,10 @@ std::string fmt(double v) {
   return b;
 }
 
-KittiRawFixture makeKittiRawDrive(int frames) {
+// `name`: the test's own folder (ctest runs the tests of this file side by side).
+KittiRawFixture makeKittiRawDrive(const std::string& name, int frames) {
   KittiRawFixture fx;
-  const std::string date = (fs::temp_directory_path() / "ips_test_kitti_raw/2011_09_30").string();
+  const std::string date = (fs::temp_directory_path() / ("ips_test_kitti_raw_" + name) / "2011_09_30").string();
   fs::remove_all(date);
   fx.drive = date + "/2011_09_30_drive_0020_sync";
   for (const char* sub : {"/image_00/data", "/image_01/data", "/oxts/data"}) fs::create_directories(fx.drive + sub);
@@ -293,7 +294,7 @@ KittiRawFixture makeKittiRawDrive(int frames) {
 
 TEST(DatasetKittiRaw, DriveLayoutCalibrationOxtsPosesAndInertialFields) {
   REQUIRE_DIR(kKitti);
-  const KittiRawFixture fx = makeKittiRawDrive(8);
+  const KittiRawFixture fx = makeKittiRawDrive("layout", 8);
   EXPECT_EQ(detectFormat(fx.drive), "kitti_raw");
   ReadOptions o;
   o.first = 1;
@@ -344,7 +345,7 @@ TEST(DatasetKittiRaw, DriveLayoutCalibrationOxtsPosesAndInertialFields) {
 
 TEST(DatasetKittiRaw, BadDrivesNameTheFile) {
   REQUIRE_DIR(kKitti);
-  const KittiRawFixture fx = makeKittiRawDrive(3);
+  const KittiRawFixture fx = makeKittiRawDrive("bad", 3);
   ReadOptions o;
   auto errorOf = [&]() -> std::string {
     try {

@@ -13,6 +13,7 @@
 #include <ips/keyframe_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <ips/stereo_time_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <type_traits>

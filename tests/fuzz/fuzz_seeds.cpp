@@ -13,6 +13,7 @@
 #include <ips/keyframe_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <ips/stereo_time_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <string>
@@ -96,6 +97,7 @@ int main(int argc, char** argv) {
   keyframe.utime = 3000;
   keyframe.seq = 24;
   writeMessage(dir, keyframe);
+  writeMessage(dir, ips::stereo_time_t{3000, 24});
 
 #ifdef IPS_FUZZ_PROCMAN
   writeMessage(dir, ips::test_support::sampleOrders(), "fuzz_decode_procman_");

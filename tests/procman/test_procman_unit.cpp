@@ -221,7 +221,7 @@ TEST(SheriffConfig, ProjectConfigurationsLoad) {
 
   const auto replay = pm::loadSheriffConfig(dir + "/replay.pmd");
   bool has_player = false;
-  for (const auto& c : replay.commands) has_player = has_player || c.exec.find("lcm-logplayer") != std::string::npos;
+  for (const auto& c : replay.commands) has_player = has_player || c.exec.find("log_player") != std::string::npos;
   EXPECT_TRUE(has_player);
   EXPECT_NE(replay.findScript("replay"), nullptr);
   EXPECT_NE(deputyOf(replay, "viewer"), "<missing>");

@@ -16,6 +16,7 @@
 #include <ips/health_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <ips/stereo_time_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <lcm/lcm-cpp.hpp>
@@ -137,6 +138,12 @@ void attack(lcm::LCM& lcm, double wait_s) {
   send.hostileLengths(ch::kFilterState, ips::test_support::sampleFilterState(seen.stereo_utime));
   send.hostileLengths(ch::kDisparity, ips::test_support::sampleDisparityMap(seen.stereo_utime));
   send.hostileLengths("HEALTH_PROBE", ips::test_support::sampleHealth(seen.stereo_utime));
+  // Messages cut short on the small channels the filter reads (they have no lengths to forge).
+  for (const auto& [channel, bytes] :
+       {std::pair<const char*, std::vector<uint8_t>>{ch::kImu, encodeMessage(imuSample(seen.imu_utime, 1))},
+        {ch::kStereoTime, encodeMessage(ips::stereo_time_t{seen.stereo_utime, 1})},
+        {ch::kTrackerDelta, encodeMessage(deltaSample(seen.stereo_utime, seen.stereo_utime - 125'000))}})
+    send.raw("truncated", channel, std::vector<uint8_t>(bytes.begin(), bytes.begin() + bytes.size() / 2));
 
   // A 100-byte pair declaring 2 GB of pixels per image.
   ips::stereo_pair_t huge = ips::fw::makeStereoPair(seen.stereo_utime, 1, tiny, tiny);
@@ -156,6 +163,8 @@ void attack(lcm::LCM& lcm, double wait_s) {
     tilt.utime = seen.imu_utime + kHourUs + i * 10'000;
     tilt.seq = 1'000'000 + i;
     send.message("forged_stamp", ch::kTilt, tilt);
+    send.message("forged_stamp", ch::kStereoTime,
+                 ips::stereo_time_t{seen.stereo_utime + kHourUs + i * 125'000, 1'000'000 + i});
     if (seen.width > 0 && seen.height > 0) {
       const cv::Mat grey(seen.height, seen.width, CV_8UC1, cv::Scalar(128));
       send.message("forged_stamp", ch::kStereo,

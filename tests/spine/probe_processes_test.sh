@@ -34,7 +34,7 @@ repeater=$!
 for i in $(seq 100); do grep -q ready "$W/monitor.txt" && grep -q ready "$W/repeater.txt" && break; sleep 0.1; done
 sleep 2  # e3d builds its Vulkan pipelines
 
-lcm-logplayer --lcm-url="$U" -e 'STEREO|IMU|TILT|GT_POSE' "$W/walk.lcmlog" &
+lcm-logplayer --lcm-url="$U" -e 'STEREO|STEREO_TIME|IMU|TILT|GT_POSE' "$W/walk.lcmlog" &
 player=$!
 sleep 5  # the filter has initialised (the walk starts with 2 s at rest) and the head moves
 "$PROBE" --lcm-url "$U" --attack | tee "$W/attack.txt"

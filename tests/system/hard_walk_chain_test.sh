@@ -28,7 +28,7 @@ pids+=($!)
 lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_.*|GT_POSE|HEALTH_.*' -f "$WORK/results.lcmlog" >/dev/null 2>&1 &
 logger=$!
 sleep 2  # every process subscribed
-lcm-logplayer --lcm-url="$U" -e 'STEREO|IMU|TILT|GT_POSE' "$WORK/walk.lcmlog"
+lcm-logplayer --lcm-url="$U" -e 'STEREO|STEREO_TIME|IMU|TILT|GT_POSE' "$WORK/walk.lcmlog"
 sleep 3  # the last pairs drain through tracker and filters
 kill -INT "${pids[@]}"
 wait "${pids[@]}" || true

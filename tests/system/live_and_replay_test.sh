@@ -40,7 +40,7 @@ run_once() {
       --calib-out "$WORK/live.calib.yaml" --log-level warn
     cmp -s "$WORK/live.calib.yaml" "$CALIB" || { echo "FAIL: live and batch calibrations differ"; exit 1; }
   else
-    lcm-logplayer --lcm-url="$U" -e 'STEREO|IMU|TILT' "$WORK/walk.lcmlog"
+    lcm-logplayer --lcm-url="$U" -e 'STEREO|STEREO_TIME|IMU|TILT' "$WORK/walk.lcmlog"
   fi
   sleep 4  # the last pairs drain through tracker, filter and e3d
   if [ "$ON_E3D" = 1 ]; then

@@ -53,6 +53,8 @@ class Monitor {
       sub<ips::integrity_t>(channel);
     else if (channel == kKeyframe)
       sub<ips::keyframe_t>(channel);
+    else if (channel == kStereoTime)
+      sub<ips::stereo_time_t>(channel);
     else
       throw ips::ArgError("bus_monitor: no known type for channel '" + channel + "'");
   }
@@ -116,7 +118,7 @@ class Monitor {
     if constexpr (std::is_same_v<Msg, ips::stereo_pair_t> || std::is_same_v<Msg, ips::imu_sample_t> ||
                   std::is_same_v<Msg, ips::tilt_sample_t> || std::is_same_v<Msg, ips::tracker_delta_t> ||
                   std::is_same_v<Msg, ips::disparity_map_t> || std::is_same_v<Msg, ips::integrity_t> ||
-                  std::is_same_v<Msg, ips::keyframe_t>)
+                  std::is_same_v<Msg, ips::keyframe_t> || std::is_same_v<Msg, ips::stereo_time_t>)
       return m.seq;
     return 0;
   }

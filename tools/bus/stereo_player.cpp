@@ -107,6 +107,8 @@ int main(int argc, char** argv) {
       ips::stereo_pair_t msg = ips::fw::makeStereoPair(utime, i, cached_left, cached_right);
       sum += checksum(msg);
       std::this_thread::sleep_until(next);
+      if (args.get("--channel") == ips::channels::kStereo)
+        node.publish(ips::channels::kStereoTime, ips::fw::stereoTimeOf(msg));
       node.publish(args.get("--channel"), msg);
       next += std::chrono::microseconds(period_us);
     }

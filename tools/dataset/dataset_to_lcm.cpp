@@ -1,7 +1,7 @@
-// dataset_to_lcm: a public recording (EuRoC ASL or KITTI odometry folder) into an LCM log holding what the live
-// head would publish (STEREO, IMU when present, GT_POSE) plus FILE.lcmlog.calib.yaml in the project's format, with
-// the IMU's description (its `imu` block: EuRoC's imu0/sensor.yaml) where the recording has an IMU.
-// The log is written under a temporary name and renamed when complete: a bad folder leaves no output.
+// dataset_to_lcm: a public recording (EuRoC ASL, KITTI odometry or KITTI raw folder) into an LCM log holding what
+// the live head would publish (STEREO_TIME and STEREO, IMU when present, GT_POSE) plus FILE.lcmlog.calib.yaml in the
+// project's format, with the IMU's description (its `imu` block: EuRoC's imu0/sensor.yaml) where the recording has an
+// IMU. The log is written under a temporary name and renamed when complete: a bad folder leaves no output.
 #include <filesystem>
 #include <ips/ground_truth_t.hpp>
 #include <ips/imu_sample_t.hpp>
@@ -93,6 +93,7 @@ int main(int argc, char** argv) {
         const cv::Mat right = ips::dataset::loadImage(f.right_path, w, h);
         ips::stereo_pair_t m =
             ips::fw::makeStereoPair(f.utime, f.index, left, right, rec.calib.cam0.serial, rec.calib.cam1.serial);
+        log.write(ch::kStereoTime, m.utime, ips::fw::stereoTimeOf(m));
         log.write(ch::kStereo, m.utime, m);
         ++pairs;
       }

@@ -318,6 +318,8 @@ int main(int argc, char** argv) {
     args.required(
             "--log", "FILE[,FILE]",
             "LCM log recorded during the run (filter states, deltas, disparity, health, GT), or its parts in order")
+        .option("--bulk-log", "FILE[,FILE]",
+                "the recording of the bulk bus (disparity maps, points), or its parts in order, where the run had one")
         .option("--images", "FILE", "the input log with STEREO pairs (for the disparity pictures)")
         .option("--calib", "FILE", "the head's true calibration (for evaluation: rectifying the pictures' images)")
         .option("--process-calib", "FILE",
@@ -402,6 +404,18 @@ int main(int argc, char** argv) {
     if (parts.size() > 1)
       failures.push_back("the recorder restarted (" + std::to_string(parts.size()) +
                          " parts): messages published between the parts are missing");
+    // The bulk bus's recorder (dense maps and points), read after the control bus's: what it holds is grouped by
+    // channel, never ordered against the small messages.
+    {
+      std::stringstream ss(args.get("--bulk-log"));
+      std::vector<std::string> bulk;
+      for (std::string part; std::getline(ss, part, ',');)
+        if (!part.empty()) bulk.push_back(part);
+      if (bulk.size() > 1)
+        failures.push_back("the bulk bus's recorder restarted (" + std::to_string(bulk.size()) +
+                           " parts): maps published between the parts are missing");
+      parts.insert(parts.end(), bulk.begin(), bulk.end());
+    }
     int64_t events = 0;
     // The recording holds whatever was on the bus, damaged, repeated or forged messages included: each channel's
     // stamps pass the same checks as in the processes, so a repeat or a stamp off the time line is not counted.
@@ -915,7 +929,11 @@ int main(int argc, char** argv) {
          << ": {\"rate_hz\": " << jsonNumber(f.rate_n ? f.rate_sum / f.rate_n : 0)
          << ", \"latency_ms\": " << jsonNumber(f.latency_n ? f.latency_sum / f.latency_n : 0)
          << ", \"received\": " << f.last.received << ", \"published\": " << f.last.published
-         << ", \"dropped\": " << f.last.dropped << ", \"bad\": " << f.last.bad << "}";
+         << ", \"dropped\": " << f.last.dropped << ", \"bad\": " << f.last.bad << ", \"counters\": {";
+      // Its detailed counters at the end (seq_gap: messages lost on the way; the filter's imu_gaps, tracker_too_late).
+      for (int i = 0; i < f.last.num_counters; ++i)
+        js << (i ? ", " : "") << ips::report::jsonString(f.last.counter_names[i]) << ": " << f.last.counter_values[i];
+      js << "}}";
       first_proc = false;
     }
     js << "\n  },\n";

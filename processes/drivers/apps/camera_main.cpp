@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
           continue;
         }
         node.health().accepted();
+        node.publish(ips::channels::kStereoTime, ips::fw::stereoTimeOf(msg));
         if (node.publish(ips::channels::kStereo, msg)) ++published;
         node.health().latency(
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count());

@@ -25,7 +25,7 @@ FilterProcess::FilterProcess(fw::Node& node, filter::Estimator& estimator, std::
   using namespace ips::channels;
   node_.subscribe<ips::imu_sample_t>(kImu, [this](const ips::imu_sample_t& m) { onImu(m); });
   node_.subscribe<ips::tilt_sample_t>(kTilt, [this](const ips::tilt_sample_t& m) { onTilt(m); });
-  node_.subscribe<ips::stereo_pair_t>(kStereo, [this](const ips::stereo_pair_t& m) { onStereo(m); });
+  node_.subscribe<ips::stereo_time_t>(kStereoTime, [this](const ips::stereo_time_t& m) { onStereo(m); });
   node_.subscribe<ips::tracker_delta_t>(kTrackerDelta, [this](const ips::tracker_delta_t& m) { onDelta(m); });
   node_.subscribe<ips::keyframe_t>(kKeyframe, [this](const ips::keyframe_t& m) { onKeyframe(m); });
   node_.subscribe<ips::tracker_delta_t>(kCloudDelta, [this](const ips::tracker_delta_t& m) { onCloudDelta(m); });
@@ -72,7 +72,7 @@ void FilterProcess::onTilt(const ips::tilt_sample_t& m) {
   publishOutputs();
 }
 
-void FilterProcess::onStereo(const ips::stereo_pair_t& m) {
+void FilterProcess::onStereo(const ips::stereo_time_t& m) {
   if (!check(m, stereo_order_, "stereo")) return;
   auto prior = est_.addImageTime(m.utime);
   if (prior && !prior_channel_.empty())

@@ -1,9 +1,9 @@
 #pragma once
-// The filter's LCM side: IMU, TILT, STEREO (image times), TRACKER_DELTA, KEYFRAME and CLOUD_DELTA in, checked and
+// The filter's LCM side: IMU, TILT, STEREO_TIME (image times), TRACKER_DELTA, KEYFRAME and CLOUD_DELTA in, checked and
 // converted to the estimator's plain types; FILTER_STATE and FILTER_PRIOR out; the estimator's counters as health.
 #include <ips/imu_sample_t.hpp>
 #include <ips/keyframe_t.hpp>
-#include <ips/stereo_pair_t.hpp>
+#include <ips/stereo_time_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <string>
@@ -28,7 +28,7 @@ class FilterProcess {
   bool check(const Msg& m, fw::StreamOrder& order, const char* what);
   void onImu(const imu_sample_t& m);
   void onTilt(const tilt_sample_t& m);
-  void onStereo(const stereo_pair_t& m);
+  void onStereo(const stereo_time_t& m);
   void onDelta(const tracker_delta_t& m);
   void onKeyframe(const keyframe_t& m);
   void onCloudDelta(const tracker_delta_t& m);

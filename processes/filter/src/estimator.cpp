@@ -217,9 +217,10 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
   }
   insert(std::move(e));
   if (!initialized_ || t < run_.kf->state().nav.utime) return std::nullopt;
-  // A-priori state at the image time: a copy of the filter takes the buffered IMU and tilt samples up to then.
+  // A-priori state at the image time: a copy of the filter (its clones left out: no IMU or tilt measurement involves
+  // them) takes the buffered IMU and tilt samples up to then.
   Runner ahead;
-  ahead.kf = run_.kf->copy();
+  ahead.kf = run_.kf->copyWithoutClones();
   ahead.last_imu_time = run_.last_imu_time;
   ahead.consecutive_rejects = run_.consecutive_rejects;
   ahead.in_gap = run_.in_gap;

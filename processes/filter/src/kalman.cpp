@@ -38,6 +38,14 @@ int KalmanFilter::addClone() {
   return static_cast<int>(x_.clones.size()) - 1;
 }
 
+std::unique_ptr<KalmanFilter> KalmanFilter::copyWithoutClones() const {
+  std::unique_ptr<KalmanFilter> c = copy();
+  const int keep = x_.cloneOffset(0);
+  c->x_.clones.clear();
+  c->P_ = P_.topLeftCorner(keep, keep);
+  return c;
+}
+
 void KalmanFilter::removeClone(int index) {
   if (index < 0 || index >= static_cast<int>(x_.clones.size()))
     throw std::out_of_range("KalmanFilter::removeClone: no such clone");

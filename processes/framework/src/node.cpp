@@ -3,6 +3,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <csignal>
 #include <cstdlib>
 #include <stdexcept>
@@ -13,6 +14,7 @@
 namespace ips::fw {
 
 namespace {
+constexpr int kSmallQueue = 4000, kBulkQueue = 30;
 std::atomic<bool> g_stop{false};
 extern "C" void onSignal(int) { g_stop = true; }
 }  // namespace
@@ -20,6 +22,11 @@ extern "C" void onSignal(int) { g_stop = true; }
 std::string resolveLcmUrl(const std::string& cli_url) {
   if (!cli_url.empty()) return cli_url;
   const char* env = std::getenv("LCM_DEFAULT_URL");
+  return env ? std::string(env) : std::string();
+}
+
+std::string resolveBulkLcmUrl() {
+  const char* env = std::getenv("IPS_BULK_LCM_URL");
   return env ? std::string(env) : std::string();
 }
 
@@ -39,7 +46,9 @@ Node::Node(const std::string& process_name, const std::string& lcm_url)
     : name_(process_name),
       health_channel_(healthChannel(process_name)),
       lcm_(std::make_unique<lcm::LCM>(resolveLcmUrl(lcm_url))),
+      bulk_url_(resolveBulkLcmUrl()),
       health_(process_name) {
+  if (!bulk_url_.empty() && bulk_url_ == resolveLcmUrl(lcm_url)) bulk_url_.clear();
   if (!lcm_->good()) throw std::runtime_error("cannot initialise LCM with URL '" + resolveLcmUrl(lcm_url) + "'");
   setLogName(process_name);
   installSignalHandlers();
@@ -69,7 +78,12 @@ void Node::subscribeRaw(const std::string& channel,
   auto sub = std::make_unique<RawSubscription>();
   sub->fn = std::move(fn);
   // LCM 1.3.1 treats the channel as a regex anchored at both ends; escape nothing: our names are plain.
-  lcm_->subscribe(channel, &RawSubscription::handle, sub.get());
+  lcm::Subscription* lcm_sub = lcmFor(channel).subscribe(channel, &RawSubscription::handle, sub.get());
+  // LCM queues at most 30 received messages per subscription for the handling thread and drops the rest: 0.15 s of
+  // IMU samples, which a loaded machine's scheduler can keep a process from handling. Small messages get room for
+  // far more than any stall (kSmallQueue: 20 s of a 200 Hz IMU, a few MB); images and maps keep LCM's 30, which
+  // bounds the memory (30 full-size pairs are 84 MB) and a tracker that falls behind skips pairs anyway.
+  if (lcm_sub) lcm_sub->setQueueCapacity(channels::isBulkChannel(channel) ? kBulkQueue : kSmallQueue);
   subscriptions_.push_back(std::move(sub));
 }
 
@@ -88,11 +102,39 @@ bool Node::RecentMessages::seenBefore(const void* data, size_t size) {
   return false;
 }
 
-bool Node::handleOnce(int timeout_ms) { return lcm_->handleTimeout(timeout_ms) >= 0; }
+lcm::LCM& Node::lcmFor(const std::string& channel) {
+  if (bulk_url_.empty() || !channels::isBulkChannel(channel)) return *lcm_;
+  if (!bulk_) {
+    bulk_ = std::make_unique<lcm::LCM>(bulk_url_);
+    if (!bulk_->good()) throw std::runtime_error("cannot initialise LCM with the bulk URL '" + bulk_url_ + "'");
+  }
+  return *bulk_;
+}
+
+bool Node::publishRaw(const std::string& channel, const void* data, unsigned size) {
+  if (lcmFor(channel).publish(channel, data, size) != 0) {
+    health_.count("publish_error");
+    return false;
+  }
+  health_.published();
+  return true;
+}
+
+bool Node::handleOnce(int timeout_ms) {
+  if (!bulk_) return lcm_->handleTimeout(timeout_ms) >= 0;
+  // LCM's receive thread queues whole messages and signals them on this descriptor, so handling a ready one never
+  // waits for a datagram.
+  pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {bulk_->getFileno(), POLLIN, 0}};
+  if (::poll(fds, 2, timeout_ms) < 0) return errno == EINTR;
+  bool ok = true;
+  if (fds[0].revents & POLLIN) ok = lcm_->handleTimeout(0) >= 0 && ok;
+  if (fds[1].revents & POLLIN) ok = bulk_->handleTimeout(0) >= 0 && ok;
+  return ok;
+}
 
 bool Node::inputWaiting() {
-  pollfd fd{lcm_->getFileno(), POLLIN, 0};
-  return ::poll(&fd, 1, 0) > 0 && (fd.revents & POLLIN) != 0;
+  pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {bulk_ ? bulk_->getFileno() : -1, POLLIN, 0}};
+  return ::poll(fds, bulk_ ? 2 : 1, 0) > 0 && ((fds[0].revents & POLLIN) || (fds[1].revents & POLLIN));
 }
 
 void Node::publishHealth(double interval_s) {
@@ -106,7 +148,7 @@ int Node::run(std::function<void()> on_tick, double health_period_s) {
   auto last_health = clock::now();
   int errors = 0;
   while (!stopRequested()) {
-    if (lcm_->handleTimeout(100) < 0) {
+    if (!handleOnce(100)) {
       if (++errors > 50) {
         IPS_ERROR("LCM keeps failing; stopping");
         return 1;

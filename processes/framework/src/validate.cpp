@@ -152,6 +152,11 @@ Verdict validate(const ips::keyframe_t& m) {
   return {};
 }
 
+Verdict validate(const ips::stereo_time_t& m) {
+  if (m.utime < 0 || m.seq < 0) return bad("bad_value", "stereo time with a negative stamp or sequence number");
+  return {};
+}
+
 Verdict validate(const ips::integrity_t& m) {
   if (m.state < ips::integrity_t::STATE_NO_DATA || m.state > ips::integrity_t::STATE_ALARM)
     return bad("bad_value", "integrity message with unknown state " + std::to_string(m.state));

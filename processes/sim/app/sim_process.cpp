@@ -8,6 +8,7 @@
 #include <ips/ground_truth_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <ips/stereo_time_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <mutex>
@@ -111,6 +112,16 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
 
 }  // namespace
 
+// An event's messages: a pair's stamp on the control bus (STEREO_TIME) goes before the pair itself.
+std::vector<Encoded> encodeEvents(const SimEvent& e, const ips::sim::Simulation& sim) {
+  std::vector<Encoded> out;
+  if (e.kind == SimEvent::kStereo)
+    out.push_back({e.log_utime, ips::channels::kStereoTime,
+                   encodeMessage(ips::stereo_time_t{e.frame->utime_stamp, e.frame->seq})});
+  out.push_back(encodeEvent(e, sim));
+  return out;
+}
+
 int runBatch(ips::sim::Simulation& sim, const std::string& out) {
   ips::fw::LogWriter log(out);
   const auto t0 = std::chrono::steady_clock::now();
@@ -122,8 +133,7 @@ int runBatch(ips::sim::Simulation& sim, const std::string& out) {
   std::future<void> writing;
   auto write = [&](std::vector<SimEvent> batch) {
     for (const SimEvent& e : batch) {
-      const Encoded enc = encodeEvent(e, sim);
-      log.write(enc.channel, enc.log_utime, enc.data);
+      for (const Encoded& enc : encodeEvents(e, sim)) log.write(enc.channel, enc.log_utime, enc.data);
       if (e.kind == SimEvent::kStereo) {
         ++pairs;
         if (progress.allow(e.log_utime))
@@ -176,8 +186,7 @@ int runLive(ips::sim::Simulation& sim, const std::string& url, double rate) {
         std::this_thread::sleep_until(due);
       else if (ips::sim::LiveClock::late(due, now))
         ++late;
-      node.lcm().publish(enc.channel, enc.data.data(), static_cast<unsigned>(enc.data.size()));
-      node.health().published();
+      node.publishRaw(enc.channel, enc.data.data(), static_cast<unsigned>(enc.data.size()));
       node.health().received(enc.log_utime);
       if (std::chrono::steady_clock::now() - last_health > std::chrono::seconds(1)) {
         node.health().set("late_events", late);
@@ -190,11 +199,12 @@ int runLive(ips::sim::Simulation& sim, const std::string& url, double rate) {
   try {
     while (!ips::fw::stopRequested() && sim.next(events)) {
       for (const SimEvent& e : events) {
-        Encoded enc = encodeEvent(e, sim);
-        std::unique_lock<std::mutex> lock(mutex);
-        cv.wait(lock, [&] { return queue.size() < kMaxQueued || ips::fw::stopRequested(); });
-        queue.push_back(std::move(enc));
-        cv.notify_all();
+        for (Encoded& enc : encodeEvents(e, sim)) {
+          std::unique_lock<std::mutex> lock(mutex);
+          cv.wait(lock, [&] { return queue.size() < kMaxQueued || ips::fw::stopRequested(); });
+          queue.push_back(std::move(enc));
+          cv.notify_all();
+        }
       }
       events.clear();
     }

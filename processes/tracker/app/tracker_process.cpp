@@ -161,7 +161,11 @@ void TrackerProcess::processOldest() {
     return;
   }
   node_.health().latency(r.times.total);
-  if (monitor_.params().enabled) checkIntegrity(p);
+  // The monitor probes pairs at its own rate (integrity/max_rate_hz); the others are counted.
+  if (monitor_.due(p.utime))
+    checkIntegrity(p);
+  else if (monitor_.params().enabled)
+    node_.health().count("integrity_decimated");
   pairs_.tracked(p.utime);
   if (r.intra_guided) {
     node_.health().count("intra_matches_from_disparity", r.guided_intra.from_map);

@@ -34,6 +34,7 @@ IntegrityParams loadIntegrityParams(const Config& c) {
   IntegrityParams p;
   p.enabled = c.getBool("integrity/enabled", p.enabled);
   readAtLeast(c, "integrity/max_probes", p.max_probes, 1);
+  readPositive(c, "integrity/max_rate_hz", p.max_rate_hz);
   readAtLeast(c, "integrity/search_rows", p.search_rows, 1);
   p.min_ncc = c.getDouble("integrity/min_ncc", p.min_ncc);
   p.uniqueness = c.getDouble("integrity/uniqueness", p.uniqueness);
@@ -299,7 +300,7 @@ void EpipolarMonitor::recentMean(int pairs, Eigen::Vector4d& z, Eigen::Matrix4d&
 
 const IntegrityStatus& monitorPair(EpipolarMonitor& monitor, StereoTracker& tracker, int64_t utime) {
   const IntegrityParams& p = monitor.params();
-  if (!p.enabled || tracker.rectifiedLeft().empty()) return monitor.status();
+  if (!monitor.due(utime) || tracker.rectifiedLeft().empty()) return monitor.status();
   const std::vector<Corner>& all = tracker.corners();
   std::vector<Corner> probes;
   const size_t n = std::min(all.size(), size_t(p.max_probes));

@@ -40,6 +40,10 @@ class KalmanFilter {
   // and their variance set, e.g. for the rates after a gap in the IMU data.
   void resetErrorBlock(int offset, int size, double variance);
   virtual std::unique_ptr<KalmanFilter> copy() const = 0;
+  // A copy without the pose clones: what a look-ahead to the next image needs. No IMU or tilt measurement involves
+  // a clone, so its navigation state and their covariance evolve exactly as the full filter's would, at the cost of
+  // the core states (the full covariance with a backlog of clones is ten times larger).
+  std::unique_ptr<KalmanFilter> copyWithoutClones() const;
   // Replaces parts of the state directly (e.g. zeroing stale rates after a gap), keeping P.
   NavState& mutableNav() { return x_.nav; }
 

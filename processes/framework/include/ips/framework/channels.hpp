@@ -1,7 +1,10 @@
 #pragma once
 // The system's LCM channel names, in one place. Drivers and the simulator publish the same sensor channels.
+#include <string>
+
 namespace ips::channels {
-inline constexpr const char* kStereo = "STEREO";               // ips::stereo_pair_t
+inline constexpr const char* kStereo = "STEREO";               // ips::stereo_pair_t (bulk bus)
+inline constexpr const char* kStereoTime = "STEREO_TIME";      // ips::stereo_time_t, the stamp of each STEREO
 inline constexpr const char* kImu = "IMU";                     // ips::imu_sample_t
 inline constexpr const char* kTilt = "TILT";                   // ips::tilt_sample_t
 inline constexpr const char* kTrackerDelta = "TRACKER_DELTA";  // ips::tracker_delta_t
@@ -16,4 +19,13 @@ inline constexpr const char* kMonoPoints = "MONO_POINTS";      // ips::point_clo
 inline constexpr const char* kGtPose = "GT_POSE";              // ips::ground_truth_t (simulator only)
 inline constexpr const char* kGtDisparity = "GT_DISPARITY";    // ips::disparity_map_t (simulator only)
 inline constexpr const char* kHealthPrefix = "HEALTH_";        // + upper-case process name: ips::health_t
+
+// The channels of the bulk bus (processes/framework/README.md, "Two buses"): images and dense products, megabytes
+// a message. Everything else (IMU, tilt, the tracker's deltas, the filters' states, health, procman) is small and
+// travels on the control bus, so that a process reading IMU samples never has image datagrams in its socket. A
+// channel pattern ("POINTS.*") is bulk when the channels it matches are.
+inline bool isBulkChannel(const std::string& channel) {
+  return channel == kStereo || channel == kDisparity || channel == kGtDisparity || channel == kMonoPoints ||
+         channel.rfind(kPoints, 0) == 0;
+}
 }  // namespace ips::channels

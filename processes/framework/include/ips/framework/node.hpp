@@ -1,7 +1,13 @@
 #pragma once
-// The process framework: one Node per process wraps the LCM connection, typed subscribe and publish with
+// The process framework: one Node per process wraps the LCM connections, typed subscribe and publish with
 // counting of everything that goes wrong, the health message once per second, and clean shutdown on SIGINT
 // and SIGTERM. Algorithms never see it: a process main feeds them plain types from its handlers.
+//
+// Two buses: the bulk channels (images, dense maps: channels::isBulkChannel) travel on their own LCM URL when one is
+// set ($IPS_BULK_LCM_URL or --bulk-lcm-url), everything else on the control URL, and a Node joins the bulk bus only
+// when it subscribes to or publishes a bulk channel. A process that reads IMU samples then never has image datagrams
+// in its socket, and a small message is not lost beside the images when the process falls behind (LCM's practice
+// for bulk data). Without a bulk URL both are one bus.
 #include <atomic>
 #include <chrono>
 #include <functional>
@@ -17,6 +23,8 @@ namespace ips::fw {
 
 // LCM URL: the --lcm-url option if given, else $LCM_DEFAULT_URL, else LCM's own default.
 std::string resolveLcmUrl(const std::string& cli_url);
+// The bulk bus's URL: $IPS_BULK_LCM_URL (set by --bulk-lcm-url, applyCommonOptions), else empty: the control bus.
+std::string resolveBulkLcmUrl();
 
 // Installs SIGINT/SIGTERM handlers that set a flag (idempotent); stopRequested() reads it.
 void installSignalHandlers();
@@ -36,7 +44,10 @@ class Node {
   // checks' host-clock test. 0 outside a handler.
   int64_t arrivalUs() const { return arrival_us_; }
   Health& health() { return health_; }
+  // The control bus's connection (raw access for tests and tools).
   lcm::LCM& lcm() { return *lcm_; }
+  // Whether the bulk channels have a bus of their own.
+  bool splitBuses() const { return !bulk_url_.empty(); }
 
   // Subscribes to a channel of type Msg. Messages that do not decode are counted as bad ("decode_error") and
   // never reach the handler (the generated decoders bound every declared length by the datagram's size, see
@@ -51,9 +62,11 @@ class Node {
   void subscribeWithChannel(const std::string& pattern, std::function<void(const Msg&, const std::string&)> handler,
                             bool drop_repeats = true);
 
-  // Encodes and publishes; counts it in the health message.
+  // Encodes and publishes on the channel's bus; counts it in the health message.
   template <class Msg>
   bool publish(const std::string& channel, const Msg& msg);
+  // Bytes already encoded (a message from a log), on the channel's bus.
+  bool publishRaw(const std::string& channel, const void* data, unsigned size);
 
   // Handles LCM until a stop is requested, publishing the health message every `health_period_s` (wall clock:
   // health is about the running process, no result depends on it). `on_tick`, if set, runs after each
@@ -89,11 +102,15 @@ class Node {
     size_t next_ = 0, count_ = 0;
   };
   void subscribeRaw(const std::string& channel, std::function<void(const lcm::ReceiveBuffer*, const std::string&)> fn);
+  // The connection a channel travels on; the bulk one is opened on first use.
+  lcm::LCM& lcmFor(const std::string& channel);
 
   std::string name_;
   int64_t arrival_us_ = 0;
   std::string health_channel_;
   std::unique_ptr<lcm::LCM> lcm_;
+  std::string bulk_url_;            // empty: one bus
+  std::unique_ptr<lcm::LCM> bulk_;  // opened when a bulk channel is first used
   Health health_;
   std::function<void(Health&)> fill_health_;
   std::vector<std::unique_ptr<RawSubscription>> subscriptions_;
@@ -139,7 +156,7 @@ void Node::subscribeWithChannel(const std::string& pattern, std::function<void(c
 
 template <class Msg>
 bool Node::publish(const std::string& channel, const Msg& msg) {
-  if (lcm_->publish(channel, &msg) != 0) {
+  if (lcmFor(channel).publish(channel, &msg) != 0) {
     health_.count("publish_error");
     return false;
   }

@@ -7,10 +7,15 @@
 
 namespace ips::fw {
 
-// Declares --lcm-url, --config and --log-level on `args` (config default given per process).
+// Declares --lcm-url, --bulk-lcm-url, --config, --log-level and --nice on `args` (config default given per process).
 void addCommonOptions(Args& args, const std::string& default_config);
-// Applies --log-level.
+// Applies --log-level, --bulk-lcm-url and --nice.
 void applyCommonOptions(const Args& args);
+// The process's scheduling priority, nice -20 (first) to 19 (last): its own nice value and its session's, which is
+// what the kernel weighs where it groups scheduling by session (autogroup, the default of most distributions) and
+// every command has a session of its own (procman's deputy). A value below 0 needs the right to raise priority
+// (root, CAP_SYS_NICE); without it the process warns and runs at the nice value it has.
+void applyNice(int nice);
 
 // Runs body(); turns exceptions into a message on stderr and exit code 1, so a bad config or device gives a
 // clear line, not an abort.

@@ -11,6 +11,7 @@
 #include <ips/integrity_t.hpp>
 #include <ips/keyframe_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <ips/stereo_time_t.hpp>
 #include <ips/tilt_sample_t.hpp>
 #include <ips/tracker_delta_t.hpp>
 #include <string>
@@ -39,6 +40,8 @@ Verdict validate(const ips::disparity_map_t& m);
 Verdict validate(const ips::integrity_t& m);
 // A keyframe announcement: a stamp and a sequence number a pair can have (not negative).
 Verdict validate(const ips::keyframe_t& m);
+// A pair's stamp on the control bus: the same.
+Verdict validate(const ips::stereo_time_t& m);
 // A health message: names a process could have (letters, digits, '_', '-', '.'), non-negative counts, finite
 // rates, and received on the channel of the process it names (HEALTH_ + its name in upper case), so that a
 // damaged or misdirected one cannot invent a process in an overview.

@@ -58,6 +58,11 @@ struct IntegrityParams {
   int alarm_pairs = 8;       // ... by the mean of this many last pairs (and beyond its noise, gate_chi2)
   double certain_px = 0.05;  // certain: the estimate's row and column offsets' std below this everywhere
   double apply_px = 0.1;     // a certain estimate this far from the correction in use replaces it
+  // Pairs probed at about this rate at most [Hz], by their stamps: the pair counts above (step_pairs, alarm_pairs) are
+  // set for the paper's 8 Hz head, and a pair's probe costs half the tracker's time on it. A pair less than three
+  // quarters of the period after the last probed one is skipped: a head at this rate or slower keeps every pair
+  // whatever its stamps' jitter, a 20 Hz head has every second one probed.
+  double max_rate_hz = 8.0;
 };
 
 // Reads the `integrity/` section of a tracker config (keys as in config/tracker.yaml); the others keep their
@@ -117,6 +122,10 @@ class EpipolarMonitor {
   // is ignored: returns the status unchanged).
   const IntegrityStatus& update(int64_t utime, const std::vector<VerticalMatch>& matches, int num_probes);
   const IntegrityStatus& status() const { return status_; }
+  // Whether the pair with this stamp is probed (max_rate_hz since the last probed one).
+  bool due(int64_t utime) const {
+    return params_.enabled && (last_utime_ <= 0 || (utime - last_utime_) * 1e-6 * params_.max_rate_hz >= 0.75);
+  }
   const IntegrityParams& params() const { return params_; }
 
   // Row offset [px] the correction c leaves at rectified pixel (x, y): the model above.
@@ -149,7 +158,8 @@ class EpipolarMonitor {
 
 // The monitor on a tracker's last pair (StereoTracker::process first): up to max_probes of its corners, taken evenly,
 // searched across rows; when the monitor hands out a new correction, the tracker rectifies the following pairs with
-// it. A disabled monitor (params().enabled false) does nothing and returns its status unchanged.
+// it. A disabled monitor (params().enabled false), or a pair that is not due (EpipolarMonitor::due), does nothing and
+// returns the status unchanged.
 const IntegrityStatus& monitorPair(EpipolarMonitor& monitor, StereoTracker& tracker, int64_t utime);
 
 Eigen::Vector4d toVector(const RightCameraCorrection& c);
