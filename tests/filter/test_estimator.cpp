@@ -380,7 +380,7 @@ TEST(FilterEstimator, RecoversFromAnImuGap) {
 TEST(FilterEstimator, AStampAheadOfTheImuDoesNotMakeRealMeasurementsLate) {
   // A corrupt tracker delta and image time 2 s ahead of the IMU (within what the stream checks let through for
   // 8 Hz pairs): the IMU's stamps drive the release, so nothing real becomes too late, and the forged delta,
-  // whose older time is no image the filter has seen, changes nothing.
+  // whose older time is no image the filter has seen, changes nothing. An hour ahead they are refused outright.
   const AnalyticWalk walk;
   const ips::StereoCalibration calib = testbedCalibration();
   for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
@@ -413,15 +413,25 @@ TEST(FilterEstimator, AStampAheadOfTheImuDoesNotMakeRealMeasurementsLate) {
     }
     feed(est, attacked);
     est.flush();
-    // Released by any sensor's newest stamp instead, the same input leaves no reordering window for 2 s: the
-    // late tilt samples of that time are lost.
-    FilterParams any_stamp = p;
-    any_stamp.imu_silence_release_us = 0;
-    Estimator naive(any_stamp, calib);
-    naive.initialize(sim.truth(0), initialCovariance(p.init));
-    feed(naive, attacked);
-    naive.flush();
-    EXPECT_GT(naive.counters()[kSensorTilt].too_late, 10);
+    // Beyond imu_silence_release_us ahead (an hour) while the IMU sends: refused, counted, and nothing changes.
+    std::vector<Msg> far = attacked;
+    for (size_t i = 0; i < far.size(); ++i)
+      if (far[i].kind == 2 && far[i].image == 5'000'000) {
+        Msg image = far[i], delta = far[i];
+        image.image = 3'605'000'000;
+        delta.kind = 3;
+        delta.delta = sim.delta(4'875'000, 5'000'000);
+        delta.delta.utime = 3'605'125'000;
+        delta.delta.utime_prev = 3'605'000'000;
+        far.insert(far.begin() + static_cast<long>(i) + 1, {image, delta});
+        break;
+      }
+    Estimator guarded(p, calib);
+    guarded.initialize(sim.truth(0), initialCovariance(p.init));
+    feed(guarded, far);
+    guarded.flush();
+    EXPECT_EQ(guarded.aheadOfImu(), 2) << toString(type);
+    EXPECT_LT((guarded.current().state.position - reference.current().state.position).norm(), 1e-3);
     for (int s = 0; s < kNumSensors; ++s)
       if (s != kSensorTracker && s != kSensorImage) {
         EXPECT_EQ(est.counters()[s].too_late, 0) << est.counters()[s].name << " " << toString(type);

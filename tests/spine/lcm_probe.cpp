@@ -192,6 +192,36 @@ void attack(lcm::LCM& lcm, double wait_s) {
   ips::tracker_delta_t delta = deltaSample(seen.stereo_utime, seen.stereo_utime - 125'000);
   delta.translation[1] = std::nan("");
   send.message("nan", ch::kTrackerDelta, delta);
+
+  // Finite values no navigation state or delta can have: a zero quaternion, a position of 1e308 m, a covariance
+  // with a negative direction (its diagonal positive).
+  prior = ips::test_support::sampleFilterState(seen.stereo_utime);
+  for (double& q : prior.orientation) q = 0;
+  send.message("impossible", ch::kFilterPrior, prior);
+  prior = ips::test_support::sampleFilterState(seen.stereo_utime);
+  prior.position[0] = 1e308;
+  send.message("impossible", ch::kFilterPrior, prior);
+  delta = deltaSample(seen.stereo_utime + 1, seen.stereo_utime - 125'000);
+  delta.translation[0] = 0.01;
+  delta.covariance[1] = delta.covariance[6] = 2e-6;  // |correlation| 2 between tx and ty
+  send.message("impossible", ch::kTrackerDelta, delta);
+  send.print();
+}
+
+// A fresh system's first messages forged far ahead (before any real one): the stamp of a pair, a tilt sample and
+// a delta an hour into the future, and a pair of the walk's size (--width, --height) likewise.
+void forgeFirst(lcm::LCM& lcm, int width, int height) {
+  namespace ch = ips::channels;
+  Sender send(lcm);
+  const int64_t far = 9'000'000'000'000'000;  // 9e15 us: year 2255
+  send.message("forged_first", ch::kStereoTime, ips::stereo_time_t{far, 7});
+  ips::tilt_sample_t tilt{};
+  tilt.utime = far;
+  tilt.seq = 7;
+  send.message("forged_first", ch::kTilt, tilt);
+  send.message("forged_first", ch::kTrackerDelta, deltaSample(far + 125'000, far));
+  const cv::Mat grey(height, width, CV_8UC1, cv::Scalar(128));
+  send.message("forged_first", ch::kStereo, ips::fw::makeStereoPair(far, 7, grey, grey));
   send.print();
 }
 
@@ -224,10 +254,15 @@ int main(int argc, char** argv) {
         .flag("--attack", "publish the hostile messages once the IMU and STEREO streams are heard")
         .option("--wait", "S", "how long to wait for the streams", "60")
         .option("--duplicate", "N", "relay every TRACKER_DELTA N more times", "0")
-        .option("--duration", "S", "how long to relay", "30");
+        .option("--duration", "S", "how long to relay", "30")
+        .flag("--forge-first", "publish forged first messages at once (for a fresh system), then go on")
+        .option("--width", "PX", "--forge-first: the pair's width", "640")
+        .option("--height", "PX", "--forge-first: the pair's height", "480");
     if (!args.parse()) return 0;
     lcm::LCM lcm(args.get("--lcm-url"));
     if (!lcm.good()) throw std::runtime_error("lcm_probe: cannot open LCM at '" + args.get("--lcm-url") + "'");
+    if (args.getFlag("--forge-first"))
+      forgeFirst(lcm, static_cast<int>(args.getInt("--width")), static_cast<int>(args.getInt("--height")));
     if (args.getFlag("--attack")) attack(lcm, args.getDouble("--wait"));
     const int copies = static_cast<int>(args.getInt("--duplicate"));
     if (copies > 0) {

@@ -74,6 +74,8 @@ expect_counted filter decode_error
 expect_counted filter time_jump time_ahead_of_host
 expect_counted filter nan
 expect_counted filter duplicate
+expect_counted filter bad_value
+expect_counted tracker bad_value
 expect_counted e3d decode_error
 expect_counted e3d time_jump time_ahead_of_host
 expect_counted mapper decode_error

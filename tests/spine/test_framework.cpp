@@ -148,6 +148,21 @@ TEST(Framework, StreamOrderCountsGapsAndRejectsBackwards) {
   EXPECT_EQ(order.lastUtime(), 300);
 }
 
+TEST(Framework, StreamOrderLeavesAForgedFirstStampBehind) {
+  // No check can judge a stream's first stamp alone: forged an hour ahead, it is accepted, but the real stream that
+  // follows far behind it starts its line again at once instead of being refused as going backwards.
+  ips::fw::StreamOrder order;
+  EXPECT_TRUE(order.check(3'600'000'000 + 1'000'000, 7).accept);
+  const auto r = order.check(1'000'000, 1);
+  EXPECT_TRUE(r.accept);
+  EXPECT_TRUE(r.rebased);
+  for (int i = 2; i < 10; ++i) EXPECT_TRUE(order.check(1'000'000 + i * 5'000, i).accept) << i;
+  // A confirmed line is not left for one stamp far off, ahead or behind.
+  EXPECT_FALSE(order.check(3'700'000'000, 100).accept);
+  EXPECT_FALSE(order.check(100, 101).accept);
+  EXPECT_TRUE(order.check(1'050'000, 10).accept);
+}
+
 TEST(Framework, HealthReportsRatesAndCounters) {
   ips::fw::Health h("tracker");
   for (int i = 0; i < 10; ++i) {

@@ -28,14 +28,23 @@ std::vector<Frame> readEuroc(const std::string& mav0) {
   if (!csv) throw std::runtime_error("cannot read " + mav0 + "/cam0/data.csv");
   std::vector<Frame> frames;
   std::string line;
-  while (std::getline(csv, line)) {
+  for (int n = 1; std::getline(csv, line); ++n) {
     if (line.empty() || line[0] == '#') continue;
     std::stringstream ss(line);
     std::string t, name;
     std::getline(ss, t, ',');
     std::getline(ss, name);
     while (!name.empty() && (name.back() == '\r' || name.back() == ' ')) name.pop_back();
-    frames.push_back({std::stoll(t) / 1000, mav0 + "/cam0/data/" + name, mav0 + "/cam1/data/" + name});
+    size_t used = 0;
+    long long ns = -1;
+    try {
+      ns = std::stoll(t, &used);
+    } catch (const std::exception&) {
+    }
+    if (ns < 0 || used != t.size() || name.empty())
+      throw std::runtime_error(mav0 + "/cam0/data.csv:" + std::to_string(n) +
+                               ": expected 'timestamp_ns,filename', got '" + line + "'");
+    frames.push_back({ns / 1000, mav0 + "/cam0/data/" + name, mav0 + "/cam1/data/" + name});
   }
   return frames;
 }
@@ -78,7 +87,7 @@ int main(int argc, char** argv) {
     if (args.has("--size") && std::sscanf(args.get("--size").c_str(), "%dx%d", &size.width, &size.height) != 2)
       throw ips::ArgError("--size must be WxH");
     const double rate = args.getDouble("--rate");
-    if (!(rate > 0)) throw ips::ArgError("--rate must be positive");
+    if (!(rate >= 0.01 && rate <= 1000)) throw ips::ArgError("--rate must be in [0.01, 1000] Hz");
     long long count = args.getInt("--count");
     if (count <= 0) count = static_cast<long long>(frames.size());
     const int64_t period_us = static_cast<int64_t>(1e6 / rate);

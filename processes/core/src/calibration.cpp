@@ -98,8 +98,11 @@ CameraIntrinsics loadCamera(const Config& cfg, const std::string& name) {
   CameraIntrinsics cam;
   cam.width = cfg.getInt(name + "/width");
   cam.height = cfg.getInt(name + "/height");
-  if (cam.width <= 0 || cam.height <= 0)
-    throw ConfigError(cfg.path() + ": key '" + name + "/width|height' must be positive");
+  // 16384 px a side at most: a camera's, and what every process accepts (a corrupt file must not make one allocate
+  // gigabytes of maps).
+  if (cam.width <= 0 || cam.height <= 0 || cam.width > 16384 || cam.height > 16384)
+    throw ConfigError(cfg.path() + ": key '" + name + "/width|height' must be in 1..16384, not " +
+                      std::to_string(cam.width) + "x" + std::to_string(cam.height));
   cam.K = cfg.getMatrix(name + "/K", 3, 3);
   const std::string model = cfg.getString(name + "/distortion_model", "radtan");
   if (model == "equidistant") {

@@ -2,7 +2,9 @@
 
 #include <yaml.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <sstream>
@@ -18,7 +20,7 @@ namespace {
 // line is blanked (kept as a line, so that libyaml's line numbers match the file's).
 void checkWellFormedYaml(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path + ": cannot open config file");
+  if (!in) throw ConfigError(path + ": cannot open (" + std::strerror(errno) + ")");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   if (text.rfind("%YAML:", 0) == 0) {
     const size_t eol = text.find('\n');
@@ -29,6 +31,7 @@ void checkWellFormedYaml(const std::string& path) {
   yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()), text.size());
   std::string error;
   int depth = 0;
+  bool has_map = false;
   for (bool done = false; !done;) {
     yaml_event_t event;
     if (!yaml_parser_parse(&parser, &event)) {
@@ -43,12 +46,15 @@ void checkWellFormedYaml(const std::string& path) {
         (event.type == YAML_SCALAR_EVENT || event.type == YAML_SEQUENCE_START_EVENT || event.type == YAML_ALIAS_EVENT))
       error = path + ":" + std::to_string(event.start_mark.line + 1) +
               ": not valid YAML: a configuration must be a map of keys";
+    if (depth == 0 && event.type == YAML_MAPPING_START_EVENT) has_map = true;
     if (event.type == YAML_MAPPING_START_EVENT || event.type == YAML_SEQUENCE_START_EVENT) ++depth;
     if (event.type == YAML_MAPPING_END_EVENT || event.type == YAML_SEQUENCE_END_EVENT) --depth;
     yaml_event_delete(&event);
     if (!error.empty()) break;
   }
   yaml_parser_delete(&parser);
+  if (error.empty() && !has_map)
+    error = path + ": holds no keys (an empty file?): a configuration must be a map of keys";
   if (!error.empty()) throw ConfigError(error);
 }
 
@@ -65,7 +71,7 @@ Config::Config(const std::string& path) : path_(path) {
     // tests/fuzz/fuzz_config, the input is in its corpus.
     throw ConfigError(path + ": cannot parse: " + e.what());
   }
-  if (!fs_.isOpened()) throw ConfigError(path + ": cannot open config file");
+  if (!fs_.isOpened()) throw ConfigError(path + ": cannot open as YAML");
   root_ = fs_.root();
 }
 

@@ -28,6 +28,11 @@ struct StereoMatcher::Impl {
 
   Impl(const VulkanContext& c, cv::Size size, const SgmParams& p) : ctx(c), params(p), cmd(c) {
     params.validate();
+    // A range no pixel of this width can have matches nothing: said, not a map without a single disparity.
+    if (params.min_disparity >= size.width || params.min_disparity + params.num_disparities <= -size.width)
+      throw std::invalid_argument("the disparity range [" + std::to_string(params.min_disparity) + ", " +
+                                  std::to_string(params.min_disparity + params.num_disparities) +
+                                  ") has no match in an image " + std::to_string(size.width) + " px wide");
     const bool hierarchy = params.cost == Cost::mi && params.mi_levels > 1;
     std::vector<cv::Size> sizes{size};
     for (int l = 1; hierarchy && l < params.mi_levels; ++l)

@@ -122,6 +122,7 @@ void FilterProcess::reportCounters(fw::Health& health) const {
   }
   health.set("cloud_applied_late", est_.cloudAppliedLate());
   health.set("imu_gaps", est_.imuGaps());
+  health.set("ahead_of_imu", est_.aheadOfImu());
   health.set("starts_in_motion", est_.startsInMotion());
   // The camera's delay against the IMU as estimated online [us], whether it is applied, and how often it ran.
   const filter::CameraDelayEstimator::Figures& delay = est_.cameraDelay();

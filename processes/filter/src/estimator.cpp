@@ -215,8 +215,7 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
     if (initialized_) ++counters_[kSensorImage].too_late;
     return std::nullopt;
   }
-  insert(std::move(e));
-  if (!initialized_ || t < run_.kf->state().nav.utime) return std::nullopt;
+  if (!insert(std::move(e)) || !initialized_ || t < run_.kf->state().nav.utime) return std::nullopt;
   // A-priori state at the image time: a copy of the filter (its clones left out: no IMU or tilt measurement involves
   // them) takes the buffered IMU and tilt samples up to then.
   Runner ahead;
@@ -231,7 +230,11 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
   return makeOutput(*ahead.kf, true);
 }
 
-void Estimator::flush() { release(INT64_MAX); }
+void Estimator::flush() {
+  // Everything the window holds, but nothing beyond what the IMU's time line allows: a forged stamp far ahead that
+  // came before the IMU's first sample waits in the buffer, and is not applied here either.
+  release(newest_imu_time_ == INT64_MIN ? INT64_MIN : newest_imu_time_ + params_.imu_silence_release_us);
+}
 
 std::vector<FilterOutput> Estimator::takeOutputs() {
   std::vector<FilterOutput> out;
@@ -241,19 +244,43 @@ std::vector<FilterOutput> Estimator::takeOutputs() {
 
 FilterOutput Estimator::current() const { return makeOutput(*run_.kf, false); }
 
-void Estimator::insert(Event&& e) {
+bool Estimator::insert(Event&& e) {
   if (e.time < processed_time_) {
     ++counters_[e.sensor].too_late;
-    return;
+    return false;
   }
+  const Sensor sensor = e.sensor;
   const int64_t t = e.time;
+  if (sensor == kSensorImu) {
+    non_imu_in_a_row_ = 0;
+  } else {
+    ++non_imu_in_a_row_;
+    // The IMU's stamps are the filter's clock. Another sensor's stamp further ahead of them than
+    // imu_silence_release_us while the IMU still sends is a corrupt or forged one (a stream's very first stamp
+    // included, which no check of its own stream can judge): refused, so that it cannot release the buffer early
+    // and make every real measurement late. Once the IMU has fallen silent (kImuSilentMessages in a row from the
+    // others) the others carry the time on.
+    if (newest_imu_time_ != INT64_MIN && t > newest_imu_time_ + params_.imu_silence_release_us &&
+        non_imu_in_a_row_ < kImuSilentMessages) {
+      ++counters_[sensor].rejected;
+      ++ahead_of_imu_;
+      return false;
+    }
+  }
   buffer_.emplace(t, std::move(e));  // equal times keep arrival order
   newest_time_ = std::max(newest_time_, t);
-  if (e.sensor == kSensorImu) newest_imu_time_ = std::max(newest_imu_time_, t);
-  const int64_t horizon = newest_imu_time_ == INT64_MIN
-                              ? newest_time_
-                              : std::max(newest_imu_time_, newest_time_ - params_.imu_silence_release_us);
+  if (sensor == kSensorImu) newest_imu_time_ = std::max(newest_imu_time_, t);
+  if (newest_imu_time_ == INT64_MIN) {
+    // Before the IMU's first sample nothing can start the filter and nothing may pass: the others wait (the oldest
+    // go beyond a bound), so that no stamp of theirs is taken for the time.
+    while (buffer_.size() > kMaxEventsBeforeImu) buffer_.erase(buffer_.begin());
+    return true;
+  }
+  const int64_t horizon = non_imu_in_a_row_ >= kImuSilentMessages
+                              ? std::max(newest_imu_time_, newest_time_ - params_.imu_silence_release_us)
+                              : newest_imu_time_;
   release(horizon - params_.reorder_window_us);
+  return true;
 }
 
 void Estimator::release(int64_t up_to) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <vector>
 
 #include "ips/framework/channels.hpp"
 
@@ -56,6 +57,37 @@ Verdict validate(const ips::tilt_sample_t& m) {
   return {};
 }
 
+namespace {
+
+// Whether the n x n row-major matrix is symmetric (to a relative 1e-6) and positive definite: its Cholesky
+// factorisation succeeds. A covariance that is not would make a filter's gain meaningless (a negative variance along
+// some direction passes every check of the diagonal).
+bool positiveDefinite(const double* a, int n) {
+  double scale = 0;
+  for (int i = 0; i < n; ++i) scale = std::max(scale, std::fabs(a[i * n + i]));
+  if (!(scale > 0)) return false;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < i; ++j)
+      if (std::fabs(a[i * n + j] - a[j * n + i]) > 1e-6 * scale) return false;
+  std::vector<double> l(static_cast<size_t>(n * n), 0.0);
+  for (int j = 0; j < n; ++j) {
+    double d = a[j * n + j];
+    for (int k = 0; k < j; ++k) d -= l[j * n + k] * l[j * n + k];
+    if (!(d > 0)) return false;
+    l[j * n + j] = std::sqrt(d);
+    for (int i = j + 1; i < n; ++i) {
+      double v = a[i * n + j];
+      for (int k = 0; k < j; ++k) v -= l[i * n + k] * l[j * n + k];
+      l[i * n + j] = v / l[j * n + j];
+    }
+  }
+  return true;
+}
+
+double norm3(const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+
+}  // namespace
+
 Verdict validate(const ips::tracker_delta_t& m) {
   if (m.utime <= m.utime_prev) return bad("bad_time", "tracker delta whose newer time is not after the older one");
   auto unit = [](const double* q) {
@@ -65,16 +97,15 @@ Verdict validate(const ips::tracker_delta_t& m) {
     if (!finite(m.translation, 3) || !finite(m.rotation, 4) || !finite(m.covariance, 36))
       return bad("nan", "tracker delta with NaN or inf");
     if (!unit(m.rotation)) return bad("bad_value", "tracker delta rotation is not a unit quaternion");
-    for (int i = 0; i < 6; ++i)
-      if (!(m.covariance[i * 6 + i] > 0)) return bad("bad_value", "tracker delta covariance not positive");
+    if (!positiveDefinite(m.covariance, 6))
+      return bad("bad_value", "tracker delta covariance not symmetric positive definite");
   }
   if (m.far_valid) {
     if (!finite(m.far_rotation, 4) || !finite(m.far_rotation_covariance, 9))
       return bad("nan", "tracker delta far rotation with NaN or inf");
     if (!unit(m.far_rotation)) return bad("bad_value", "tracker delta far rotation is not a unit quaternion");
-    for (int i = 0; i < 3; ++i)
-      if (!(m.far_rotation_covariance[i * 3 + i] > 0))
-        return bad("bad_value", "tracker delta far rotation covariance not positive");
+    if (!positiveDefinite(m.far_rotation_covariance, 3))
+      return bad("bad_value", "tracker delta far rotation covariance not symmetric positive definite");
   }
   return {};
 }
@@ -86,6 +117,13 @@ Verdict validate(const ips::filter_state_t& m) {
     return bad("nan", "filter state with a NaN or inf bias or acceleration");
   if (!finite(m.lever_arm, 3) || !finite(m.lever_arm_sigma, 3))
     return bad("nan", "filter state lever arm with NaN or inf");
+  // A state a navigation filter can have: a unit quaternion, and position, speed, acceleration and turn rate no
+  // vehicle exceeds (10 000 km from the origin, 10 km/s, 1000 m/s^2, 100 rad/s).
+  const double* q = m.orientation;
+  if (std::fabs(std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) - 1.0) > 1e-3)
+    return bad("bad_value", "filter state orientation is not a unit quaternion");
+  if (norm3(m.position) > 1e7 || norm3(m.velocity) > 1e4 || norm3(m.acceleration) > 1e3 || norm3(m.angular_rate) > 100)
+    return bad("bad_value", "filter state with a position, velocity, acceleration or rate out of any vehicle's range");
   if (m.cov_dim < 0 || m.cov_dim > 64 || static_cast<int>(m.covariance.size()) != m.cov_dim)
     return bad("bad_size", "filter state covariance of size " + std::to_string(m.cov_dim));
   for (const auto& row : m.covariance) {
@@ -224,18 +262,27 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq, int64_t arriv
   Result r;
   const bool ahead_of_host = aheadOfHost(utime, arrival_us);
   if (!first_ && (ahead_of_host || !(fitsAfter(utime, last_utime_) || pauseConfirmedByHost(utime, arrival_us)))) {
-    // Not on the current time line: a candidate for a new one, adopted only once confirmed.
-    if (candidate_count_ > 0 && fitsAfter(utime, candidate_utime_))
+    // Not on the current time line: a candidate for a new one, adopted only once confirmed. A line that has not
+    // itself been confirmed (fewer than `confirm` messages on it: the stream's first messages) is no reference: a
+    // forged first stamp far ahead must not make the real ones that follow, far behind it, look late, so they start
+    // a line at once. (A repeat, or a stamp a little back, is still refused.)
+    if (on_line_ < limits_.confirm && utime < last_utime_ - maxStep()) {
+      r.clock_step = r.rebased = true;
+      first_ = true;
+      num_steps_ = 0;
+      have_delivery_ = false;
+      candidate_count_ = 0;
+    } else if (candidate_count_ > 0 && fitsAfter(utime, candidate_utime_))
       ++candidate_count_;
     else
       candidate_count_ = 1;
-    candidate_utime_ = utime;
-    if (candidate_count_ < limits_.confirm) {
+    if (!r.rebased) candidate_utime_ = utime;
+    if (!r.rebased && candidate_count_ < limits_.confirm) {
       r.accept = false;
       r.outcome = utime <= last_utime_ ? Outcome::backwards : ahead_of_host ? Outcome::ahead_of_host : Outcome::jump;
       return r;
     }
-    r.clock_step = true;
+    if (!r.rebased) r.clock_step = true;
     first_ = true;           // the new line starts here: no sequence gap is counted across the step
     num_steps_ = 0;          // and its rhythm is learnt again,
     have_delivery_ = false;  // and its delivery
@@ -262,6 +309,7 @@ StreamOrder::Result StreamOrder::check(int64_t utime, int64_t seq, int64_t arriv
     fastest_delivery_us_ = have_delivery_ ? std::min(fastest_delivery_us_, delivery) : delivery;
     have_delivery_ = true;
   }
+  on_line_ = first_ ? 1 : on_line_ + 1;
   first_ = false;
   last_utime_ = utime;
   last_seq_ = seq;
@@ -296,7 +344,11 @@ bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health
                    " the stream's last one (" + std::to_string(order.lastUtime()) + " us)");
     return false;
   }
-  if (r.clock_step) {
+  if (r.rebased) {
+    health.count(what + "_time_rebased");
+    IPS_WARN(what << ": the stream's first stamps did not hold (one far off, or a restart); following it from " << utime
+                  << " us");
+  } else if (r.clock_step) {
     health.count(what + "_clock_step");
     IPS_WARN(what << ": the stream's clock stepped; following it from " << utime << " us");
   }

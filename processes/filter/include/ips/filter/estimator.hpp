@@ -146,6 +146,9 @@ class Estimator {
   const KalmanFilter& filter() const { return *run_.kf; }
   const std::array<SensorCounters, kNumSensors>& counters() const { return counters_; }
   int64_t imuGaps() const { return imu_gaps_; }
+  // Measurements refused for a stamp beyond imu_silence_release_us ahead of the IMU's while the IMU sends (counted
+  // as rejected of their sensor too).
+  int64_t aheadOfImu() const { return ahead_of_imu_; }
   // Map alignments that arrived after the filter's time had passed their map's by cloud_apply_delay_us: applied at
   // once, so a replay may fuse them at another point than the live run did.
   int64_t cloudAppliedLate() const { return cloud_applied_late_; }
@@ -175,7 +178,8 @@ class Estimator {
   // Drops the clones no measurement can still use: all but the newest max_clones image clones and the newest
   // max_keyframe_clones keyframe clones.
   void pruneClones(KalmanFilter& kf);
-  void insert(Event&& e);
+  // Buffers a measurement; false when it was refused (too late, or ahead of the IMU).
+  bool insert(Event&& e);
   void release(int64_t up_to);
   void process(const Event& e);
   void processInit(const Event& e);
@@ -213,6 +217,12 @@ class Estimator {
   int64_t processed_time_ = INT64_MIN;
   std::array<SensorCounters, kNumSensors> counters_;
   int64_t imu_gaps_ = 0;
+  int64_t ahead_of_imu_ = 0;
+  // Messages of the other sensors since the IMU's last; this many in a row mean the IMU has fallen silent (at
+  // 200 Hz a few others come between two samples).
+  static constexpr int kImuSilentMessages = 50;
+  static constexpr size_t kMaxEventsBeforeImu = 4000;
+  int non_imu_in_a_row_ = 0;
   int64_t cloud_applied_late_ = 0;
   int64_t imu_since_output_ = 0;
   std::vector<FilterOutput> outputs_;

@@ -93,6 +93,9 @@ class StreamOrder {
     int64_t gap = 0;          // messages missing before this one, from the sequence numbers
     bool clock_step = false;  // accepted as the first message after a confirmed step of the clock
     bool seq_reset = false;   // the sequence number jumped further than the elapsed time allows
+    // The stream's first messages did not agree (fewer than `confirm` on a line, then one that does not fit): the
+    // line starts again here at once (clock_step too).
+    bool rebased = false;
   };
   StreamOrder() : StreamOrder(Limits{}) {}
   explicit StreamOrder(Limits limits) : limits_(limits) {}
@@ -132,6 +135,7 @@ class StreamOrder {
   int64_t fastest_delivery_us_ = 0;
   int64_t last_arrival_us_ = 0;  // of the last accepted message, 0 when unknown
   bool first_ = true;
+  int on_line_ = 0;  // messages accepted on the current time line since it began
   int64_t last_utime_ = 0;
   int64_t last_seq_ = 0;
   // The candidate new time line: its newest stamp and how many messages in a row agree with it.
