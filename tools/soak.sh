@@ -102,8 +102,8 @@ for victim in $VICTIMS; do
       [ $last_rc != 0 ] || { say "FAIL: the report is failed but the main job exited 0"; fail=1; }
       python3 -c 'import json,sys; [print("    flagged:", f) for f in json.load(open(sys.argv[1]))["failures"]]' \
         "$run/report.json" | tee -a "$soak/soak.txt" ;;
-    ok*)
-      end=${status#ok }
+    ok*|disturbed*)
+      end=${status#* }
       python3 -c "import sys; sys.exit(0 if $end <= 3 * $base else 1)" ||
         { say "FAIL: end error $end m after killing the $victim, not flagged (baseline $base m)"; fail=1; }
       [ "$victim" != deputy ] || { say "FAIL: the deputy was killed and the run is not flagged"; fail=1; } ;;

@@ -11,6 +11,7 @@
 #include <ips/disparity_map_t.hpp>
 #include <ips/filter_state_t.hpp>
 #include <ips/ground_truth_t.hpp>
+#include <ips/health_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <lcm/lcm-cpp.hpp>
 #include <sstream>
@@ -173,6 +174,62 @@ TEST(IpsReport, AnInputPlayedOnlyInPartFailsTheRun) {
   EXPECT_NE(r.report.find("the player stopped early"), std::string::npos) << r.report;
   r = runReport(whole, "whole", "--images " + input + " --pictures 0");
   EXPECT_EQ(r.exit_code, 0) << r.report;
+}
+
+ips::health_t health(int64_t utime, const std::string& process,
+                     const std::vector<std::pair<std::string, int64_t>>& counters) {
+  ips::health_t h{};
+  h.utime = utime;
+  h.process = process;
+  h.host = "test";
+  h.received = 100;
+  for (const auto& [name, value] : counters) {
+    h.counter_names.push_back(name);
+    h.counter_values.push_back(value);
+  }
+  h.num_counters = static_cast<int32_t>(counters.size());
+  return h;
+}
+
+// A complete run that lost IMU samples on the way and whose position sigma jumped: "disturbed" (exit 0), each
+// disturbance named; a player whose last account does not say it reached the end of its log fails the run.
+TEST(IpsReport, DisturbancesAreNamedAndAnUnfinishedPlayerFailsTheRun) {
+  const std::string log = tempLog("disturbed");
+  {
+    Recording r(log);
+    for (int64_t t = 1'000'000; t <= 11'000'000; t += 100'000) {
+      const double x = (t - 1'000'000) * 1e-6;
+      r.add("GT_POSE", t, pose(t, x));
+      ips::filter_state_t s = state(t, x);
+      s.cov_dim = 3;
+      const double sigma = t < 6'000'000 ? 0.02 : 0.2;  // a reset at 6 s: 2 cm -> 20 cm at once
+      s.covariance.assign(3, std::vector<double>(3, 0.0));
+      for (int i = 0; i < 3; ++i) s.covariance[i][i] = sigma * sigma / 3;
+      r.add("FILTER_STATE", t, s);
+    }
+    r.add("HEALTH_FILTER", 11'000'000, health(11'000'000, "filter", {{"imu_seq_gap", 37}}));
+  }
+  Result r = runReport(log, "disturbed");
+  EXPECT_EQ(r.exit_code, 0) << r.report;
+  EXPECT_NE(r.report.find("\"status\": \"disturbed\""), std::string::npos) << r.report;
+  EXPECT_NE(r.report.find("filter: 37 IMU samples lost on the way (imu_seq_gap)"), std::string::npos) << r.report;
+  EXPECT_NE(r.report.find("FILTER_STATE: position sigma rose from 0.020 to 0.200 m within a second, at t=5.0 s"),
+            std::string::npos)
+      << r.report;
+
+  const std::string played = tempLog("played");
+  {
+    Recording rec(played);
+    for (int64_t t = 1'000'000; t <= 11'000'000; t += 100'000) {
+      rec.add("GT_POSE", t, pose(t, (t - 1'000'000) * 1e-6));
+      rec.add("FILTER_STATE", t, state(t, (t - 1'000'000) * 1e-6));
+    }
+    rec.add("HEALTH_LOG_PLAYER", 11'000'000,
+            health(11'000'000, "log_player", {{"events_played", 120}, {"played_to_end", 0}}));
+  }
+  r = runReport(played, "unfinished_player");
+  EXPECT_EQ(r.exit_code, 4) << r.report;
+  EXPECT_NE(r.report.find("says it did not play its log to the end"), std::string::npos) << r.report;
 }
 
 TEST(IpsReport, DamagedOrEmptyLogsFailTheRun) {

@@ -9,6 +9,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -310,6 +311,78 @@ std::string jsonNumber(double v) {
   return os.str();
 }
 
+// A counter of a health message, 0 when absent.
+int64_t counterOf(const ips::health_t& h, const std::string& name) {
+  for (int i = 0; i < h.num_counters; ++i)
+    if (h.counter_names[i] == name) return h.counter_values[i];
+  return 0;
+}
+
+// The time [s] of the first state of `run` at which a covariance block's standard deviation (sqrt of its trace,
+// rows at `at`) has risen by more than `factor` and by more than `floor` within a second, and the two values; NAN
+// when it never does. A filter's covariance grows smoothly between its measurements; a jump is a reset (an IMU gap
+// bridged by resetting the rates, a restart) or a divergence.
+struct CovarianceJump {
+  double t = NAN, from = 0, to = 0;
+};
+CovarianceJump firstJump(const FilterRun& run, int at, double factor, double floor) {
+  CovarianceJump jump;
+  std::deque<std::pair<double, double>> window;  // (t, sigma), the second before, its minimum in front
+  for (const auto& s : run.states) {
+    if (s.cov_dim < at + 3) continue;
+    const double t = s.utime * 1e-6;
+    const double sigma =
+        std::sqrt(std::max(0.0, s.covariance[at][at] + s.covariance[at + 1][at + 1] + s.covariance[at + 2][at + 2]));
+    while (!window.empty() && window.front().first < t - 1.0) window.pop_front();
+    while (!window.empty() && window.back().second >= sigma) window.pop_back();
+    if (!window.empty() && sigma > factor * window.front().second && sigma - window.front().second > floor) {
+      jump = {t, window.front().second, sigma};
+      return jump;
+    }
+    window.emplace_back(t, sigma);
+  }
+  return jump;
+}
+
+std::vector<std::string> disturbances(const std::vector<FilterRun>& runs,
+                                      const std::map<std::string, ProcessFigures>& procs, int64_t deltas_valid) {
+  std::vector<std::string> out;
+  auto fmt = [](double v, int decimals) {
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(decimals) << v;
+    return os.str();
+  };
+  for (const auto& [name, f] : procs) {
+    const ips::health_t& h = f.last;
+    // Inputs lost on the way to a process, bridged gaps in its IMU, deltas that came too late or were not fused.
+    if (const int64_t lost = counterOf(h, "imu_seq_gap"))
+      out.push_back(name + ": " + std::to_string(lost) + " IMU samples lost on the way (imu_seq_gap)");
+    if (const int64_t gaps = counterOf(h, "imu_gaps"))
+      out.push_back(name + ": " + std::to_string(gaps) + " gaps in the IMU bridged (imu_gaps)");
+    const int64_t fused = counterOf(h, "tracker_accepted"), late = counterOf(h, "tracker_too_late");
+    if (deltas_valid > 20 && h.num_counters > 0 && counterOf(h, "image_accepted") > 0 && fused < 0.9 * deltas_valid)
+      out.push_back(name + ": fused " + std::to_string(fused) + " of " + std::to_string(deltas_valid) +
+                    " valid tracker deltas (" + std::to_string(late) + " too late)");
+    if (const int64_t stale = counterOf(h, "stale_pair"); stale > 0 && stale > 0.005 * std::max<int64_t>(1, h.received))
+      out.push_back(name + ": dropped " + std::to_string(stale) + " of " + std::to_string(h.received) +
+                    " pairs it fell behind on (stale_pair)");
+  }
+  constexpr int kPosition = 0, kAttitude = 18;  // filter_state_t's covariance layout
+  for (const auto& run : runs) {
+    if (run.states.empty()) continue;
+    const double t0 = run.states.front().utime * 1e-6;
+    const CovarianceJump p = firstJump(run, kPosition, 2.0, 0.01);
+    if (std::isfinite(p.t))
+      out.push_back(run.channel + ": position sigma rose from " + fmt(p.from, 3) + " to " + fmt(p.to, 3) +
+                    " m within a second, at t=" + fmt(p.t - t0, 1) + " s of its states");
+    const CovarianceJump a = firstJump(run, kAttitude, 2.0, 0.5 * M_PI / 180);
+    if (std::isfinite(a.t))
+      out.push_back(run.channel + ": attitude sigma rose from " + fmt(a.from * 180 / M_PI, 2) + " to " +
+                    fmt(a.to * 180 / M_PI, 2) + " deg within a second, at t=" + fmt(a.t - t0, 1) + " s of its states");
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -349,6 +422,7 @@ int main(int argc, char** argv) {
                 IPS_JS_DIR)
         .required("--out", "DIR", "output folder (report.json and report.html)");
     if (!args.parse()) return 0;
+    if (args.getInt("--pictures") < 0) throw ips::ArgError("ips_report: --pictures must not be negative");
     const std::string out = args.get("--out");
     std::error_code mkdir_error;
     std::filesystem::create_directories(out, mkdir_error);
@@ -534,6 +608,16 @@ int main(int argc, char** argv) {
                              std::to_string(input_log_gt_end * 1e-6) + " s (the player stopped early)");
       }
     }
+    // The player's own account (log_player's health): a recording cut short, or a player stopped early, is
+    // incomplete whether or not the input log is at hand.
+    if (const auto player = procs.find("log_player");
+        player != procs.end() && counterOf(player->second.last, "played_to_end") != 1)
+      failures.push_back("the player's last account (events_played " +
+                         std::to_string(counterOf(player->second.last, "events_played")) +
+                         ") says it did not play its log to the end: the recording covers part of the input");
+    // What disturbed a run that is complete: named with the time, and the run's status says so.
+    const std::vector<std::string> warnings = disturbances(runs, procs, deltas_valid);
+
     std::sort(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t < b.t; });
     gt.erase(std::unique(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t == b.t; }),
              gt.end());
@@ -949,7 +1033,13 @@ int main(int argc, char** argv) {
     js << "  \"calibration_figures\": "
        << calibrationFiguresJson(args.has("--process-calib") ? args.get("--process-calib") : args.get("--calib"))
        << ",\n";
-    js << "  \"status\": \"" << (failures.empty() ? "ok" : "failed") << "\",\n  \"failures\": [";
+    js << "  \"status\": \""
+       << (!failures.empty()   ? "failed"
+           : !warnings.empty() ? "disturbed"
+                               : "ok")
+       << "\",\n  \"warnings\": [";
+    for (size_t i = 0; i < warnings.size(); ++i) js << (i ? ", " : "") << ips::report::jsonString(warnings[i]);
+    js << "],\n  \"failures\": [";
     for (size_t i = 0; i < failures.size(); ++i) js << (i ? ", " : "") << ips::report::jsonString(failures[i]);
     js << "]\n}\n";
     std::ofstream report(out + "/report.json");
@@ -1003,6 +1093,7 @@ int main(int argc, char** argv) {
                              data.str(), out + "/report.html");
     }
     std::fputs(js.str().c_str(), stdout);
+    for (const auto& w : warnings) std::fprintf(stderr, "ips_report: disturbed: %s\n", w.c_str());
     for (const auto& f : failures) std::fprintf(stderr, "ips_report: FAILED: %s\n", f.c_str());
     return failures.empty() ? 0 : 4;
   });
