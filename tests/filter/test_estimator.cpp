@@ -133,6 +133,33 @@ TEST(FilterEstimator, DoesNotInitialiseWhileMoving) {
   EXPECT_FALSE(est.addImageTime(3'100'000).has_value());
 }
 
+// A camera whose stamps lag the exposure (camera_latency_us): the a-priori state is the state at the exposure,
+// labelled with the pair's own stamp, the key the tracker looks it up by.
+TEST(FilterEstimator, APriorStateCarriesThePairsOwnStamp) {
+  WalkParams wp;
+  wp.at_rest = true;
+  const AnalyticWalk walk(wp);
+  const ips::StereoCalibration calib = testbedCalibration();
+  SensorSim sim(walk, SensorSimParams{}, calib, 13);
+  FilterParams p = paramsFor(FilterType::Ekf);
+  p.camera_latency_us = 20'000;
+  Estimator est(p, calib);
+  std::vector<Msg> msgs = makeMessages(sim, 0, 4'000'000);
+  int priors = 0;
+  for (const Msg& m : msgs) {
+    if (m.kind != 2) {
+      feed(est, {m});
+      continue;
+    }
+    const auto prior = est.addImageTime(m.image);
+    if (!prior) continue;
+    ++priors;
+    EXPECT_EQ(prior->state.utime, m.image);
+    EXPECT_TRUE(prior->a_priori);
+  }
+  EXPECT_GT(priors, 10);
+}
+
 TEST(FilterEstimator, StartsInMotionAndConvergesFromTheTrackerDeltas) {
   // A filter (re)started while the head walks: no window at rest ever comes.
   WalkParams wp;

@@ -227,7 +227,11 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
     if (it->second.sensor == kSensorImu || it->second.sensor == kSensorTilt)
       applyMeasurement(ahead, it->second, nullptr);
   predictTo(ahead, t);
-  return makeOutput(*ahead.kf, true);
+  // The state at the exposure (the pair's stamp less the camera delay), stamped with the pair's own stamp: the
+  // tracker looks its prior up by the stamp it received.
+  FilterOutput prior = makeOutput(*ahead.kf, true);
+  prior.state.utime = utime;
+  return prior;
 }
 
 void Estimator::flush() {
