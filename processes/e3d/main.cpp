@@ -37,15 +37,18 @@ int main(int argc, char** argv) {
     const std::optional<long long> every_nth =
         args.has("--every-nth") ? std::optional<long long>(args.getInt("--every-nth")) : std::nullopt;
     const ips::e3d::ProcessParams process_params = ips::e3d::loadProcessParams(cfg, every_nth, args.getFlag("--queue"));
+    const bool mono_enabled = cfg.getBool("mono/enabled", false);
+    const std::optional<ips::e3d::MonoDepthParams> mono_params =
+        cfg.has("mono") ? std::optional(ips::e3d::MonoDepthParams::fromConfig(cfg.section("mono"))) : std::nullopt;
+    if (ips::fw::configChecked(args, cfg)) return 0;
 
     ips::e3d::VulkanContext ctx(args.get("--device"));
     const ips::StereoRectification rect = ips::scaledRectification(calib, process_params.output_scale);
     ips::e3d::StereoMatcher matcher(ctx, rect.size, params);
     matcher.setRectification(rect, cv::Size(calib.cam0.width, calib.cam0.height));
     std::unique_ptr<ips::e3d::MonoDepth> mono;
-    if (cfg.getBool("mono/enabled", false)) {
-      mono = std::make_unique<ips::e3d::MonoDepth>(ctx, calib.cam0, params,
-                                                   ips::e3d::MonoDepthParams::fromConfig(cfg.section("mono")));
+    if (mono_enabled) {
+      mono = std::make_unique<ips::e3d::MonoDepth>(ctx, calib.cam0, params, *mono_params);
       IPS_INFO("depth from one camera: pairs " << mono->params().gap_pairs << " apart, every "
                                                << mono->params().every_nth << "th pair, on "
                                                << ips::channels::kMonoPoints);

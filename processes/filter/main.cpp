@@ -37,6 +37,7 @@ int main(int argc, char** argv) {
                              "adds it from EuRoC's or Kalibr's IMU file");
     const ips::Config cfg(args.get("--config"));
     ips::filter::FilterParams params = ips::filter::loadFilterParams(cfg.has("filter") ? cfg.section("filter") : cfg);
+    if (ips::fw::configChecked(args, cfg)) return 0;
     if (args.has("--filter")) {
       const std::optional<ips::filter::FilterType> type = ips::filter::filterTypeFromString(args.get("--filter"));
       if (!type) throw ips::ArgError("--filter must be ekf or ukf");

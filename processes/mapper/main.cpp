@@ -50,13 +50,15 @@ int main(int argc, char** argv) {
     const auto calib = ips::loadCalibration(args.get("--calib"));
     const ips::Config cfg(args.get("--config"));
     const auto params = ips::mapper::loadMapperParams(cfg);
+    const auto cloud_odometry = ips::mapper::CloudOdometryParams::fromConfig(cfg);
+    if (ips::fw::configChecked(args, cfg)) return 0;
     const std::string map_out = args.has("--map-out") ? args.get("--map-out") : "";
 
     ips::fw::Node node(args.get("--name"), ips::fw::resolveLcmUrl(args.get("--lcm-url")));
     const std::string cloud_delta_channel =
         args.get("--cloud-delta-channel") == "none" ? "" : args.get("--cloud-delta-channel");
     ips::mapper_app::MapperProcess mapper(node, calib, params, args.get("--points-channel"), cloud_delta_channel,
-                                          ips::mapper::CloudOdometryParams::fromConfig(cfg), *pose_source,
+                                          cloud_odometry, *pose_source,
                                           args.has("--pose-channel") ? args.get("--pose-channel") : "");
     std::signal(SIGUSR1, onSaveRequest);
     const int rc = node.run([&] {

@@ -31,9 +31,12 @@ int main(int argc, char** argv) {
     const ips::StereoCalibration calib = ips::loadCalibration(args.get("--calib"));
     const ips::Config cfg(args.get("--config"));
     const ips::tracker::TrackerParams params = ips::tracker::loadTrackerParams(cfg);
+    const ips::tracker::IntegrityParams integrity = ips::tracker::loadIntegrityParams(cfg);
+    const ips::tracker::PriorBuilderParams prior_builder = ips::tracker::loadPriorBuilderParams(cfg);
+    const ips::tracker::DisparityWait wait = ips::tracker::loadDisparityWait(cfg, args.getFlag("--queue-disparity"));
+    if (ips::fw::configChecked(args, cfg)) return 0;
     ips::fw::Node node("tracker", args.get("--lcm-url"));
-    ips::tracker_app::TrackerProcess process(node, calib, params, cfg,
-                                             ips::tracker::loadDisparityWait(cfg, args.getFlag("--queue-disparity")));
+    ips::tracker_app::TrackerProcess process(node, calib, params, integrity, prior_builder, wait);
     IPS_INFO("tracking " << calib.cam0.width << "x" << calib.cam0.height << " pairs");
     const int rc = node.run([&process]() { process.drain(); });
     process.flush();

@@ -81,7 +81,9 @@ int main(int argc, char** argv) {
         .option("--page-dir", "DIR", "the page's files", IPS_VIEWER_PAGE_DIR);
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
-    const ips::viewer::ViewerParams params = ips::viewer::loadViewerParams(ips::Config(args.get("--config")));
+    const ips::Config cfg(args.get("--config"));
+    const ips::viewer::ViewerParams params = ips::viewer::loadViewerParams(cfg);
+    if (ips::fw::configChecked(args, cfg)) return 0;
 
     ips::fw::Node node("viewer", ips::fw::resolveLcmUrl(args.get("--lcm-url")));
     ips::viewer::EventHub hub(params.client_queue_events, params.max_clients);

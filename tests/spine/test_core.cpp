@@ -56,6 +56,31 @@ TEST(Config, ValuesAndErrorsNameFileAndKey) {
   EXPECT_THROW(ips::Config(writeFile("bad.yaml", "%YAML:1.0\n---\na: [1, 2\n")), ips::ConfigError);
 }
 
+// Keys nothing asked for are listed by their full path (through sections too) and refused naming file and key; a
+// sub-tree taken raw (node()) counts as read.
+TEST(Config, UnreadKeysAreNamedAndRefused) {
+  const std::string p = writeFile("unread.yaml",
+                                  "%YAML:1.0\n---\nimu:\n  rate_hz: 200\n  rate_hx: 100\nscale: 0.5\nscael: 2\n"
+                                  "raw:\n  a: 1\n  b: [1, 2]\nlist: [1, 2]\n");
+  ips::Config c(p);
+  EXPECT_EQ(c.unreadKeys().size(), 7u);
+  EXPECT_EQ(c.section("imu").getInt("rate_hz"), 200);
+  EXPECT_DOUBLE_EQ(c.getDouble("scale", 1.0), 0.5);
+  EXPECT_FALSE(c.node("raw").empty());
+  EXPECT_TRUE(c.has("list"));
+  EXPECT_EQ(c.unreadKeys(), (std::vector<std::string>{"imu/rate_hx", "scael"}));
+  try {
+    c.refuseUnreadKeys();
+    FAIL();
+  } catch (const ips::ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              p + ": unknown keys 'imu/rate_hx', 'scael' (misspelled, or not a setting of this process)");
+  }
+  EXPECT_EQ(c.getInt("imu/rate_hx"), 100);
+  EXPECT_DOUBLE_EQ(c.getDouble("scael"), 2.0);
+  EXPECT_NO_THROW(c.refuseUnreadKeys());
+}
+
 TEST(Config, MalformedYamlIsAnErrorNotAHang) {
   // 21 bytes on which cv::FileStorage alone loops forever (an unterminated flow sequence after the header).
   const std::string p = writeFile("hang.yaml", "%YAML:1.\n---L:0\n[---\n");

@@ -60,7 +60,7 @@ void checkWellFormedYaml(const std::string& path) {
 
 }  // namespace
 
-Config::Config(const std::string& path) : path_(path) {
+Config::Config(const std::string& path) : path_(path), reads_(std::make_shared<Reads>()) {
   checkWellFormedYaml(path);
   try {
     fs_.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML);
@@ -79,6 +79,52 @@ Config::Config(std::string path, cv::FileStorage fs, cv::FileNode root, std::str
     : path_(std::move(path)), fs_(std::move(fs)), root_(std::move(root)), prefix_(std::move(prefix)) {}
 
 cv::FileNode Config::node(const std::string& key) const {
+  cv::FileNode n = lookup(key);
+  if (reads_) reads_->subtrees.insert(prefix_ + key);
+  return n;
+}
+
+namespace {
+
+// Leaves of a YAML tree (values and sequences) under `path`.
+void collectLeaves(const cv::FileNode& n, const std::string& path, std::vector<std::string>* out) {
+  if (!n.isMap()) {
+    out->push_back(path);
+    return;
+  }
+  for (auto it = n.begin(); it != n.end(); ++it) {
+    const cv::FileNode child = *it;
+    collectLeaves(child, path.empty() ? child.name() : path + "/" + child.name(), out);
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> Config::unreadKeys() const {
+  std::vector<std::string> leaves, unread;
+  collectLeaves(root_, prefix_.empty() ? "" : prefix_.substr(0, prefix_.size() - 1), &leaves);
+  for (const std::string& leaf : leaves) {
+    bool read = reads_ && reads_->keys.count(leaf) > 0;
+    // A leaf under a sub-tree taken raw was read with it.
+    for (size_t slash = leaf.find('/'); !read && slash != std::string::npos; slash = leaf.find('/', slash + 1))
+      read = reads_->subtrees.count(leaf.substr(0, slash)) > 0;
+    if (!read && reads_ && reads_->subtrees.count(leaf) > 0) read = true;
+    if (!read) unread.push_back(leaf);
+  }
+  return unread;
+}
+
+void Config::refuseUnreadKeys() const {
+  const std::vector<std::string> unread = unreadKeys();
+  if (unread.empty()) return;
+  std::string list;
+  for (const std::string& k : unread) list += (list.empty() ? "'" : ", '") + k + "'";
+  throw ConfigError(path_ + ": unknown key" + (unread.size() > 1 ? "s " : " ") + list +
+                    " (misspelled, or not a setting of this process)");
+}
+
+cv::FileNode Config::lookup(const std::string& key) const {
+  if (reads_) reads_->keys.insert(prefix_ + key);
   cv::FileNode n = root_;
   std::stringstream ss(key);
   std::string part;
@@ -90,14 +136,14 @@ cv::FileNode Config::node(const std::string& key) const {
   return n;
 }
 
-bool Config::has(const std::string& key) const { return !node(key).empty(); }
+bool Config::has(const std::string& key) const { return !lookup(key).empty(); }
 
 void Config::fail(const std::string& key, const std::string& what) const {
   throw ConfigError(path_ + ": key '" + prefix_ + key + "' " + what);
 }
 
 cv::FileNode Config::required(const std::string& key) const {
-  cv::FileNode n = node(key);
+  cv::FileNode n = lookup(key);
   if (n.empty()) fail(key, "is missing");
   return n;
 }
@@ -182,7 +228,9 @@ std::string Config::getString(const std::string& key, const std::string& fallbac
 Config Config::section(const std::string& key) const {
   cv::FileNode n = required(key);
   if (!n.isMap()) fail(key, "must be a map");
-  return Config(path_, fs_, n, prefix_ + key + "/");
+  Config sub(path_, fs_, n, prefix_ + key + "/");
+  sub.reads_ = reads_;
+  return sub;
 }
 
 }  // namespace ips

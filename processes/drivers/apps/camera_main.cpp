@@ -33,6 +33,7 @@ int main(int argc, char** argv) {
 
     const ips::Config cfg(args.get("--config"));
     auto settings = ips::drivers::StereoCameraSettings::fromConfig(cfg);
+    if (ips::fw::configChecked(args, cfg)) return 0;
     if (args.has("--left")) settings.left.id = args.get("--left");
     if (args.has("--right")) settings.right.id = args.get("--right");
     const long long max_count = args.getInt("--count");

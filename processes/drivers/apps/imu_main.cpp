@@ -35,6 +35,7 @@ int main(int argc, char** argv) {
     mc.window = static_cast<size_t>(cfg.getInt("imu/clock_window", static_cast<int>(format.rate_hz * 10)));
     // Arrivals later than the counter predicts by more than this: the sensor stalled or restarted; start again.
     mc.reset_jump_us = cfg.getInt("imu/clock_reset_us", 20000);
+    if (ips::fw::configChecked(args, cfg)) return 0;
     ips::drivers::ClockMapper counter_clock(mc);
 
     ips::drivers::SerialReader<ips::drivers::Mmq50Parser> reader(rc, ips::drivers::Mmq50Parser(format));

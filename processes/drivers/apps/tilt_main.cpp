@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
     // Silent after 5 sample periods (the inclinometer's rate is low: 5 periods are already a third of a second).
     auto rc = ips::drivers::SerialReaderConfig::fromConfig(cfg, "tilt", 5.0 / format.rate_hz);
     if (args.has("--device")) rc.port.device = args.get("--device");
+    if (ips::fw::configChecked(args, cfg)) return 0;
 
     ips::drivers::SerialReader<ips::drivers::Z260Parser> reader(rc, ips::drivers::Z260Parser(format));
     ips::fw::Node node("tilt", args.get("--lcm-url"));

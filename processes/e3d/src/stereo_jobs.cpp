@@ -10,13 +10,15 @@ ProcessParams loadProcessParams(const Config& cfg, std::optional<long long> ever
   p.output_scale = cfg.getDouble("process/output_scale", 1.0);
   if (!(p.output_scale > 0 && p.output_scale <= 1))
     throw ConfigError(cfg.path() + ": key 'process/output_scale' must be in (0, 1]");
-  const long long every_nth_value = every_nth ? *every_nth : cfg.getInt("process/every_nth", 1);
+  // The file's values are read (and so known) even where the command line overrides them.
+  const long long file_every_nth = cfg.getInt("process/every_nth", 1);
+  const long long every_nth_value = every_nth ? *every_nth : file_every_nth;
   // A pair is selected when seq % N == 0: N below 1 selects nothing (or divides by zero).
   if (every_nth_value < 1 || every_nth_value > std::numeric_limits<int>::max())
     throw ConfigError(cfg.path() + ": 'process/every_nth' (or --every-nth) must be at least 1, got " +
                       std::to_string(every_nth_value));
   p.every_nth = static_cast<int>(every_nth_value);
-  p.queue_all = queue || cfg.getBool("process/queue_all", false);
+  p.queue_all = cfg.getBool("process/queue_all", false) || queue;
   // The queue holds decoded pairs (two full images each): at least one, and bounded so memory stays flat.
   const long long max_queue_value = cfg.getInt("process/max_queue", 16);
   if (max_queue_value < 1 || max_queue_value > kMaxQueueLimit)

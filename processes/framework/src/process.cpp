@@ -17,6 +17,7 @@ void addCommonOptions(Args& args, const std::string& default_config) {
       .option("--bulk-lcm-url", "URL",
               "LCM URL of the bulk channels, images and dense maps (default: $IPS_BULK_LCM_URL, else the LCM URL)")
       .option("--config", "FILE", "YAML configuration of this process", default_config)
+      .flag("--check-config", "read the configuration, refuse keys this process does not know, and exit")
       .option("--log-level", "LEVEL", "debug, info, warn or error", "info")
       .option("--nice", "N",
               "scheduling priority, -20 (first) to 19 (last): the process's nice value and its session's (see "
@@ -41,6 +42,13 @@ void applyCommonOptions(const Args& args) {
   if (args.has("--nice")) applyNice(static_cast<int>(args.getInt("--nice")));
   // The Nodes of this process read it from the environment, like LCM_DEFAULT_URL.
   if (args.has("--bulk-lcm-url")) setenv("IPS_BULK_LCM_URL", args.get("--bulk-lcm-url").c_str(), 1);
+}
+
+bool configChecked(const Args& args, const Config& cfg) {
+  cfg.refuseUnreadKeys();
+  if (!args.getFlag("--check-config")) return false;
+  std::printf("%s: every key is a setting of this process\n", cfg.path().c_str());
+  return true;
 }
 
 int guardedMain(const std::string& process, const std::function<int()>& body) {

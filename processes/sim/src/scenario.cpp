@@ -264,6 +264,7 @@ Scenario loadOver(const std::string& path, int depth) {
   get(c, "world/weak_stretch_m", w.weak_stretch_m);
   if (w.type == "street") w.route = tr.waypoints;
   tr.floor_ramp = w.ramp;  // the walker walks on the world's floor
+  c.refuseUnreadKeys();    // a misspelled key would leave the default world or head in place
 
   try {
     s.validate();

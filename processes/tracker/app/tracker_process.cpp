@@ -63,11 +63,12 @@ integrity_t toMessage(const tracker::IntegrityStatus& s, int64_t seq, double dis
 }  // namespace
 
 TrackerProcess::TrackerProcess(fw::Node& node, const StereoCalibration& calib, const tracker::TrackerParams& params,
-                               const Config& cfg, const tracker::DisparityWait& wait)
+                               const tracker::IntegrityParams& integrity,
+                               const tracker::PriorBuilderParams& prior_builder, const tracker::DisparityWait& wait)
     : node_(node),
       tracker_(calib, params),
-      monitor_(tracker_.rectification(), tracker::loadIntegrityParams(cfg)),
-      priors_(calib.T_imu_cam0, tracker::loadPriorBuilderParams(cfg), params.prior),
+      monitor_(tracker_.rectification(), integrity),
+      priors_(calib.T_imu_cam0, prior_builder, params.prior),
       admission_(calib.cam0.width, calib.cam0.height),
       pairs_(wait) {
   node_.subscribe<stereo_pair_t>(channels::kStereo, [this](const stereo_pair_t& m) { onStereo(m); });

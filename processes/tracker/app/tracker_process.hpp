@@ -21,7 +21,8 @@ namespace ips::tracker_app {
 class TrackerProcess {
  public:
   TrackerProcess(fw::Node& node, const StereoCalibration& calib, const tracker::TrackerParams& params,
-                 const Config& cfg, const tracker::DisparityWait& wait);
+                 const tracker::IntegrityParams& integrity, const tracker::PriorBuilderParams& prior_builder,
+                 const tracker::DisparityWait& wait);
 
   // End of input: whatever still waits for a prior is tracked with the fallback.
   void flush();

@@ -2,9 +2,12 @@
 // YAML configuration read with cv::FileStorage. Every error names the file and the key, so that a user
 // with a wrong deployment file knows what to fix.
 #include <Eigen/Core>
+#include <memory>
 #include <opencv2/core.hpp>
+#include <set>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace ips {
 
@@ -40,10 +43,18 @@ class Config {
   // A sub-tree (a YAML map) as a Config of its own, for passing sections to libraries.
   Config section(const std::string& key) const;
 
-  cv::FileNode node(const std::string& key) const;  // empty node when absent
+  // The raw node (empty when absent); the whole sub-tree counts as read.
+  cv::FileNode node(const std::string& key) const;
+
+  // The file's keys (full paths, leaves: values and sequences) that nothing has asked for through this Config or
+  // its sections: misspelled or stale keys, which would otherwise silently leave their defaults in place.
+  std::vector<std::string> unreadKeys() const;
+  // Throws ConfigError naming the file and every unread key. A process calls it once it has read its settings.
+  void refuseUnreadKeys() const;
 
  private:
   Config(std::string path, cv::FileStorage fs, cv::FileNode root, std::string prefix);
+  cv::FileNode lookup(const std::string& key) const;  // marks the key as read
   cv::FileNode required(const std::string& key) const;
   [[noreturn]] void fail(const std::string& key, const std::string& what) const;
 
@@ -51,6 +62,11 @@ class Config {
   cv::FileStorage fs_;
   cv::FileNode root_;
   std::string prefix_;  // for error messages of sections
+  // Shared by a Config and its sections: full key paths asked for, and those whose whole sub-tree was taken raw.
+  struct Reads {
+    std::set<std::string> keys, subtrees;
+  };
+  std::shared_ptr<Reads> reads_;
 };
 
 }  // namespace ips

@@ -4,10 +4,12 @@
 #include <string>
 
 #include "ips/args.hpp"
+#include "ips/config.hpp"
 
 namespace ips::fw {
 
-// Declares --lcm-url, --bulk-lcm-url, --config, --log-level and --nice on `args` (config default given per process).
+// Declares --lcm-url, --bulk-lcm-url, --config, --check-config, --log-level and --nice on `args` (config default given
+// per process).
 void addCommonOptions(Args& args, const std::string& default_config);
 // Applies --log-level, --bulk-lcm-url and --nice.
 void applyCommonOptions(const Args& args);
@@ -16,6 +18,11 @@ void applyCommonOptions(const Args& args);
 // every command has a session of its own (procman's deputy). A value below 0 needs the right to raise priority
 // (root, CAP_SYS_NICE); without it the process warns and runs at the nice value it has.
 void applyNice(int nice);
+
+// Called by a main once it has read all its settings from `cfg`: refuses a key nothing read (ConfigError naming the
+// file and the keys: a misspelled key would otherwise leave its default in place without a word). With
+// --check-config it says the file is good and returns true, and the main exits 0 before it opens a device or the bus.
+bool configChecked(const Args& args, const Config& cfg);
 
 // Runs body(); turns exceptions into a message on stderr and exit code 1, so a bad config or device gives a
 // clear line, not an abort.
