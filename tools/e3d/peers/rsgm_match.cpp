@@ -1,6 +1,7 @@
 // Harness for rSGM (Spangenberg et al. 2014; kbatsos/Real-Time-Stereo, folder CPU/sgm), the CPU matcher E3D is
-// measured against. rSGM's code stays outside the project: build_rsgm.sh compiles this file against a checkout of
-// it. Not part of the CMake build (CI has no rSGM).
+// measured against. rSGM's code stays outside the project, and so does its build: compile this file together with
+// the CPU/sgm sources of a checkout of your own (AVX2, OpenMP, OpenCV; rSGM's sources use AVX2 intrinsics without
+// including immintrin.h). Not part of the CMake build (CI has no rSGM).
 //   rsgm_match LEFT RIGHT NDISP OUT.pfm            one match, PFM (inf = invalid), for e3d_eval --peer-cmd
 //   rsgm_match --bench LEFT RIGHT NDISP W H RUNS   fps of the whole match (census, costs, SGM, checks) at W x H
 // Settings: rSGM's published census SGM (census 5x5, 8 paths in two passes, P1 7, P2 = max(17, 50 - 0.25 |dI|),
