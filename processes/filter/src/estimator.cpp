@@ -604,7 +604,9 @@ bool Estimator::tryMotionStart() {
   ++starts_in_motion_;
   IPS_WARN("filter: started in motion at t="
            << t0 << " us from " << chain.size() << " tracker deltas over " << (t1 - t0) * 1e-6 << " s: gyro bias "
-           << start->gyro_bias.transpose() << " rad/s, speed " << start->velocity_body.norm() << " m/s, gravity misfit "
+           << start->gyro_bias.transpose() << " rad/s (sigma "
+           << start->gyro_bias_covariance.diagonal().cwiseSqrt().transpose() << ", the fit's variance factor "
+           << start->gyro_bias_variance_factor << "), speed " << start->velocity_body.norm() << " m/s, gravity misfit "
            << start->gravity_error * 100 << " %, roll " << roll << " pitch " << pitch << " rad");
   // The events since the first image, again, now with the filter running.
   for (const Event& e : since)

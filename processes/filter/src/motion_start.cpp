@@ -97,7 +97,24 @@ std::optional<MotionStart> estimateMotionStart(const MotionStartInput& in, std::
     if (db.norm() < 1e-9) break;
   }
   out.gyro_bias = b;
-  out.gyro_bias_covariance = bias_normal.inverse();
+  // The fit's residuals against the deltas' own covariance: a tracker that claims more than its rotations hold
+  // (chi-square per degree of freedom above 1) leaves the bias less certain than the normal equations say, and the
+  // filter must be free to learn it further (a posteriori variance factor).
+  double chi2 = 0;
+  for (const TrackerDelta& d : in.deltas) {
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    forEachPiece(in.imu, d.utime_prev, d.utime,
+                 [&](const Eigen::Vector3d& w, const Eigen::Vector3d&, double dt) { R = R * expSO3((w - b) * dt); });
+    const Eigen::Matrix3d R_tracker = R_ic * d.rotation.normalized().toRotationMatrix() * R_ic.transpose();
+    const Eigen::Vector3d r = logSO3(R.transpose() * R_tracker);
+    const Eigen::Matrix3d cov =
+        R_ic * d.covariance.bottomRightCorner<3, 3>() * R_ic.transpose() +
+        Eigen::Matrix3d::Identity() * gyro_var_density * static_cast<double>(d.utime - d.utime_prev) * 1e-6;
+    chi2 += r.dot(cov.ldlt().solve(r));
+  }
+  const double dof = 3.0 * static_cast<double>(in.deltas.size()) - 3.0;
+  out.gyro_bias_variance_factor = dof > 0 ? std::max(1.0, chi2 / dof) : 1.0;
+  out.gyro_bias_covariance = bias_normal.inverse() * out.gyro_bias_variance_factor;
 
   // 2. Velocity and gravity at the first image, in its body frame b0: the tracker's chained poses give the body's
   // positions p_k; the IMU, rotated into b0 with the corrected gyro, gives the doubly integrated specific force s_k;

@@ -39,6 +39,7 @@ struct MotionStart {
   int64_t utime = 0;  // the first image of the chain: the state's time
   Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
   Eigen::Matrix3d gyro_bias_covariance = Eigen::Matrix3d::Zero();
+  double gyro_bias_variance_factor = 1;  // the fit's chi-square per degree of freedom (at least 1), in the covariance
   // In the body frame at utime: the velocity of the body and the gravity vector (pointing down; with the
   // accelerometer's bias in it), with the covariance of both (order v, g).
   Eigen::Vector3d velocity_body = Eigen::Vector3d::Zero();
