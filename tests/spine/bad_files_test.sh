@@ -85,5 +85,27 @@ expect_refused filter_calib_nan "calib_nan.yaml" "$BIN/filter" --lcm-url "$U" --
 expect_refused e3d_match_unwritable_png "cannot write /nonexistent/x.png" "$BIN/e3d_match" \
   --left "$DATA/stereo/venus/left.png" --right "$DATA/stereo/venus/right.png" --out "$W/venus.pfm" \
   --out-png /nonexistent/x.png
+# Files and arguments that once got an unhelpful word or none (the probe of crafted inputs): each now names what is
+# wrong, and where.
+expect_refused tracker_calib_missing "/nonexistent/head.calib.yaml: cannot open" "$BIN/tracker" --lcm-url "$U" \
+  --calib /nonexistent/head.calib.yaml --config "$SRC/config/tracker.yaml"
+: > "$W/empty.yaml"
+expect_refused tracker_config_empty "empty.yaml: holds no keys" "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" \
+  --config "$W/empty.yaml"
+sed '0,/^   width: .*/s//   width: 2000000000/' "$CALIB" > "$W/calib_wide.yaml"
+expect_refused tracker_calib_width "calib_wide.yaml: key 'cam0/width|height' must be in 1..16384" "$BIN/tracker" \
+  --lcm-url "$U" --calib "$W/calib_wide.yaml" --config "$SRC/config/tracker.yaml"
+mkdir -p "$W/euroc/mav0/cam0" "$W/euroc/mav0/cam1"
+printf '#timestamp [ns],filename\n1403636579763555584,1403636579763555584.png\n14036365798x,b.png\n' \
+  > "$W/euroc/mav0/cam0/data.csv"
+expect_refused stereo_player_bad_csv "cam0/data.csv:3: expected 'timestamp_ns,filename'" "$BIN/stereo_player" \
+  --lcm-url "$U" --euroc "$W/euroc/mav0"
+expect_refused stereo_player_rate "--rate must be in [0.01, 1000] Hz" "$BIN/stereo_player" --lcm-url "$U" \
+  --left "$DATA/stereo/venus/left.png" --right "$DATA/stereo/venus/right.png" --rate 1e-300
+expect_refused e3d_match_range "has no match in an image" "$BIN/e3d_match" --left "$DATA/stereo/venus/left.png" \
+  --right "$DATA/stereo/venus/right.png" --out "$W/venus_range.pfm" --min-disparity 4000
+expect_refused ips_report_pictures "--pictures must not be negative" "$BIN/ips_report" --log "$W/walk.lcmlog" \
+  --out "$W/report_pictures" --pictures -3
+
 [ $fail -eq 0 ] && echo "PASS: every bad file refused with its name"
 exit $fail
