@@ -13,6 +13,7 @@
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/mapper/voxel_map.hpp"
+#include "ips/rotation.hpp"
 #include "ips/sim/rig.hpp"
 
 using namespace ips::mapper;
@@ -224,10 +225,6 @@ Eigen::Isometry3d trueCamera(double t) {
   return h.head.cam0InWorld(h.trajectory.pose(t));
 }
 
-Eigen::Matrix3d rotationVector(const Eigen::Vector3d& w) {
-  return Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
-}
-
 }  // namespace
 
 TEST(CloudOdometry, AlignsTwoMapsThreeSecondsApartBackToTheTruth) {
@@ -237,7 +234,7 @@ TEST(CloudOdometry, AlignsTwoMapsThreeSecondsApartBackToTheTruth) {
   const Eigen::Isometry3d cam0 = trueCamera(t0), cam1 = trueCamera(t1);
   const Eigen::Isometry3d truth = cam0.inverse() * cam1;
   Eigen::Isometry3d prior = truth;
-  prior.linear() = rotationVector(Eigen::Vector3d(0.003, -0.004, 0.002)) * prior.linear();
+  prior.linear() = ips::expSO3(Eigen::Vector3d(0.003, -0.004, 0.002)) * prior.linear();
   prior.translation() += Eigen::Vector3d(0.02, -0.015, 0.015);
   const Eigen::Isometry3d placed1 = cam0 * prior;
   const HeadGeometry g = trueGeometry();

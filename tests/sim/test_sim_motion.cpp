@@ -7,6 +7,7 @@
 #include <numeric>
 
 #include "ips/config.hpp"
+#include "ips/rotation.hpp"
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/trajectory.hpp"
 #include "ips/sim/world.hpp"
@@ -17,11 +18,6 @@ using namespace ips::sim;
 namespace {
 
 constexpr double kDeg = M_PI / 180;
-
-Eigen::Vector3d rotationVector(const Eigen::Quaterniond& q) {
-  const Eigen::AngleAxisd aa(q.normalized());
-  return aa.angle() * aa.axis();
-}
 
 double stddev(const std::vector<double>& v) {
   const double mean = std::accumulate(v.begin(), v.end(), 0.0) / v.size();
@@ -56,7 +52,7 @@ TEST(SimTrajectory, DerivativesMatchFiniteDifferences) {
     EXPECT_LT((v_fd - s.velocity).norm(), 1e-6) << "t=" << t;
     EXPECT_LT((a_fd - s.acceleration).norm(), 1e-5) << "t=" << t;
     // Body rate: R(t)^T R(t+h) = exp(w h)
-    const Eigen::Vector3d w_fd = rotationVector(a.orientation.conjugate() * b.orientation) / (2 * h);
+    const Eigen::Vector3d w_fd = ips::logQuat(a.orientation.conjugate() * b.orientation) / (2 * h);
     EXPECT_LT((w_fd - s.angular_rate).norm(), 1e-5) << "t=" << t;
     const Eigen::Vector3d f = s.orientation.conjugate() * (s.acceleration + Eigen::Vector3d(0, 0, sc.gravity));
     EXPECT_LT((f - s.specific_force).norm(), 1e-12);
@@ -81,7 +77,7 @@ TEST(SimTrajectory, WaveTurnsAboutAllAxesInPlace) {
     farthest_m = std::max(farthest_m, (s.position - place).norm());
     if (std::fmod(t, 7.0) < 0.01) {
       const TrajectoryState a = traj.state(t - h), b = traj.state(t + h);
-      const Eigen::Vector3d w_fd = rotationVector(a.orientation.conjugate() * b.orientation) / (2 * h);
+      const Eigen::Vector3d w_fd = ips::logQuat(a.orientation.conjugate() * b.orientation) / (2 * h);
       EXPECT_LT((w_fd - s.angular_rate).norm(), 1e-5) << "t=" << t;
       EXPECT_LT(((b.velocity - a.velocity) / (2 * h) - s.acceleration).norm(), 1e-5) << "t=" << t;
     }
@@ -111,7 +107,7 @@ TEST(SimImu, NoiseFreeIntegrationReproducesTrajectory) {
     nav.step(prev, cur);
     const TrajectoryState s = traj.state(t);
     max_pos_err = std::max(max_pos_err, (nav.p - s.position).norm());
-    max_att_err = std::max(max_att_err, rotationVector(s.orientation.conjugate() * nav.q).norm());
+    max_att_err = std::max(max_att_err, ips::logQuat(s.orientation.conjugate() * nav.q).norm());
     prev = cur;
   }
   const TrajectoryState end = traj.state(duration);

@@ -28,21 +28,12 @@
 #include "ips/mapper/params.hpp"
 #include "ips/mapper/stereo_points.hpp"
 #include "ips/random_vector.hpp"
+#include "ips/rotation.hpp"
 #include "ips/sim/rig.hpp"
 
 using namespace ips;
 
 namespace {
-
-Eigen::Matrix3d expSO3(const Eigen::Vector3d& w) {
-  const double a = w.norm();
-  return a < 1e-12 ? Eigen::Matrix3d::Identity() : Eigen::AngleAxisd(a, w / a).toRotationMatrix();
-}
-
-Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
 
 // The measurement's error as the filter defines it: [t_est - t_true; Log(R_est R_true^T)].
 Eigen::Matrix<double, 6, 1> errorOf(const Eigen::Isometry3d& est, const Eigen::Isometry3d& truth) {

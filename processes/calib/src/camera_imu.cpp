@@ -38,7 +38,7 @@ class GyroRotations {
       const double end = i < g_.size() ? std::min(b, static_cast<double>(g_[i].utime)) : b;
       if (end > t) {
         const Eigen::Vector3d rate = rateAt(0.5 * (t + end)) - bias;
-        R = R * rotationFromVector(rate * ((end - t) * 1e-6));
+        R = R * expSO3(rate * ((end - t) * 1e-6));
       }
       t = end;
       ++i;
@@ -74,7 +74,7 @@ struct Fit {
 };
 
 Eigen::Vector3d residual(const Interval& v, const Eigen::Matrix3d& R_cam_imu, const Eigen::Matrix3d& G) {
-  return rotationVector(v.R_tracker.transpose() * R_cam_imu * G * R_cam_imu.transpose());
+  return logSO3(v.R_tracker.transpose() * R_cam_imu * G * R_cam_imu.transpose());
 }
 
 }  // namespace
@@ -121,7 +121,7 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
     Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
     size_t turning = 0;
     for (const Interval& v : intervals) {
-      const Eigen::Vector3d a = rotationVector(v.R_tracker), b = rotationVector(gyroOf(v, fit.bias, fit.delay_us));
+      const Eigen::Vector3d a = logSO3(v.R_tracker), b = logSO3(gyroOf(v, fit.bias, fit.delay_us));
       if (a.norm() < config.min_rotation_deg * kDeg || b.norm() < config.min_rotation_deg * kDeg) continue;
       H += b * a.transpose();
       ++turning;
@@ -179,9 +179,9 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
       for (int j = 0; j < 3; ++j) {
         const Eigen::Vector3d e = Eigen::Vector3d::Unit(j);
         if (!rotation_known)
-          J.col(j) = (residual(v, fit.R_cam_imu * rotationFromVector(h_rot * e), G) -
-                      residual(v, fit.R_cam_imu * rotationFromVector(-h_rot * e), G)) /
-                     (2 * h_rot);
+          J.col(j) =
+              (residual(v, fit.R_cam_imu * expSO3(h_rot * e), G) - residual(v, fit.R_cam_imu * expSO3(-h_rot * e), G)) /
+              (2 * h_rot);
         J.col(3 + j) = (residual(v, fit.R_cam_imu, gyroOf(v, fit.bias + h_bias * e, fit.delay_us)) -
                         residual(v, fit.R_cam_imu, gyroOf(v, fit.bias - h_bias * e, fit.delay_us))) /
                        (2 * h_bias);
@@ -195,7 +195,7 @@ CameraImuEstimate calibrateCameraImu(const std::vector<GyroSample>& gyro_in, con
     Eigen::Matrix<double, kParams, 1> step = Eigen::Matrix<double, kParams, 1>::Zero();
     step.tail(fitted) = -JtJ.bottomRightCorner(fitted, fitted).ldlt().solve(Jtr.tail(fitted));
     if (!step.allFinite()) break;
-    fit.R_cam_imu = fit.R_cam_imu * rotationFromVector(step.head<3>());
+    fit.R_cam_imu = fit.R_cam_imu * expSO3(step.head<3>());
     fit.bias += step.segment<3>(3);
     fit.delay_us += step(6);
     evaluate(fit);

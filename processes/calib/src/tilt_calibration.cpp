@@ -135,7 +135,7 @@ TiltCalibrationResult calibrateTilt(const std::vector<ChartView>& views_in, cons
   const size_t n = out.stations.size();
   auto residuals = [&](const Eigen::Vector3d& q) {
     Eigen::VectorXd r(2 * n);
-    const Eigen::Matrix3d R = rotationFromVector(q) * nominal;
+    const Eigen::Matrix3d R = expSO3(q) * nominal;
     for (size_t k = 0; k < n; ++k)
       r.segment<2>(2 * k) = out.stations[k].measured_deg * kDeg - tiltAngles(R * out.stations[k].up_in_camera);
     return r;
@@ -174,7 +174,7 @@ TiltCalibrationResult calibrateTilt(const std::vector<ChartView>& views_in, cons
   out.residual_rms_deg = std::sqrt(r.squaredNorm() / static_cast<double>(r.size())) / kDeg;
   out.sigma_deg = best.covariance.diagonal().cwiseMax(0.0).cwiseSqrt() / kDeg;
   out.angles_deg = best.p / kDeg;
-  out.R_tilt_cam0 = rotationFromVector(best.p) * nominal;
+  out.R_tilt_cam0 = expSO3(best.p) * nominal;
   out.ok = best.p.allFinite() && best.covariance.allFinite();
   if (!out.ok) out.reason = "the fit did not converge: the stations' tilts are too alike";
   return out;

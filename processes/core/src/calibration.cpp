@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "ips/config.hpp"
+#include "ips/rotation.hpp"
 
 namespace ips {
 
@@ -271,8 +272,7 @@ StereoRectification computeRectification(const StereoCalibration& c, double alph
   CameraIntrinsics cam1 = c.cam1;
   if (!right_correction.isZero()) {
     const Eigen::Vector3d w(right_correction.rotation.x(), 0.0, right_correction.rotation.z());
-    if (w.norm() > 0)
-      out.R_rect1_cam1 = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix() * out.R_rect1_cam1;
+    if (w.norm() > 0) out.R_rect1_cam1 = expSO3(w) * out.R_rect1_cam1;
     R2 = toCv(out.R_rect1_cam1);
     cam1.K(0, 0) *= 1 + right_correction.focal_scale;
     cam1.K(1, 1) *= 1 + right_correction.focal_scale;

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "ips/random_vector.hpp"
+#include "ips/rotation.hpp"
 
 namespace ips::sim {
 
@@ -13,9 +14,7 @@ constexpr double kDeg = M_PI / 180;
 constexpr double kMg = 9.80665e-3;  // 1 mg in m/s^2 (the datasheet's g)
 
 Eigen::Matrix3d smallRotation(Rng& rng, double sigma_rad) {
-  const Eigen::Vector3d r = sigma_rad * drawVector3([&] { return rng.normal(); });
-  if (r.norm() == 0) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
+  return expSO3(sigma_rad * drawVector3([&] { return rng.normal(); }));
 }
 
 double quantize(double v, double lsb) { return lsb > 0 ? std::round(v / lsb) * lsb : v; }
@@ -71,8 +70,7 @@ SensorHead SensorHead::make(const Scenario& s) {
   if (c.vignetting) cal.cam0.vignetting_gain = cal.cam1.vignetting_gain = Eigen::Vector3d(2, 1, 0);
 
   const Eigen::Vector3d rv = c.relative_rotation_deg * kDeg;
-  const Eigen::Matrix3d R10 =
-      rv.norm() > 0 ? Eigen::AngleAxisd(rv.norm(), rv.normalized()).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d R10 = expSO3(rv);
   const Eigen::Vector3d c1_in_cam0 = Eigen::Vector3d(c.baseline_m, 0, 0) + c.baseline_offset_m;
   cal.R_cam1_cam0 = R10;
   cal.t_cam1_cam0 = -R10 * c1_in_cam0;
@@ -116,8 +114,7 @@ StereoCalibration SensorHead::design(const Scenario& s) {
 Eigen::Matrix3d SensorHead::cam1Turn(double t) const {
   const Eigen::Vector3d r =
       cam1_drift_per_s * std::max(t, 0.0) + (t >= cam1_step_s ? cam1_step : Eigen::Vector3d::Zero());
-  if (r.norm() == 0) return Eigen::Matrix3d::Identity();
-  return Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
+  return expSO3(r);
 }
 
 StereoCalibration SensorHead::calibrationForProcesses(const Scenario& s) const {

@@ -11,27 +11,12 @@ namespace ips::tracker {
 
 namespace {
 
-Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
-  Eigen::Matrix3d s;
-  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return s;
-}
+using ips::skew;
 
 // Depth below which a projection is treated as invalid (behind or at the camera).
 constexpr double kMinProjectionDepth = 1e-3;
 
 }  // namespace
-
-Eigen::Matrix3d expSO3(const Eigen::Vector3d& w) {
-  const double angle = w.norm();
-  if (angle < 1e-12) return Eigen::Matrix3d::Identity() + skew(w);
-  return Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
-}
-
-Eigen::Vector3d logSO3(const Eigen::Matrix3d& R) {
-  Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
 
 Eigen::Vector3d RectifiedStereo::triangulate(double xl, double y, double xr) const {
   const double d = xl - xr + disparity_offset;

@@ -14,6 +14,8 @@
 #include <optional>
 #include <vector>
 
+#include "ips/rotation.hpp"
+
 namespace ips::filter {
 
 // Offsets into the 21-dimensional error state (and into filter_state_t.covariance).
@@ -123,13 +125,12 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
 // a (-) b: the error-state vector taking b to a (same layout required: the optional states and the clones).
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b);
 
-// SO(3) helpers.
-Eigen::Matrix3d skew(const Eigen::Vector3d& v);
-Eigen::Matrix3d expSO3(const Eigen::Vector3d& phi);
-Eigen::Vector3d logSO3(const Eigen::Matrix3d& R);
-Eigen::Quaterniond expQuat(const Eigen::Vector3d& phi);
-Eigen::Vector3d logQuat(const Eigen::Quaterniond& q);
-// Right Jacobian of SO(3): Exp(phi + d) ~= Exp(phi) Exp(Jr(phi) d).
-Eigen::Matrix3d rightJacobianSO3(const Eigen::Vector3d& phi);
+// SO(3): the project's maps (ips/rotation.hpp).
+using ips::expQuat;
+using ips::expSO3;
+using ips::logQuat;
+using ips::logSO3;
+using ips::rightJacobianSO3;
+using ips::skew;
 
 }  // namespace ips::filter

@@ -10,6 +10,7 @@
 #include <Eigen/Geometry>
 #include <vector>
 
+#include "ips/rotation.hpp"
 #include "ips/tracker/params.hpp"
 
 namespace ips::tracker {
@@ -121,7 +122,7 @@ DisparityOffsetObservation observeDisparityOffset(const RectifiedStereo& cam, co
                                                   const std::vector<int>& inliers, const RigidMotion& motion,
                                                   const MotionParams& params);
 
-Eigen::Matrix3d expSO3(const Eigen::Vector3d& w);
-Eigen::Vector3d logSO3(const Eigen::Matrix3d& R);
+using ips::expSO3;  // the project's SO(3) maps (ips/rotation.hpp)
+using ips::logSO3;
 
 }  // namespace ips::tracker
