@@ -66,29 +66,39 @@ std::optional<MotionStart> estimateMotionStart(const MotionStartInput& in, std::
   // Log(R(b)^T R_tracker) falls by J db: Gauss-Newton, relinearised as b moves.
   MotionStart out;
   out.utime = in.deltas.front().utime_prev;
+  // One delta against the gyro with bias b: the residual Log(R(b)^T R_tracker), its covariance (the delta's and the
+  // gyro's noise over the interval) and J; false where the IMU does not cover the delta.
+  struct Residual {
+    Eigen::Vector3d r;
+    Eigen::Matrix3d cov, J;
+  };
+  auto residualOf = [&](const TrackerDelta& d, const Eigen::Vector3d& b, Residual* out_r) {
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity(), J = Eigen::Matrix3d::Zero();
+    const bool covered =
+        forEachPiece(in.imu, d.utime_prev, d.utime, [&](const Eigen::Vector3d& w, const Eigen::Vector3d&, double dt) {
+          const Eigen::Vector3d phi = (w - b) * dt;
+          const Eigen::Matrix3d step = expSO3(phi);
+          J = step.transpose() * J - rightJacobianSO3(phi) * dt;
+          R = R * step;
+        });
+    const Eigen::Matrix3d R_tracker = R_ic * d.rotation.normalized().toRotationMatrix() * R_ic.transpose();
+    out_r->r = logSO3(R.transpose() * R_tracker);
+    out_r->cov = R_ic * d.covariance.bottomRightCorner<3, 3>() * R_ic.transpose() +
+                 Eigen::Matrix3d::Identity() * gyro_var_density * static_cast<double>(d.utime - d.utime_prev) * 1e-6;
+    out_r->J = J;
+    return covered;
+  };
   Eigen::Vector3d b = Eigen::Vector3d::Zero();
   Eigen::Matrix3d bias_normal = Eigen::Matrix3d::Zero();
   for (int iteration = 0; iteration < 4; ++iteration) {
     bias_normal.setZero();
     Eigen::Vector3d rhs = Eigen::Vector3d::Zero();
     for (const TrackerDelta& d : in.deltas) {
-      Eigen::Matrix3d R = Eigen::Matrix3d::Identity(), J = Eigen::Matrix3d::Zero();
-      const bool covered =
-          forEachPiece(in.imu, d.utime_prev, d.utime, [&](const Eigen::Vector3d& w, const Eigen::Vector3d&, double dt) {
-            const Eigen::Vector3d phi = (w - b) * dt;
-            const Eigen::Matrix3d step = expSO3(phi);
-            J = step.transpose() * J - rightJacobianSO3(phi) * dt;
-            R = R * step;
-          });
-      if (!covered) return fail(why, "the IMU samples do not cover the deltas");
-      const Eigen::Matrix3d R_tracker = R_ic * d.rotation.normalized().toRotationMatrix() * R_ic.transpose();
-      const Eigen::Vector3d r = logSO3(R.transpose() * R_tracker);
-      const Eigen::Matrix3d cov =
-          R_ic * d.covariance.bottomRightCorner<3, 3>() * R_ic.transpose() +
-          Eigen::Matrix3d::Identity() * gyro_var_density * static_cast<double>(d.utime - d.utime_prev) * 1e-6;
-      const Eigen::Matrix3d W = cov.inverse();
-      bias_normal += J.transpose() * W * J;
-      rhs += J.transpose() * W * r;
+      Residual res;
+      if (!residualOf(d, b, &res)) return fail(why, "the IMU samples do not cover the deltas");
+      const Eigen::Matrix3d W = res.cov.inverse();
+      bias_normal += res.J.transpose() * W * res.J;
+      rhs += res.J.transpose() * W * res.r;
     }
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(bias_normal);
     if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) return fail(why, "gyro bias unobservable");
@@ -102,15 +112,9 @@ std::optional<MotionStart> estimateMotionStart(const MotionStartInput& in, std::
   // filter must be free to learn it further (a posteriori variance factor).
   double chi2 = 0;
   for (const TrackerDelta& d : in.deltas) {
-    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
-    forEachPiece(in.imu, d.utime_prev, d.utime,
-                 [&](const Eigen::Vector3d& w, const Eigen::Vector3d&, double dt) { R = R * expSO3((w - b) * dt); });
-    const Eigen::Matrix3d R_tracker = R_ic * d.rotation.normalized().toRotationMatrix() * R_ic.transpose();
-    const Eigen::Vector3d r = logSO3(R.transpose() * R_tracker);
-    const Eigen::Matrix3d cov =
-        R_ic * d.covariance.bottomRightCorner<3, 3>() * R_ic.transpose() +
-        Eigen::Matrix3d::Identity() * gyro_var_density * static_cast<double>(d.utime - d.utime_prev) * 1e-6;
-    chi2 += r.dot(cov.ldlt().solve(r));
+    Residual res;
+    residualOf(d, b, &res);
+    chi2 += res.r.dot(res.cov.ldlt().solve(res.r));
   }
   const double dof = 3.0 * static_cast<double>(in.deltas.size()) - 3.0;
   out.gyro_bias_variance_factor = dof > 0 ? std::max(1.0, chi2 / dof) : 1.0;

@@ -1,9 +1,10 @@
 #include "ips/framework/validate.hpp"
 
+#include <Eigen/Cholesky>
+#include <Eigen/Core>
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <vector>
 
 #include "ips/framework/channels.hpp"
 
@@ -63,25 +64,10 @@ namespace {
 // factorisation succeeds. A covariance that is not would make a filter's gain meaningless (a negative variance along
 // some direction passes every check of the diagonal).
 bool positiveDefinite(const double* a, int n) {
-  double scale = 0;
-  for (int i = 0; i < n; ++i) scale = std::max(scale, std::fabs(a[i * n + i]));
-  if (!(scale > 0)) return false;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < i; ++j)
-      if (std::fabs(a[i * n + j] - a[j * n + i]) > 1e-6 * scale) return false;
-  std::vector<double> l(static_cast<size_t>(n * n), 0.0);
-  for (int j = 0; j < n; ++j) {
-    double d = a[j * n + j];
-    for (int k = 0; k < j; ++k) d -= l[j * n + k] * l[j * n + k];
-    if (!(d > 0)) return false;
-    l[j * n + j] = std::sqrt(d);
-    for (int i = j + 1; i < n; ++i) {
-      double v = a[i * n + j];
-      for (int k = 0; k < j; ++k) v -= l[i * n + k] * l[j * n + k];
-      l[i * n + j] = v / l[j * n + j];
-    }
-  }
-  return true;
+  const Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> m(a, n, n);
+  const double scale = m.diagonal().cwiseAbs().maxCoeff();
+  if (!(scale > 0) || !m.isApprox(m.transpose(), 1e-6)) return false;
+  return Eigen::LLT<Eigen::MatrixXd>(m).info() == Eigen::Success;
 }
 
 double norm3(const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
