@@ -69,7 +69,11 @@ int main(int argc, char** argv) {
     const int repeat = static_cast<int>(args.getInt("--repeat"));
     const std::string config = args.get("--config");
     FilterParams base;
-    if (!config.empty()) base = loadFilterParams(ips::Config(config).section("filter"));
+    if (!config.empty()) {
+      const ips::Config cfg(config);
+      base = loadFilterParams(cfg.section("filter"));
+      cfg.refuseUnreadKeys();
+    }
     const ips::StereoCalibration calib = testbedCalibration();
     const AnalyticWalk walk;
     const std::vector<Message> msgs = generate(seconds, calib, walk);

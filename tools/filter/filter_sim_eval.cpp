@@ -52,7 +52,11 @@ int main(int argc, char** argv) {
     const bool use_tilt = !args.getFlag("--no-tilt"), static_start = args.getFlag("--static-start");
     const double sigma_t = args.getDouble("--tracker-sigma-t"), sigma_r = args.getDouble("--tracker-sigma-r");
     FilterParams base;
-    if (!config.empty()) base = loadFilterParams(ips::Config(config).section("filter"));
+    if (!config.empty()) {
+      const ips::Config cfg(config);
+      base = loadFilterParams(cfg.section("filter"));
+      cfg.refuseUnreadKeys();
+    }
     std::filesystem::create_directories(out_dir);
     std::string summary;
     for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {

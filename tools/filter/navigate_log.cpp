@@ -34,6 +34,7 @@
 #include "ips/framework/validate.hpp"
 #include "ips/log.hpp"
 #include "ips/tracker/epipolar_integrity.hpp"
+#include "ips/tracker/pair_scheduler.hpp"
 #include "ips/tracker/prior_builder.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
 
@@ -76,6 +77,11 @@ int main(int argc, char** argv) {
     ips::filter::Estimator ekf(params, calib);
     params.type = ips::filter::FilterType::Ukf;
     ips::filter::Estimator ukf(params, calib);
+    // A misspelled key would run the experiment on the default: refused, as the processes refuse it. The tracker's
+    // disparity wait is the process's alone; read so that its keys count as known.
+    ips::tracker::loadDisparityWait(tracker_cfg, false);
+    tracker_cfg.refuseUnreadKeys();
+    filter_cfg.refuseUnreadKeys();
     const bool filter_prior = !args.getFlag("--no-filter-prior");
 
     // Recorded deltas by the stamp of their newer image, fused when the pair's image time is reached.

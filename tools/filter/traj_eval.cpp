@@ -129,7 +129,11 @@ int evaluateFiles(const Options& a) {
 
 int simulate(const Options& a) {
   FilterParams base;
-  if (!a.config.empty()) base = loadFilterParams(ips::Config(a.config).section("filter"));
+  if (!a.config.empty()) {
+    const ips::Config cfg(a.config);
+    base = loadFilterParams(cfg.section("filter"));
+    cfg.refuseUnreadKeys();
+  }
   const ips::StereoCalibration calib = a.calib.empty() ? testbedCalibration() : ips::loadCalibration(a.calib);
   WalkParams wp;
   wp.duration_s = a.duration;
