@@ -81,6 +81,40 @@ TEST(Config, UnreadKeysAreNamedAndRefused) {
   EXPECT_NO_THROW(c.refuseUnreadKeys());
 }
 
+// The effective settings: the file's values and the defaults asked for (marked), nested by section, as YAML that reads
+// back to the same values (reals to the last bit, matrices with their shape, strings with quotes, booleans with a
+// trailing comment).
+TEST(Config, EffectiveSettingsReadBackToTheSameValues) {
+  const std::string p = writeFile("effective.yaml",
+                                  "%YAML:1.0\n---\nimu:\n  rate_hz: 200\nscale: 0.1\non: true  # why\n"
+                                  "K: !!opencv-matrix\n  rows: 2\n  cols: 2\n  dt: d\n  data: [1, 2, 3, 4.5]\n");
+  ips::Config c(p);
+  EXPECT_EQ(c.section("imu").getInt("rate_hz"), 200);
+  EXPECT_DOUBLE_EQ(c.section("imu").getDouble("noise", 1.0 / 3.0), 1.0 / 3.0);
+  EXPECT_DOUBLE_EQ(c.getDouble("scale"), 0.1);
+  EXPECT_TRUE(c.getBool("on"));
+  EXPECT_EQ(c.getString("name", "a \"b\""), "a \"b\"");
+  EXPECT_FALSE(c.getBool("off", false));
+  const cv::Mat K = c.getMat("K");
+  const std::string yaml = c.effectiveYaml();
+  EXPECT_NE(yaml.find("\nimu:\n  noise: 0.3333333333333333  # default\n  rate_hz: 200\n"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("\nscale: 0.1\n"), std::string::npos) << yaml;
+  EXPECT_NE(yaml.find("\noff: false  # default\n"), std::string::npos) << yaml;
+
+  ips::Config back(writeFile("effective_back.yaml", yaml));
+  EXPECT_EQ(back.getInt("imu/rate_hz"), 200);
+  EXPECT_EQ(back.getDouble("imu/noise"), 1.0 / 3.0);  // exactly
+  EXPECT_EQ(back.getDouble("scale"), 0.1);
+  EXPECT_TRUE(back.getBool("on"));
+  EXPECT_FALSE(back.getBool("off"));
+  EXPECT_EQ(back.getString("name"), "a \"b\"");
+  const cv::Mat K2 = back.getMat("K");
+  ASSERT_EQ(K2.rows, 2);
+  ASSERT_EQ(K2.cols, 2);
+  EXPECT_EQ(cv::norm(K, K2, cv::NORM_INF), 0.0);
+  EXPECT_TRUE(back.unreadKeys().empty());
+}
+
 TEST(Config, MalformedYamlIsAnErrorNotAHang) {
   // 21 bytes on which cv::FileStorage alone loops forever (an unterminated flow sequence after the header).
   const std::string p = writeFile("hang.yaml", "%YAML:1.\n---L:0\n[---\n");

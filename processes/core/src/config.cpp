@@ -3,10 +3,12 @@
 #include <yaml.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <sstream>
 
 namespace ips {
@@ -56,6 +58,40 @@ void checkWellFormedYaml(const std::string& path) {
   if (error.empty() && !has_map)
     error = path + ": holds no keys (an empty file?): a configuration must be a map of keys";
   if (!error.empty()) throw ConfigError(error);
+}
+
+}  // namespace
+
+namespace {
+
+// Values written back as YAML that cv::FileStorage reads to the same value: the shortest decimal that round-trips,
+// with a point so that it reads as a real.
+std::string yamlDouble(double v) {
+  char buf[64];
+  const auto r = std::to_chars(buf, buf + sizeof buf, v);
+  std::string s(buf, r.ptr);
+  if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+  return s;
+}
+
+std::string yamlString(const std::string& v) {
+  std::string s = "\"";
+  for (char c : v) {
+    if (c == '"' || c == '\\') s += '\\';
+    s += c;
+  }
+  return s + "\"";
+}
+
+// A row as a sequence; a matrix as OpenCV's !!opencv-matrix, whose shape a reader keeps.
+std::string yamlMatrix(const cv::Mat& m) {
+  std::string data = "[";
+  for (int r = 0; r < m.rows; ++r)
+    for (int c = 0; c < m.cols; ++c) data += (data.size() > 1 ? ", " : "") + yamlDouble(m.at<double>(r, c));
+  data += "]";
+  if (m.rows == 1) return data;
+  return "!!opencv-matrix\nrows: " + std::to_string(m.rows) + "\ncols: " + std::to_string(m.cols) +
+         "\ndt: d\ndata: " + data;
 }
 
 }  // namespace
@@ -155,34 +191,46 @@ double Config::getDouble(const std::string& key) const {
   // No parameter of a sensor head or a method is infinite or undefined: .nan and .inf are typing errors that
   // would otherwise turn every state into NaN without a word.
   if (!std::isfinite(v)) fail(key, "must be a finite number, not " + std::to_string(v));
+  record(key, yamlDouble(v), false);
   return v;
 }
 
 int Config::getInt(const std::string& key) const {
   cv::FileNode n = required(key);
   if (!n.isInt()) fail(key, "must be an integer");
+  record(key, std::to_string(static_cast<int>(n)), false);
   return static_cast<int>(n);
 }
 
 bool Config::getBool(const std::string& key) const {
   cv::FileNode n = required(key);
-  if (n.isInt()) return static_cast<int>(n) != 0;
+  std::optional<bool> v;
+  if (n.isInt()) v = static_cast<int>(n) != 0;
   if (n.isString()) {
     std::string s = static_cast<std::string>(n);
-    if (s == "true" || s == "yes" || s == "on") return true;
-    if (s == "false" || s == "no" || s == "off") return false;
+    // OpenCV keeps a trailing comment in a plain scalar ("on: true  # why" reads "true  # why"); YAML ends the
+    // scalar at the blank before '#'.
+    if (const size_t hash = s.find(" #"); hash != std::string::npos) s.erase(hash);
+    s.erase(s.find_last_not_of(" \t") + 1);
+    if (s == "true" || s == "yes" || s == "on") v = true;
+    if (s == "false" || s == "no" || s == "off") v = false;
   }
-  fail(key, "must be true/false or 0/1");
+  if (!v) fail(key, "must be true/false or 0/1");
+  record(key, *v ? "true" : "false", false);
+  return *v;
 }
 
 std::string Config::getString(const std::string& key) const {
   cv::FileNode n = required(key);
   if (!n.isString()) fail(key, "must be a string");
+  record(key, yamlString(static_cast<std::string>(n)), false);
   return static_cast<std::string>(n);
 }
 
 cv::Mat Config::getMat(const std::string& key) const {
   cv::FileNode n = required(key);
+  // An !!opencv-matrix is a map (rows, cols, dt, data): read whole.
+  if (reads_) reads_->subtrees.insert(prefix_ + key);
   cv::Mat m;
   if (n.isSeq()) {
     std::vector<double> v;
@@ -191,8 +239,13 @@ cv::Mat Config::getMat(const std::string& key) const {
       v.push_back(static_cast<double>(e));
       if (!std::isfinite(v.back())) fail(key, "must hold finite numbers only");
     }
-    if (v.empty()) return cv::Mat(1, 0, CV_64F);  // [] : a row of no numbers
-    return cv::Mat(v, true).reshape(1, 1);
+    if (v.empty()) {
+      record(key, "[]", false);
+      return cv::Mat(1, 0, CV_64F);  // [] : a row of no numbers
+    }
+    cv::Mat row = cv::Mat(v, true).reshape(1, 1);
+    record(key, yamlMatrix(row), false);
+    return row;
   }
   try {
     n >> m;
@@ -202,6 +255,7 @@ cv::Mat Config::getMat(const std::string& key) const {
   if (m.empty()) fail(key, "must be a matrix");
   m.convertTo(m, CV_64F);
   if (!cv::checkRange(m)) fail(key, "must hold finite numbers only");
+  record(key, yamlMatrix(m), false);
   return m;
 }
 
@@ -218,11 +272,79 @@ Eigen::MatrixXd Config::getMatrix(const std::string& key, int rows, int cols) co
   return out;
 }
 
-double Config::getDouble(const std::string& key, double fallback) const { return has(key) ? getDouble(key) : fallback; }
-int Config::getInt(const std::string& key, int fallback) const { return has(key) ? getInt(key) : fallback; }
-bool Config::getBool(const std::string& key, bool fallback) const { return has(key) ? getBool(key) : fallback; }
+double Config::getDouble(const std::string& key, double fallback) const {
+  if (has(key)) return getDouble(key);
+  record(key, yamlDouble(fallback), true);
+  return fallback;
+}
+int Config::getInt(const std::string& key, int fallback) const {
+  if (has(key)) return getInt(key);
+  record(key, std::to_string(fallback), true);
+  return fallback;
+}
+bool Config::getBool(const std::string& key, bool fallback) const {
+  if (has(key)) return getBool(key);
+  record(key, fallback ? "true" : "false", true);
+  return fallback;
+}
 std::string Config::getString(const std::string& key, const std::string& fallback) const {
-  return has(key) ? getString(key) : fallback;
+  if (has(key)) return getString(key);
+  record(key, yamlString(fallback), true);
+  return fallback;
+}
+
+void Config::record(const std::string& key, std::string yaml, bool is_default) const {
+  if (reads_) reads_->values[prefix_ + key] = {std::move(yaml), is_default};
+}
+
+namespace {
+
+// The effective settings as a tree of maps, printed in key order.
+struct YamlTree {
+  std::map<std::string, YamlTree> children;
+  std::optional<std::pair<std::string, bool>> value;
+  bool raw = false;
+};
+
+void printTree(const YamlTree& t, int depth, std::ostringstream& out) {
+  const std::string indent(2 * depth, ' ');
+  for (const auto& [name, child] : t.children) {
+    if (child.raw) {
+      out << indent << "# " << name << ": taken whole from the file\n";
+    } else if (child.value) {
+      // A matrix's continuation lines sit under its key.
+      std::string v = child.value->first;
+      for (size_t at = v.find('\n'); at != std::string::npos; at = v.find('\n', at + 1))
+        v.insert(at + 1, indent + "  ");
+      out << indent << name << ": " << v << (child.value->second ? "  # default" : "") << "\n";
+    } else {
+      out << indent << name << ":\n";
+      printTree(child, depth + 1, out);
+    }
+  }
+}
+
+}  // namespace
+
+std::string Config::effectiveYaml() const {
+  YamlTree root;
+  auto at = [&root](const std::string& path) -> YamlTree& {
+    YamlTree* t = &root;
+    std::stringstream ss(path);
+    std::string part;
+    while (std::getline(ss, part, '/')) t = &t->children[part];
+    return *t;
+  };
+  if (reads_) {
+    for (const auto& [key, value] : reads_->values) at(key).value = value;
+    for (const std::string& key : reads_->subtrees)
+      if (!reads_->values.count(key)) at(key).raw = true;  // a matrix is read whole too, and has its value
+  }
+  std::ostringstream out;
+  out << "%YAML:1.0\n# " << path_
+      << " as this process uses it: every setting it reads, its default where the file has none\n";
+  printTree(root, 0, out);
+  return out.str();
 }
 
 Config Config::section(const std::string& key) const {

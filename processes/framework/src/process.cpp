@@ -18,6 +18,9 @@ void addCommonOptions(Args& args, const std::string& default_config) {
               "LCM URL of the bulk channels, images and dense maps (default: $IPS_BULK_LCM_URL, else the LCM URL)")
       .option("--config", "FILE", "YAML configuration of this process", default_config)
       .flag("--check-config", "read the configuration, refuse keys this process does not know, and exit")
+      .flag("--print-config",
+            "print the settings this process runs with (every key it reads: the file's value or its default) as "
+            "YAML that --config takes, and exit")
       .option("--log-level", "LEVEL", "debug, info, warn or error", "info")
       .option("--nice", "N",
               "scheduling priority, -20 (first) to 19 (last): the process's nice value and its session's (see "
@@ -46,6 +49,10 @@ void applyCommonOptions(const Args& args) {
 
 bool configChecked(const Args& args, const Config& cfg) {
   cfg.refuseUnreadKeys();
+  if (args.getFlag("--print-config")) {
+    std::fputs(cfg.effectiveYaml().c_str(), stdout);
+    return true;
+  }
   if (!args.getFlag("--check-config")) return false;
   std::printf("%s: every key is a setting of this process\n", cfg.path().c_str());
   return true;

@@ -2,6 +2,7 @@
 // YAML configuration read with cv::FileStorage. Every error names the file and the key, so that a user
 // with a wrong deployment file knows what to fix.
 #include <Eigen/Core>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <set>
@@ -52,10 +53,16 @@ class Config {
   // Throws ConfigError naming the file and every unread key. A process calls it once it has read its settings.
   void refuseUnreadKeys() const;
 
+  // The settings as they are used: every key asked for through this Config or its sections, with the value in use
+  // (the file's, or the caller's default, marked "# default"), as YAML that a Config reads back to the same values.
+  // Keys taken as a raw node() are listed as a comment.
+  std::string effectiveYaml() const;
+
  private:
   Config(std::string path, cv::FileStorage fs, cv::FileNode root, std::string prefix);
   cv::FileNode lookup(const std::string& key) const;  // marks the key as read
   cv::FileNode required(const std::string& key) const;
+  void record(const std::string& key, std::string yaml, bool is_default) const;
   [[noreturn]] void fail(const std::string& key, const std::string& what) const;
 
   std::string path_;
@@ -65,6 +72,8 @@ class Config {
   // Shared by a Config and its sections: full key paths asked for, and those whose whole sub-tree was taken raw.
   struct Reads {
     std::set<std::string> keys, subtrees;
+    // Full key path -> the value in use, written as YAML, and whether it is the caller's default.
+    std::map<std::string, std::pair<std::string, bool>> values;
   };
   std::shared_ptr<Reads> reads_;
 };

@@ -21,7 +21,8 @@ void applyNice(int nice);
 
 // Called by a main once it has read all its settings from `cfg`: refuses a key nothing read (ConfigError naming the
 // file and the keys: a misspelled key would otherwise leave its default in place without a word). With
-// --check-config it says the file is good and returns true, and the main exits 0 before it opens a device or the bus.
+// --check-config it says the file is good and returns true, and the main exits 0 before it opens a device or the bus;
+// with --print-config it prints the effective settings (Config::effectiveYaml) and returns true.
 bool configChecked(const Args& args, const Config& cfg);
 
 // Runs body(); turns exceptions into a message on stderr and exit code 1, so a bad config or device gives a
