@@ -187,6 +187,37 @@ TEST(LiveView, PicturesAreEncodedAtMostAtTheConfiguredRate) {
   EXPECT_EQ(json::parse(view.statusJson(0))["image"]["seq"].get<int>(), 11);
 }
 
+// The bus thread only copies a pair; the picture is encoded on the first request for it, served again from the cache
+// until a newer pair is taken, and shows that pair.
+TEST(LiveView, PicturesAreEncodedOnRequestOncePerPairAndShowTheNewest) {
+  EventHub hub(1000, 1);
+  LiveView view(ViewerParams{}, hub);
+  EXPECT_FALSE(view.leftJpeg()) << "nothing arrived yet";
+  const cv::Mat dark(48, 64, CV_8UC1, cv::Scalar(40)), bright(48, 64, CV_8UC1, cv::Scalar(200));
+  view.onStereo(0, 1, dark, bright, 0.0);
+  const auto left = view.leftJpeg();
+  ASSERT_TRUE(left);
+  EXPECT_EQ(view.leftJpeg(), left) << "one encoding per pair";
+  const auto decodedMean = [](const std::shared_ptr<const std::string>& jpeg) {
+    return cv::mean(cv::imdecode(std::vector<uchar>(jpeg->begin(), jpeg->end()), cv::IMREAD_GRAYSCALE))[0];
+  };
+  EXPECT_NEAR(decodedMean(left), 40, 2);
+  EXPECT_NEAR(decodedMean(view.rightJpeg()), 200, 2);
+  view.onStereo(1000000, 2, bright, dark, 1.0);
+  EXPECT_NE(view.leftJpeg(), left);
+  EXPECT_NEAR(decodedMean(view.leftJpeg()), 200, 2);
+
+  ips::viewer::DisparityFrame f;
+  f.seq = 5;
+  f.disparity = cv::Mat(24, 32, CV_32FC1, cv::Scalar(10.0f));
+  f.max_disparity = 20;
+  view.onDisparity(f, 0.0);
+  const auto png = view.disparityPng();
+  ASSERT_TRUE(png);
+  EXPECT_EQ(view.disparityPng(), png);
+  EXPECT_EQ(cv::imdecode(std::vector<uchar>(png->begin(), png->end()), cv::IMREAD_COLOR).size(), f.disparity.size());
+}
+
 TEST(LiveView, AProcessWhoseReportsStopIsMarkedStale) {
   EventHub hub(1000, 1);
   ViewerParams params;

@@ -55,6 +55,23 @@ json pointJson(const PoseSample& p) {
                       rounded(p.position.z(), 1e-3), p.position_cov(0, 0), p.position_cov(0, 1), p.position_cov(1, 1)});
 }
 
+// The map coloured on the turbo scale over the searched range, invalid pixels magenta.
+std::shared_ptr<const std::string> disparityPicture(const DisparityFrame& f) {
+  cv::Mat invalid(f.disparity.size(), CV_8U);  // NaN (OpenCV's comparisons do not single NaN out)
+  for (int r = 0; r < f.disparity.rows; ++r)
+    for (int c = 0; c < f.disparity.cols; ++c)
+      invalid.at<uchar>(r, c) = std::isnan(f.disparity.at<float>(r, c)) ? 255 : 0;
+  const double span = std::max(1e-6, f.max_disparity - f.min_disparity);
+  cv::Mat scaled;
+  f.disparity.convertTo(scaled, CV_8U, 255.0 / span, -255.0 * f.min_disparity / span);
+  cv::Mat colour;
+  cv::applyColorMap(scaled, colour, cv::COLORMAP_TURBO);
+  // Magenta is in no part of the turbo scale, so a marked pixel cannot be read as a disparity.
+  colour.setTo(cv::Scalar(255, 0, 255), invalid);
+  // PNG, not JPEG: the marks of invalid pixels stay exact.
+  return encode(".png", colour, {cv::IMWRITE_PNG_COMPRESSION, 1});
+}
+
 }  // namespace
 
 LiveView::LiveView(const ViewerParams& params, EventHub& hub) : params_(params), hub_(hub) {}
@@ -68,12 +85,12 @@ void LiveView::onStereo(int64_t utime, int64_t seq, const cv::Mat& left, const c
     }
     last_image_wall_s_ = wall_s;
   }
-  // Encoded outside the lock: the web server keeps serving the previous picture meanwhile. The right image
-  // is kept raw and encoded only when a browser asks for it.
-  auto left_jpeg = encode(".jpg", left, {cv::IMWRITE_JPEG_QUALITY, params_.jpeg_quality});
+  // Kept raw and encoded when a browser asks for it (leftJpeg, rightJpeg), on the web server's thread: the bus thread
+  // of a loaded machine only copies, and nothing is encoded while no page is open.
+  auto left_copy = std::make_shared<const cv::Mat>(left.clone());
   auto right_copy = std::make_shared<const cv::Mat>(right.clone());
   std::lock_guard<std::mutex> lock(mutex_);
-  left_jpeg_ = left_jpeg;
+  left_raw_ = left_copy;
   right_raw_ = right_copy;
   image_seq_ = seq;
   image_utime_ = utime;
@@ -98,20 +115,6 @@ void LiveView::onDisparity(const DisparityFrame& f, double wall_s) {
     }
     last_disparity_wall_s_ = wall_s;
   }
-  cv::Mat invalid(f.disparity.size(), CV_8U);  // NaN (OpenCV's comparisons do not single NaN out)
-  for (int r = 0; r < f.disparity.rows; ++r)
-    for (int c = 0; c < f.disparity.cols; ++c)
-      invalid.at<uchar>(r, c) = std::isnan(f.disparity.at<float>(r, c)) ? 255 : 0;
-  const double span = std::max(1e-6, f.max_disparity - f.min_disparity);
-  cv::Mat scaled;
-  f.disparity.convertTo(scaled, CV_8U, 255.0 / span, -255.0 * f.min_disparity / span);
-  cv::Mat colour;
-  cv::applyColorMap(scaled, colour, cv::COLORMAP_TURBO);
-  // Magenta is in no part of the turbo scale, so a marked pixel cannot be read as a disparity.
-  colour.setTo(cv::Scalar(255, 0, 255), invalid);
-  // PNG, not JPEG: the marks of invalid pixels stay exact.
-  auto png = encode(".png", colour, {cv::IMWRITE_PNG_COMPRESSION, 1});
-
   std::vector<Eigen::Vector3f> points;
   const int step = params_.cloud_pixel_step;
   for (int v = 0; v < f.disparity.rows; v += step)
@@ -122,12 +125,18 @@ void LiveView::onDisparity(const DisparityFrame& f, double wall_s) {
       if (z > params_.cloud_max_range_m) continue;
       points.emplace_back((u - f.cx) * z / f.focal_px, (v - f.cy) * z / f.focal_px, z);
     }
-  const double valid_pct =
-      f.disparity.empty() ? 0 : 100.0 * (1.0 - cv::countNonZero(invalid) / double(invalid.total()));
+  int valid = 0;
+  for (int r = 0; r < f.disparity.rows; ++r)
+    for (int c = 0; c < f.disparity.cols; ++c) valid += std::isnan(f.disparity.at<float>(r, c)) ? 0 : 1;
+  const double valid_pct = f.disparity.empty() ? 0 : 100.0 * valid / double(f.disparity.total());
+  // The picture is drawn when a browser asks for it (disparityPng).
+  auto frame = std::make_shared<DisparityFrame>(f);
+  frame->disparity = f.disparity.clone();
+  auto cloud = floatsBlob(points);
 
   std::lock_guard<std::mutex> lock(mutex_);
-  disparity_png_ = png;
-  cloud_ = floatsBlob(points);
+  disparity_raw_ = frame;
+  cloud_ = cloud;
   disparity_seq_ = f.seq;
   disparity_utime_ = f.utime;
   disparity_valid_pct_ = valid_pct;
@@ -300,28 +309,42 @@ std::string LiveView::trajectoryJson() const {
   return json{{"generation", trajectory_generation_}, {"sources", sources}}.dump();
 }
 
-std::shared_ptr<const std::string> LiveView::leftJpeg() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return left_jpeg_;
-}
-std::shared_ptr<const std::string> LiveView::rightJpeg() {
-  std::shared_ptr<const cv::Mat> raw;
-  int64_t seq;
+template <class Raw, class Encode>
+std::shared_ptr<const std::string> LiveView::onDemand(const std::shared_ptr<const Raw> LiveView::*raw,
+                                                      std::shared_ptr<const std::string> LiveView::*cache,
+                                                      int64_t LiveView::*cache_seq, int64_t LiveView::*seq,
+                                                      const Encode& encode) {
+  std::shared_ptr<const Raw> input;
+  int64_t input_seq;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!right_raw_ || right_jpeg_seq_ == image_seq_) return right_jpeg_;
-    raw = right_raw_;
-    seq = image_seq_;
+    if (!(this->*raw) || this->*cache_seq == this->*seq) return this->*cache;
+    input = this->*raw;
+    input_seq = this->*seq;
   }
-  auto jpeg = encode(".jpg", *raw, {cv::IMWRITE_JPEG_QUALITY, params_.jpeg_quality});
+  // Outside the lock: the bus thread goes on taking inputs meanwhile.
+  std::shared_ptr<const std::string> picture = encode(*input);
   std::lock_guard<std::mutex> lock(mutex_);
-  right_jpeg_ = jpeg;
-  right_jpeg_seq_ = seq;
-  return jpeg;
+  this->*cache = picture;
+  this->*cache_seq = input_seq;
+  return picture;
 }
-std::shared_ptr<const std::string> LiveView::disparityPng() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return disparity_png_;
+
+std::shared_ptr<const std::string> LiveView::leftJpeg() {
+  return onDemand(&LiveView::left_raw_, &LiveView::left_jpeg_, &LiveView::left_jpeg_seq_, &LiveView::image_seq_,
+                  [this](const cv::Mat& m) {
+                    return encode(".jpg", m, {cv::IMWRITE_JPEG_QUALITY, params_.jpeg_quality});
+                  });
+}
+std::shared_ptr<const std::string> LiveView::rightJpeg() {
+  return onDemand(&LiveView::right_raw_, &LiveView::right_jpeg_, &LiveView::right_jpeg_seq_, &LiveView::image_seq_,
+                  [this](const cv::Mat& m) {
+                    return encode(".jpg", m, {cv::IMWRITE_JPEG_QUALITY, params_.jpeg_quality});
+                  });
+}
+std::shared_ptr<const std::string> LiveView::disparityPng() {
+  return onDemand(&LiveView::disparity_raw_, &LiveView::disparity_png_, &LiveView::disparity_png_seq_,
+                  &LiveView::disparity_seq_, [](const DisparityFrame& f) { return disparityPicture(f); });
 }
 std::shared_ptr<const std::string> LiveView::cloud() const {
   std::lock_guard<std::mutex> lock(mutex_);

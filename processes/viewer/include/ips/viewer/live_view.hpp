@@ -90,10 +90,11 @@ class LiveView {
   // Broadcasts what is due (trajectory points, health table); called often (every 100 ms) by the adapter.
   void tick(double wall_s);
 
-  // For the web server (copies or shared immutable buffers; empty when nothing arrived yet).
-  std::shared_ptr<const std::string> leftJpeg() const;
-  std::shared_ptr<const std::string> rightJpeg();  // encoded on the first request for each pair
-  std::shared_ptr<const std::string> disparityPng() const;
+  // For the web server (copies or shared immutable buffers; empty when nothing arrived yet). The pictures are
+  // encoded on the first request for each pair or map, on the web server's thread: the bus thread only copies.
+  std::shared_ptr<const std::string> leftJpeg();
+  std::shared_ptr<const std::string> rightJpeg();
+  std::shared_ptr<const std::string> disparityPng();
   std::shared_ptr<const std::string> cloud() const;  // float32 x, y, z per point, camera frame (z forward)
   std::shared_ptr<const std::string> map() const;    // float32 x, y, z per point, world frame
   std::string statusJson(double wall_s) const;       // health table, images, counts
@@ -102,7 +103,7 @@ class LiveView {
   std::string trajectoryJson() const;  // every kept point of every source
 
   // Counters for the viewer's own health message.
-  int64_t imagesEncoded() const;
+  int64_t imagesEncoded() const;  // taken for the page (each is encoded when a browser asks for it)
   int64_t imagesSkipped() const;  // arrived while the last encoding was more recent than the rate allows
 
  private:
@@ -118,13 +119,21 @@ class LiveView {
   };
   PoseSample alignedPose(const Track& track, const PoseSample& p) const;
   std::string healthJsonLocked(double wall_s) const;
+  // The picture of the newest input `raw` (of sequence `seq`): the cached one if it is of that input, else
+  // encode(*raw), made outside the lock and cached.
+  template <class Raw, class Encode>
+  std::shared_ptr<const std::string> onDemand(const std::shared_ptr<const Raw> LiveView::*raw,
+                                              std::shared_ptr<const std::string> LiveView::*cache,
+                                              int64_t LiveView::*cache_seq, int64_t LiveView::*seq,
+                                              const Encode& encode);
 
   const ViewerParams params_;
   EventHub& hub_;
   mutable std::mutex mutex_;
   std::shared_ptr<const std::string> left_jpeg_, right_jpeg_, disparity_png_, cloud_, map_;
-  std::shared_ptr<const cv::Mat> right_raw_;  // of the newest encoded pair
-  int64_t right_jpeg_seq_ = -1;
+  std::shared_ptr<const cv::Mat> left_raw_, right_raw_;  // of the newest pair taken
+  std::shared_ptr<const DisparityFrame> disparity_raw_;  // the newest map taken
+  int64_t left_jpeg_seq_ = -1, right_jpeg_seq_ = -1, disparity_png_seq_ = -1;
   int64_t image_seq_ = -1, image_utime_ = 0, disparity_seq_ = -1, disparity_utime_ = 0;
   double disparity_valid_pct_ = 0, disparity_min_ = 0, disparity_max_ = 0;
   double last_image_wall_s_ = -1e9, last_disparity_wall_s_ = -1e9;
