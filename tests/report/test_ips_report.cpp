@@ -60,12 +60,22 @@ ips::filter_state_t state(int64_t utime, double x) {
 
 // A walk along x at 1 m/s for 10 s: ground truth at 10 Hz, EKF states at 10 Hz until `states_until_us`, both
 // until `played_until_us`.
-void writeRun(const std::string& path, int64_t states_until_us, int64_t played_until_us = 11'000'000) {
+// A run's recording: the input's truth to `played_until_us`, the filter's states to `states_until_us`, and, to
+// `recorded_until_us`, what the processes go on publishing after the input (a marker of the recorder running).
+void writeRun(const std::string& path, int64_t states_until_us, int64_t played_until_us = 11'000'000,
+              int64_t recorded_until_us = 0) {
   Recording r(path);
   for (int64_t t = 1'000'000; t <= played_until_us; t += 100'000) {
     const double x = (t - 1'000'000) * 1e-6;
     r.add("GT_POSE", t, pose(t, x));
     if (t <= states_until_us) r.add("FILTER_STATE", t, state(t, x));
+  }
+  for (int64_t t = played_until_us + 1'000'000; t <= recorded_until_us; t += 1'000'000) {
+    ips::health_t h{};
+    h.utime = t;
+    h.process = "tracker";
+    h.host = "test";
+    r.add("HEALTH_TRACKER", t, h);
   }
 }
 
@@ -162,18 +172,45 @@ TEST(IpsReport, StatesStoppingBeforeTheEndFailTheRun) {
   EXPECT_NE(r.report.find("FILTER_STATE: states stop"), std::string::npos) << r.report;
 }
 
-TEST(IpsReport, AnInputPlayedOnlyInPartFailsTheRun) {
+ips::health_t health(int64_t utime, const std::string& process,
+                     const std::vector<std::pair<std::string, int64_t>>& counters);
+
+TEST(IpsReport, AnInputPlayedOnlyInPartFailsTheRunAndNamesWhoCutIt) {
   // The player's deputy was killed at 6 s: the recording is consistent in itself (states to the end of what
-  // was played) but covers part of the input.
+  // was played) but covers part of the input; the other processes go on reporting, and the recorder records them.
   const std::string input = tempLog("input"), partial = tempLog("partial"), whole = tempLog("whole");
   writeRun(input, 11'000'000);
-  writeRun(partial, 6'000'000, 6'000'000);
+  writeRun(partial, 6'000'000, 6'000'000, 11'000'000);
   writeRun(whole, 11'000'000);
   Result r = runReport(partial, "partial", "--images " + input + " --pictures 0");
   EXPECT_EQ(r.exit_code, 4);
   EXPECT_NE(r.report.find("the player stopped early"), std::string::npos) << r.report;
   r = runReport(whole, "whole", "--images " + input + " --pictures 0");
   EXPECT_EQ(r.exit_code, 0) << r.report;
+  // The recorder's disk filled at 6 s: every channel ends at once, the player's account of its end is not in it.
+  const std::string cut = tempLog("cut");
+  {
+    Recording rec(cut);
+    for (int64_t t = 1'000'000; t <= 6'000'000; t += 100'000) {
+      rec.add("GT_POSE", t, pose(t, (t - 1'000'000) * 1e-6));
+      rec.add("FILTER_STATE", t, state(t, (t - 1'000'000) * 1e-6));
+      if (t % 1'000'000 == 0) {
+        rec.add("HEALTH_TRACKER", t, health(t, "tracker", {}));
+        rec.add("HEALTH_LOG_PLAYER", t,
+                health(t, "log_player", {{"events_played", t / 100'000}, {"played_to_end", 0}}));
+      }
+    }
+  }
+  r = runReport(cut, "cut", "--images " + input + " --pictures 0");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("every channel at once: the recorder stopped (disk full, or killed), not the player"),
+            std::string::npos)
+      << r.report;
+  EXPECT_EQ(r.report.find("the player stopped early"), std::string::npos) << r.report;
+  EXPECT_EQ(r.report.find("says it did not play its log to the end"), std::string::npos) << r.report;
+  r = runReport(cut, "cut_without_input");
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("before the player's account of the end of its log"), std::string::npos) << r.report;
 }
 
 ips::health_t health(int64_t utime, const std::string& process,
@@ -226,6 +263,8 @@ TEST(IpsReport, DisturbancesAreNamedAndAnUnfinishedPlayerFailsTheRun) {
     }
     rec.add("HEALTH_LOG_PLAYER", 11'000'000,
             health(11'000'000, "log_player", {{"events_played", 120}, {"played_to_end", 0}}));
+    // The recorder goes on: the player stopped, not the recording.
+    rec.add("HEALTH_TRACKER", 14'000'000, health(14'000'000, "tracker", {}));
   }
   r = runReport(played, "unfinished_player");
   EXPECT_EQ(r.exit_code, 4) << r.report;

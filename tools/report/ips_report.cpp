@@ -106,6 +106,10 @@ int64_t forEachMessage(const std::string& path, std::vector<std::string>& failur
 constexpr double kMaxStateGapS = 2.0;
 // A process whose health messages (sent every second while it runs) stop this long before the input ends died.
 constexpr double kMaxHealthSilenceS = 10.0;
+// A recording whose every channel ends within this of its input's last event was cut by the recorder (the disk
+// full, the logger killed): where the player stops first, the processes go on sending their health every second and
+// the recorder keeps recording it. Two and a half health periods.
+constexpr double kRecordingCutS = 2.5;
 // What the page draws per series: enough for a line that looks continuous at a screen's width (a few thousand
 // pixels), few enough that the self-contained page stays a few megabytes for a run of hours.
 constexpr size_t kMaxPageTrajectoryPoints = 3000;
@@ -465,6 +469,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> failures;
     std::map<std::string, int64_t> last_health_log_us;  // per process: logger time of its last health message
     int64_t last_input_log_us = 0;                      // logger time of the last ground-truth pose (the input)
+    int64_t last_log_us = 0;                            // logger time of the recording's last event
     int64_t bad_messages = 0;
     // The recording may come in parts (lcm-logger -i starts FILE.00, then FILE.01 when it is restarted): read in
     // order; more than one part means the recorder restarted and what was published in between is missing.
@@ -501,6 +506,7 @@ int main(int argc, char** argv) {
     };
     for (const auto& part : parts)
       events += forEachMessage(part, failures, [&](const ips::fw::LogMessage& m) {
+        last_log_us = std::max(last_log_us, m.timestamp);
         const std::string& ch = m.channel;
         if (ch == "GT_POSE") {
           last_input_log_us = std::max(last_input_log_us, m.timestamp);
@@ -573,6 +579,8 @@ int main(int argc, char** argv) {
                         std::all_of(runs.begin(), runs.end(), [](const FilterRun& r) { return r.states.empty(); })))
       failures.push_back(args.get("--log") +
                          ": holds none of a run's results (no ground truth, deltas, maps or states)");
+    // Who cut a recording short: nothing recorded after the input stopped means the recorder stopped with it.
+    auto recordingCut = [&] { return (last_log_us - last_input_log_us) * 1e-6 < kRecordingCutS; };
     // Completeness: every state stream runs to the end of the input without a pause, every process kept reporting.
     if (!gt.empty()) {
       const double input_end =
@@ -604,17 +612,27 @@ int main(int argc, char** argv) {
           if (m.channel == "GT_POSE" && decode(m, &g)) input_log_gt_end = std::max(input_log_gt_end, g.utime);
         });
         if (input_log_gt_end * 1e-6 - input_end > kMaxStateGapS)
-          failures.push_back("the input was played to t=" + std::to_string(input_end) + " s of its " +
-                             std::to_string(input_log_gt_end * 1e-6) + " s (the player stopped early)");
+          failures.push_back(recordingCut()
+                                 ? "the recording ends at t=" + std::to_string(input_end) + " s of the input's " +
+                                       std::to_string(input_log_gt_end * 1e-6) +
+                                       " s, every channel at once: the recorder stopped (disk full, or "
+                                       "killed), not the player"
+                                 : "the input was played to t=" + std::to_string(input_end) + " s of its " +
+                                       std::to_string(input_log_gt_end * 1e-6) + " s (the player stopped early)");
       }
     }
     // The player's own account (log_player's health): a recording cut short, or a player stopped early, is
     // incomplete whether or not the input log is at hand.
     if (const auto player = procs.find("log_player");
         player != procs.end() && counterOf(player->second.last, "played_to_end") != 1)
-      failures.push_back("the player's last account (events_played " +
-                         std::to_string(counterOf(player->second.last, "events_played")) +
-                         ") says it did not play its log to the end: the recording covers part of the input");
+      failures.push_back(recordingCut()
+                             ? "the recording ends, every channel at once, before the player's account of the end of "
+                               "its log (its last: events_played " +
+                                   std::to_string(counterOf(player->second.last, "events_played")) +
+                                   "): the recorder stopped (disk full, or killed), not the player"
+                             : "the player's last account (events_played " +
+                                   std::to_string(counterOf(player->second.last, "events_played")) +
+                                   ") says it did not play its log to the end: the recording covers part of the input");
     // What disturbed a run that is complete: named with the time, and the run's status says so.
     const std::vector<std::string> warnings = disturbances(runs, procs, deltas_valid);
 
