@@ -12,6 +12,7 @@
 #include <map>
 
 #include "ips/config.hpp"
+#include "ips/data_dir.hpp"
 #include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/message_poses.hpp"
@@ -78,7 +79,8 @@ int main(int argc, char** argv) {
         .option("--bind", "ADDRESS",
                 "address to listen on: 127.0.0.1 serves this machine only, 0.0.0.0 every network the machine is on",
                 "127.0.0.1")
-        .option("--page-dir", "DIR", "the page's files", IPS_VIEWER_PAGE_DIR);
+        .option("--page-dir", "DIR", "the page's files (default: PREFIX/share/ips/viewer/web when installed)",
+                ips::installedFile("viewer/web", IPS_VIEWER_PAGE_DIR));
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
     const ips::Config cfg(args.get("--config"));

@@ -29,6 +29,7 @@
 #include <sstream>
 
 #include "ips/calibration.hpp"
+#include "ips/data_dir.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/eval/map_errors.hpp"
 #include "ips/eval/trajectory.hpp"
@@ -420,7 +421,9 @@ int main(int argc, char** argv) {
         .option("--lengths", "M[,M]",
                 "sub-sequence lengths of the relative errors (KITTI devkit style); default 10,20,40 m when the "
                 "ground truth is longer than 40 m, else 1,2 m")
-        .option("--page-template", "FILE", "the report page's HTML template", IPS_REPORT_PAGE_TEMPLATE)
+        .option("--page-template", "FILE",
+                "the report page's HTML template (default: PREFIX/share/ips/report/report_page.html when installed)",
+                ips::installedFile("report/report_page.html", IPS_REPORT_PAGE_TEMPLATE))
         .option("--js-dir", "DIR",
                 "where Debian's libjs-chart.js and libjs-three are (chart.js/, three/), inlined into the page",
                 IPS_JS_DIR)

@@ -10,4 +10,9 @@ std::string dataDir();
 // dataDir() + "/" + relative.
 std::string dataPath(const std::string& relative);
 
+// A file or folder the project ships beside its programs (the viewer's page, the report's template): under an
+// installed tree, PREFIX/share/ips/`relative` beside the running program's PREFIX/bin; in the build tree, where it
+// is not installed, `source_path` (the source tree's copy, compiled in).
+std::string installedFile(const std::string& relative, const std::string& source_path);
+
 }  // namespace ips
