@@ -167,7 +167,7 @@ int main(int argc, char** argv) {
         .option("--duration", "S", "stop after this many seconds (0: until Ctrl-C)", "0")
         .option("--count", "N", "stop after N messages on the first channel (0: no limit)", "0")
         .flag("--no-health", "do not show HEALTH_* messages");
-    ips::fw::addCommonOptions(args, "");
+    ips::fw::addBusOptions(args);
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
 

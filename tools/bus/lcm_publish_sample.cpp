@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
         .option("--count", "N", "messages to publish", "50")
         .option("--period-ms", "MS", "pause between messages", "100")
         .option("--bad", "KIND", "publish bad inputs instead: garbage, nan, backwards");
-    ips::fw::addCommonOptions(args, "");
+    ips::fw::addBusOptions(args);
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
     ips::fw::Node node("lcm_publish_sample", args.get("--lcm-url"));

@@ -26,15 +26,13 @@ int main(int argc, char** argv) {
   return ips::fw::guardedMain("log_player", [&]() {
     ips::Args args(argc, argv, "plays an LCM log at its pace on the control and the bulk bus, from one clock");
     args.required("--log", "FILE.lcmlog", "the log")
-        .option("--speed", "X", "pace: 1 real time, 0.25 a quarter of it (> 0)", "1.0")
-        .option("--lcm-url", "URL", "control bus (default: $LCM_DEFAULT_URL)")
-        .option("--bulk-lcm-url", "URL", "bulk bus (default: $IPS_BULK_LCM_URL, else the control bus)")
-        .option("--nice", "N", "scheduling priority, -20 to 19 (as the processes' --nice: it stands for the drivers)");
+        .option("--speed", "X", "pace: 1 real time, 0.25 a quarter of it (> 0)", "1.0");
+    // --nice as the processes': the player stands for the drivers.
+    ips::fw::addBusOptions(args);
     if (!args.parse()) return 0;
     const double speed = args.getDouble("--speed");
     if (!(speed >= 1e-3 && speed <= 1e3)) throw ips::ArgError("log_player: --speed must be in [0.001, 1000]");
-    if (args.has("--nice")) ips::fw::applyNice(static_cast<int>(args.getInt("--nice")));
-    if (args.has("--bulk-lcm-url")) setenv("IPS_BULK_LCM_URL", args.get("--bulk-lcm-url").c_str(), 1);
+    ips::fw::applyCommonOptions(args);
     ips::fw::installSignalHandlers();
     ips::fw::Node node("log_player", args.get("--lcm-url"));
     ips::fw::LogReader log(args.get("--log"));

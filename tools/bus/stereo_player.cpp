@@ -70,7 +70,7 @@ int main(int argc, char** argv) {
         .option("--start-utime", "US", "stamp of the first pair when images carry none", "1000000")
         .option("--channel", "NAME", "channel", ips::channels::kStereo)
         .option("--wait-subscriber", "S", "seconds to wait before the first pair (let receivers start)", "0");
-    ips::fw::addCommonOptions(args, "");
+    ips::fw::addBusOptions(args);
     if (!args.parse()) return 0;
     ips::fw::applyCommonOptions(args);
 

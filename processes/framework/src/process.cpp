@@ -12,19 +12,23 @@
 
 namespace ips::fw {
 
-void addCommonOptions(Args& args, const std::string& default_config) {
+void addBusOptions(Args& args) {
   args.option("--lcm-url", "URL", "LCM URL (default: $LCM_DEFAULT_URL, else LCM's default udpm://239.255.76.67:7667)")
       .option("--bulk-lcm-url", "URL",
               "LCM URL of the bulk channels, images and dense maps (default: $IPS_BULK_LCM_URL, else the LCM URL)")
-      .option("--config", "FILE", "YAML configuration of this process", default_config)
-      .flag("--check-config", "read the configuration, refuse keys this process does not know, and exit")
-      .flag("--print-config",
-            "print the settings this process runs with (every key it reads: the file's value or its default) as "
-            "YAML that --config takes, and exit")
       .option("--log-level", "LEVEL", "debug, info, warn or error", "info")
       .option("--nice", "N",
               "scheduling priority, -20 (first) to 19 (last): the process's nice value and its session's (see "
               "applyNice)");
+}
+
+void addCommonOptions(Args& args, const std::string& default_config) {
+  addBusOptions(args);
+  args.option("--config", "FILE", "YAML configuration of this process", default_config)
+      .flag("--check-config", "read the configuration, refuse keys this process does not know, and exit")
+      .flag("--print-config",
+            "print the settings this process runs with (every key it reads: the file's value or its default) as "
+            "YAML that --config takes, and exit");
 }
 
 void applyNice(int nice) {

@@ -70,26 +70,25 @@ bool positiveDefinite(const double* a, int n) {
   return Eigen::LLT<Eigen::MatrixXd>(m).info() == Eigen::Success;
 }
 
-double norm3(const double* v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+double norm3(const double* v) { return Eigen::Map<const Eigen::Vector3d>(v).norm(); }
+// A unit quaternion w x y z, to the rounding a message's writer may leave.
+bool unitQuaternion(const double* q) { return std::fabs(Eigen::Map<const Eigen::Vector4d>(q).norm() - 1.0) <= 1e-3; }
 
 }  // namespace
 
 Verdict validate(const ips::tracker_delta_t& m) {
   if (m.utime <= m.utime_prev) return bad("bad_time", "tracker delta whose newer time is not after the older one");
-  auto unit = [](const double* q) {
-    return std::fabs(std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) - 1.0) <= 1e-3;
-  };
   if (m.valid) {
     if (!finite(m.translation, 3) || !finite(m.rotation, 4) || !finite(m.covariance, 36))
       return bad("nan", "tracker delta with NaN or inf");
-    if (!unit(m.rotation)) return bad("bad_value", "tracker delta rotation is not a unit quaternion");
+    if (!unitQuaternion(m.rotation)) return bad("bad_value", "tracker delta rotation is not a unit quaternion");
     if (!positiveDefinite(m.covariance, 6))
       return bad("bad_value", "tracker delta covariance not symmetric positive definite");
   }
   if (m.far_valid) {
     if (!finite(m.far_rotation, 4) || !finite(m.far_rotation_covariance, 9))
       return bad("nan", "tracker delta far rotation with NaN or inf");
-    if (!unit(m.far_rotation)) return bad("bad_value", "tracker delta far rotation is not a unit quaternion");
+    if (!unitQuaternion(m.far_rotation)) return bad("bad_value", "tracker delta far rotation is not a unit quaternion");
     if (!positiveDefinite(m.far_rotation_covariance, 3))
       return bad("bad_value", "tracker delta far rotation covariance not symmetric positive definite");
   }
@@ -106,8 +105,7 @@ Verdict validate(const ips::filter_state_t& m) {
   // A state a navigation filter can have: a unit quaternion, and position, speed, acceleration and turn rate no
   // vehicle exceeds (10 000 km from the origin, 10 km/s, 1000 m/s^2, 100 rad/s).
   const double* q = m.orientation;
-  if (std::fabs(std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]) - 1.0) > 1e-3)
-    return bad("bad_value", "filter state orientation is not a unit quaternion");
+  if (!unitQuaternion(q)) return bad("bad_value", "filter state orientation is not a unit quaternion");
   if (norm3(m.position) > 1e7 || norm3(m.velocity) > 1e4 || norm3(m.acceleration) > 1e3 || norm3(m.angular_rate) > 100)
     return bad("bad_value", "filter state with a position, velocity, acceleration or rate out of any vehicle's range");
   if (m.cov_dim < 0 || m.cov_dim > 64 || static_cast<int>(m.covariance.size()) != m.cov_dim)

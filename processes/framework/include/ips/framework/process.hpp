@@ -8,8 +8,10 @@
 
 namespace ips::fw {
 
-// Declares --lcm-url, --bulk-lcm-url, --config, --check-config, --log-level and --nice on `args` (config default given
-// per process).
+// Declares --lcm-url, --bulk-lcm-url, --log-level and --nice on `args`: a program on the buses without a
+// configuration of its own (the players, bus_monitor).
+void addBusOptions(Args& args);
+// The bus options and --config, --check-config, --print-config (config default given per process).
 void addCommonOptions(Args& args, const std::string& default_config);
 // Applies --log-level, --bulk-lcm-url and --nice.
 void applyCommonOptions(const Args& args);
