@@ -57,7 +57,8 @@ lcm-logger --lcm-url="$U" -c 'TRACKER_DELTA|FILTER_STATE|GT_POSE|HEALTH_.*' -f "
 logger=$!
 sleep 2 # every process subscribed
 log_player --lcm-url "$U" --log "$W/walk.lcmlog" >/dev/null
-page=$(curl -s "http://127.0.0.1:$PORT/") || page=""
+page=$(python3 -c 'import sys, urllib.request; print(urllib.request.urlopen(sys.argv[1], timeout=10).read().decode())' \
+  "http://127.0.0.1:$PORT/") || page=""
 grep -qF "$marker" <<<"$page" || { echo "FAIL: the viewer did not serve the installed page"; fail=1; }
 sleep 3 # the last pairs drain through the tracker and the filter
 kill -INT "${pids[@]}"
