@@ -2,6 +2,7 @@
 // its fastest) on the same real pair scaled to 640x480 with 128 disparities, in the same run.
 //   e3d_bench [--scene DIR] [--size 640x480] [--frames 20] [--opencv-frames 8] [--no-opencv] [--device D]
 //             [SGM options]
+//   e3d_bench --list-devices   (one line per Vulkan device: what the layout is chosen by, or why it is unusable)
 // Prints fps, million disparity evaluations per second (W*H*D*fps/1e6), the per-stage device profile and the
 // ratios; the last line is machine-readable key=value pairs (fps=, ratio_hh=, ratio_3way=, ...).
 // Run it under the build lock so that other jobs do not disturb the figures.
@@ -17,6 +18,7 @@
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/image_file.hpp"
+#include "ips/log.hpp"
 
 using namespace ips::e3d;
 
@@ -47,9 +49,30 @@ int main(int argc, char** argv) {
         .option("--frames", "N", "E3D matches timed", "20")
         .option("--opencv-frames", "N", "OpenCV matches timed, per mode", "8")
         .flag("--no-opencv", "E3D alone")
-        .option("--device", "D", "Vulkan device (default: env IPS_VK_DEVICE, else the first)");
+        .option("--device", "D", "Vulkan device (default: env IPS_VK_DEVICE, else the first)")
+        .flag("--list-devices",
+              "list the Vulkan devices (index, name, type, subgroup size, storage-buffer limits) and exit");
     addSgmOptions(args);
     if (!args.parse()) return 0;
+    if (args.getFlag("--list-devices")) {
+      ips::setLogLevel(ips::LogLevel::Warn);
+      // What E3D's layout is chosen by on each device (tools/e3d/device_check.sh runs the tests and the benchmark on
+      // each usable one).
+      for (const auto& d : VulkanContext::listDevices()) {
+        std::cout << "device=" << d.index << " type=" << d.type;
+        try {
+          const VulkanContext ctx(std::to_string(d.index));
+          std::cout << " usable=1 subgroup_size=" << ctx.subgroupSize()
+                    << " max_storage_buffer_mib=" << ctx.maxStorageBufferRange() / 1048576
+                    << " storage_buffers_per_stage=" << ctx.maxStorageBuffersPerStage()
+                    << " row_layout=" << (ctx.supportsRowLayout() ? 1 : 0);
+        } catch (const std::exception& e) {
+          std::cout << " usable=0 why=\"" << e.what() << "\"";
+        }
+        std::cout << " name=\"" << d.name << "\"\n";
+      }
+      return 0;
+    }
     const std::string scene = args.get("--scene");
     cv::Size size;
     if (std::sscanf(args.get("--size").c_str(), "%dx%d", &size.width, &size.height) != 2)
