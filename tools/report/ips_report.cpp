@@ -39,6 +39,7 @@
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/mapper/voxel_map.hpp"
+#include "ips/rotation.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/tracker/delta_chain.hpp"
 #include "report_page.hpp"
@@ -190,6 +191,53 @@ Eigen::Vector3d truthAt(const Trajectory& gt, double t) {
 Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) {
   const TruthBracket k = truthBracket(gt, t);
   return k.before.q.slerp(k.w, k.after.q);
+}
+
+// The tracker's deltas against the truth (camera 0's poses, `truth_cam0`): the mean NEES of the translation and of
+// the rotation (3 dof each, 3 when the covariance is honest) over the valid deltas inside the truth, and the lag-1
+// correlation of the translation errors (0 for white errors; the filters take them as white).
+struct DeltaConsistency {
+  int deltas = 0;
+  double nees_translation = NAN, nees_rotation = NAN, lag1_correlation = NAN;
+};
+DeltaConsistency deltaConsistency(const std::vector<ips::tracker_delta_t>& deltas, const Trajectory& truth_cam0) {
+  DeltaConsistency c;
+  if (truth_cam0.size() < 2) return c;
+  auto poseAt = [&truth_cam0](double t) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = truthAttitudeAt(truth_cam0, t).toRotationMatrix();
+    T.translation() = truthAt(truth_cam0, t);
+    return T;
+  };
+  std::vector<Eigen::Vector3d> errors;
+  double sum_t = 0, sum_r = 0;
+  for (const auto& d : deltas) {
+    const double t0 = d.utime_prev * 1e-6, t1 = d.utime * 1e-6;
+    if (!d.valid || t0 < truth_cam0.front().t || t1 > truth_cam0.back().t) continue;
+    const Eigen::Isometry3d truth = poseAt(t0).inverse() * poseAt(t1);
+    const Eigen::Vector3d e_t = ips::fw::vectorFromArray(d.translation) - truth.translation();
+    const Eigen::Vector3d e_r =
+        ips::logSO3(ips::fw::quaternionFromArray(d.rotation).toRotationMatrix() * truth.linear().transpose());
+    const Eigen::Matrix<double, 6, 6> C = Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(d.covariance);
+    sum_t += e_t.dot(C.topLeftCorner<3, 3>().ldlt().solve(e_t));
+    sum_r += e_r.dot(C.bottomRightCorner<3, 3>().ldlt().solve(e_r));
+    errors.push_back(e_t);
+  }
+  c.deltas = static_cast<int>(errors.size());
+  if (c.deltas == 0) return c;
+  c.nees_translation = sum_t / c.deltas;
+  c.nees_rotation = sum_r / c.deltas;
+  if (c.deltas >= 3) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& e : errors) mean += e / c.deltas;
+    double cov1 = 0, var = 0;
+    for (size_t i = 0; i < errors.size(); ++i) {
+      var += (errors[i] - mean).squaredNorm();
+      if (i + 1 < errors.size()) cov1 += (errors[i] - mean).dot(errors[i + 1] - mean);
+    }
+    c.lag1_correlation = var > 0 ? cov1 / var : NAN;
+  }
+  return c;
 }
 
 // The estimate expressed in the truth's frame by the start pose (position and heading; roll and pitch are
@@ -637,7 +685,20 @@ int main(int argc, char** argv) {
                                    std::to_string(counterOf(player->second.last, "events_played")) +
                                    ") says it did not play its log to the end: the recording covers part of the input");
     // What disturbed a run that is complete: named with the time, and the run's status says so.
-    const std::vector<std::string> warnings = disturbances(runs, procs, deltas_valid);
+    std::vector<std::string> warnings = disturbances(runs, procs, deltas_valid);
+    // The tracker's deltas chain, each from the pair of the one before (a dropped pair is bridged by the next delta,
+    // an invalid one is the next one's reference): a delta that does not start where the one before ended is missing
+    // from the recording, which the recorder lost (its queue full while the machine was loaded).
+    {
+      std::vector<std::pair<int64_t, int64_t>> steps;
+      for (const auto& d : delta_msgs) steps.emplace_back(d.utime, d.utime_prev);
+      std::sort(steps.begin(), steps.end());
+      int64_t breaks = 0;
+      for (size_t i = 1; i < steps.size(); ++i) breaks += steps[i].second != steps[i - 1].first ? 1 : 0;
+      if (breaks > 0)
+        warnings.push_back("the recording misses tracker deltas: the chain breaks " + std::to_string(breaks) +
+                           " times in " + std::to_string(steps.size()) + " (the recorder fell behind)");
+    }
 
     std::sort(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t < b.t; });
     gt.erase(std::unique(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t == b.t; }),
@@ -703,6 +764,19 @@ int main(int argc, char** argv) {
          << ", \"end_error_pct\": " << jsonNumber(end_pct) << ", \"ate_rmse_m\": " << jsonNumber(ate)
          << ", \"nees_position_mean\": " << jsonNumber(err.nees_mean)
          << ", \"nees_position_in_95_band_pct\": " << jsonNumber(err.nees_in_band_pct);
+      // Roll and pitch against the truth at the first and the last state: the angle between the body's up as the
+      // filter and as the truth have it (both worlds are level; heading does not enter). A start that takes the
+      // accelerometer's bias for gravity shows here, and how far the run learnt it.
+      if (!run.states.empty() && !gt.empty()) {
+        auto tiltError = [&gt](const ips::filter_state_t& st) {
+          const Eigen::Vector3d up_est =
+              ips::fw::quaternionFromArray(st.orientation).conjugate() * Eigen::Vector3d::UnitZ();
+          const Eigen::Vector3d up_gt = truthAttitudeAt(gt, st.utime * 1e-6).conjugate() * Eigen::Vector3d::UnitZ();
+          return 1e3 * std::atan2(up_est.cross(up_gt).norm(), up_est.dot(up_gt));
+        };
+        js << ", \"tilt_error_start_mrad\": " << jsonNumber(tiltError(run.states.front()))
+           << ", \"tilt_error_end_mrad\": " << jsonNumber(tiltError(run.states.back()));
+      }
       // The head's calibration as the filter estimated it online, at the end, where it did (config lever_arm,
       // delta_scale, delta_direction, delta_rotation_drift, tilt/estimate_offset, camera_alignment), beside the truth
       // where the head is simulated.
@@ -792,6 +866,7 @@ int main(int argc, char** argv) {
         Trajectory est, ref;
         int64_t lost = 0;
       };
+      DeltaConsistency delta_consistency;
       std::vector<Estimate> estimates;
       if (!delta_msgs.empty()) {
         std::sort(delta_msgs.begin(), delta_msgs.end(),
@@ -823,6 +898,7 @@ int main(int argc, char** argv) {
           t.ref.push_back(q);
         }
         if (!t.ref.empty()) ips::eval::writeTum(out + "/trajectory_ground_truth_cam0.tum", t.ref);
+        delta_consistency = deltaConsistency(delta_msgs, t.ref);
         ips::eval::writeTum(out + "/trajectory_tracker.tum", t.est);
         {
           // On the page beside the truth: the chain placed at the truth's camera-0 pose at its first pair, as its
@@ -860,7 +936,12 @@ int main(int argc, char** argv) {
            << ", \"ate_rmse_m\": " << jsonNumber(ate) << ", \"rpe_trans_pct\": " << jsonNumber(rel.trans_pct)
            << ", \"rpe_rot_deg_per_m\": " << jsonNumber(rel.rot_deg_per_m)
            << ", \"rpe_subsequences\": " << rel.subsequences << ", \"end_error_m\": " << jsonNumber(end_m)
-           << ", \"end_error_pct\": " << jsonNumber(end_pct) << "}";
+           << ", \"end_error_pct\": " << jsonNumber(end_pct);
+        if (est.name == "tracker" && delta_consistency.deltas > 0)
+          js << ", \"delta_nees_translation\": " << jsonNumber(delta_consistency.nees_translation)
+             << ", \"delta_nees_rotation\": " << jsonNumber(delta_consistency.nees_rotation)
+             << ", \"delta_error_lag1_correlation\": " << jsonNumber(delta_consistency.lag1_correlation);
+        js << "}";
         first_est = false;
       }
       js << "\n  ],\n  \"rpe_lengths_m\": [";
