@@ -10,6 +10,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "ips/rotation.hpp"
+
 namespace ips::eval {
 
 // The filter's state layout and error-state helpers (NEES).
@@ -239,6 +241,58 @@ void plotTopDown(const std::string& path, const Trajectory& ref, const std::vect
   cv::putText(img, scale_text.str(), cv::Point(10, size - 15), cv::FONT_HERSHEY_SIMPLEX, 0.6, cv::Scalar(80, 80, 80),
               1);
   if (!cv::imwrite(path, img)) throw std::runtime_error(path + ": cannot write PNG");
+}
+
+TrajPoint interpolate(const Trajectory& traj, double t) {
+  if (traj.empty()) throw std::invalid_argument("interpolate: empty trajectory");
+  auto it = std::lower_bound(traj.begin(), traj.end(), t, [](const TrajPoint& a, double v) { return a.t < v; });
+  if (it == traj.begin()) return traj.front();
+  if (it == traj.end()) return traj.back();
+  const TrajPoint& a = *(it - 1);
+  const double w = (t - a.t) / std::max(1e-12, it->t - a.t);
+  TrajPoint p;
+  p.t = t;
+  p.p = a.p + w * (it->p - a.p);
+  p.q = a.q.slerp(w, it->q);
+  return p;
+}
+
+DeltaConsistency deltaConsistency(const std::vector<RelativePoseMeasurement>& deltas, const Trajectory& truth) {
+  DeltaConsistency c;
+  if (truth.size() < 2) return c;
+  auto poseAt = [&truth](double t) {
+    const TrajPoint p = interpolate(truth, t);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = p.q.toRotationMatrix();
+    T.translation() = p.p;
+    return T;
+  };
+  std::vector<Eigen::Vector3d> errors;
+  double sum_t = 0, sum_r = 0;
+  for (const auto& d : deltas) {
+    if (d.t0 < truth.front().t || d.t1 > truth.back().t) continue;
+    const Eigen::Isometry3d T_truth = poseAt(d.t0).inverse() * poseAt(d.t1);
+    const Eigen::Vector3d e_t = d.T.translation() - T_truth.translation();
+    const Eigen::Vector3d e_r = ips::logSO3(d.T.linear() * T_truth.linear().transpose());
+    sum_t += e_t.dot(d.covariance.topLeftCorner<3, 3>().ldlt().solve(e_t));
+    sum_r += e_r.dot(d.covariance.bottomRightCorner<3, 3>().ldlt().solve(e_r));
+    errors.push_back(e_t);
+  }
+  c.deltas = static_cast<int>(errors.size());
+  if (c.deltas == 0) return c;
+  c.nees_translation = sum_t / c.deltas;
+  c.nees_rotation = sum_r / c.deltas;
+  if (c.deltas >= 3) {
+    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+    for (const auto& e : errors) mean += e / c.deltas;
+    double cov1 = 0, var = 0;
+    for (size_t i = 0; i < errors.size(); ++i) {
+      var += (errors[i] - mean).squaredNorm();
+      if (i + 1 < errors.size()) cov1 += (errors[i] - mean).dot(errors[i + 1] - mean);
+    }
+    c.lag1_correlation = var > 0 ? cov1 / var : NAN;
+  }
+  return c;
 }
 
 }  // namespace ips::eval

@@ -119,3 +119,43 @@ TEST(TrajEval, PlotIsWritten) {
   EXPECT_GT(std::filesystem::file_size(path), 1000u);
   std::filesystem::remove(path);
 }
+
+// Halfway between two poses: the mean position and half the turn; outside, the end poses.
+TEST(TrajEval, InterpolatedPoseIsLinearInPositionAndSlerpInAttitude) {
+  Trajectory traj(2);
+  traj[1].t = 2.0;
+  traj[1].p = Eigen::Vector3d(2, 4, 0);
+  traj[1].q = Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitZ()));
+  const TrajPoint mid = interpolate(traj, 1.0);
+  EXPECT_NEAR((mid.p - Eigen::Vector3d(1, 2, 0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(mid.q.angularDistance(Eigen::Quaterniond(Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()))), 0.0, 1e-12);
+  EXPECT_EQ(interpolate(traj, -1.0).p, traj[0].p);
+  EXPECT_EQ(interpolate(traj, 3.0).p, traj[1].p);
+}
+
+// Steps along x, alternately 2 mm long and short with a 1 mm sigma: translation NEES 4, lag-1 correlation -1; a
+// rotation 0.2 mrad off with a 0.1 mrad sigma: rotation NEES 4. A step outside the truth does not count.
+TEST(TrajEval, DeltaConsistencyOfKnownErrors) {
+  Trajectory truth;
+  for (int i = 0; i <= 10; ++i) {
+    TrajPoint p;
+    p.t = 0.1 * i;
+    p.p = Eigen::Vector3d(0.1 * i, 0, 0);
+    truth.push_back(p);
+  }
+  std::vector<RelativePoseMeasurement> steps;
+  for (int i = 1; i <= 11; ++i) {
+    RelativePoseMeasurement m;
+    m.t0 = 0.1 * (i - 1);
+    m.t1 = 0.1 * i;
+    m.T.translation() = Eigen::Vector3d(0.1 + (i % 2 ? 0.002 : -0.002), 0, 0);
+    m.T.linear() = Eigen::AngleAxisd(2e-4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    m.covariance.diagonal() << 1e-6, 1e-6, 1e-6, 1e-8, 1e-8, 1e-8;
+    steps.push_back(m);
+  }
+  const DeltaConsistency c = deltaConsistency(steps, truth);
+  EXPECT_EQ(c.deltas, 10);
+  EXPECT_NEAR(c.nees_translation, 4.0, 1e-6);
+  EXPECT_NEAR(c.nees_rotation, 4.0, 1e-6);
+  EXPECT_NEAR(c.lag1_correlation, -0.9, 1e-9);  // 9 neighbouring pairs over 10 squared errors
+}

@@ -274,6 +274,20 @@ TEST(IpsReport, DisturbancesAreNamedAndAnUnfinishedPlayerFailsTheRun) {
   EXPECT_NE(r.report.find("says it did not play its log to the end"), std::string::npos) << r.report;
 }
 
+// A valid tracker delta from the pair 0.1 s before `utime`: `x` metres along x, no rotation; sigmas 1 mm, 0.1 mrad.
+ips::tracker_delta_t step(int64_t utime, double x) {
+  ips::tracker_delta_t d{};
+  d.utime = utime;
+  d.utime_prev = utime - 100'000;
+  d.seq = utime / 100'000;
+  d.valid = true;
+  d.translation[0] = x;
+  d.rotation[0] = 1;
+  d.far_rotation[0] = 1;
+  for (int i = 0; i < 3; ++i) d.covariance[i * 7] = 1e-6, d.covariance[(i + 3) * 7] = 1e-8;
+  return d;
+}
+
 // The tracker's covariance and the filter's tilt judged against the truth: deltas 2 mm off (alternately ahead and
 // behind) with a 1 mm sigma have a translation NEES of 4 and a lag-1 correlation of -1; exact rotations a rotation
 // NEES of 0; a filter tilted 10 mrad about x has a tilt error of 10 mrad at its first and last state.
@@ -288,17 +302,7 @@ TEST(IpsReport, TheTrackersCovarianceAndTheFiltersTiltAreJudgedAgainstTheTruth) 
       s.orientation[0] = std::cos(0.005);
       s.orientation[1] = std::sin(0.005);
       r.add("FILTER_STATE", t, s);
-      if (t == 1'000'000) continue;
-      ips::tracker_delta_t d{};
-      d.utime = t;
-      d.utime_prev = t - 100'000;
-      d.seq = t / 100'000;
-      d.valid = true;
-      d.translation[0] = 0.1 + ((t / 100'000) % 2 ? 0.002 : -0.002);
-      d.rotation[0] = 1;
-      d.far_rotation[0] = 1;
-      for (int i = 0; i < 3; ++i) d.covariance[i * 7] = 1e-6, d.covariance[(i + 3) * 7] = 1e-8;
-      r.add("TRACKER_DELTA", t, d);
+      if (t != 1'000'000) r.add("TRACKER_DELTA", t, step(t, 0.1 + ((t / 100'000) % 2 ? 0.002 : -0.002)));
     }
   }
   const Result r = runReport(log, "consistency");
@@ -327,16 +331,8 @@ TEST(IpsReport, DeltasMissingFromTheRecordingAreNamed) {
       const double x = (t - 1'000'000) * 1e-6;
       r.add("GT_POSE", t, pose(t, x));
       r.add("FILTER_STATE", t, state(t, x));
-      if (t == 1'000'000 || t == 5'000'000 || t == 7'000'000) continue;  // two deltas lost on the way to the disk
-      ips::tracker_delta_t d{};
-      d.utime = t;
-      d.utime_prev = t - 100'000;
-      d.valid = true;
-      d.translation[0] = 0.1;
-      d.rotation[0] = 1;
-      d.far_rotation[0] = 1;
-      for (int i = 0; i < 6; ++i) d.covariance[i * 7] = 1e-6;
-      r.add("TRACKER_DELTA", t, d);
+      // Two deltas lost on the way to the disk.
+      if (t != 1'000'000 && t != 5'000'000 && t != 7'000'000) r.add("TRACKER_DELTA", t, step(t, 0.1));
     }
   }
   const Result r = runReport(log, "lost_deltas");

@@ -39,7 +39,6 @@
 #include "ips/framework/process.hpp"
 #include "ips/framework/validate.hpp"
 #include "ips/mapper/voxel_map.hpp"
-#include "ips/rotation.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/tracker/delta_chain.hpp"
 #include "report_page.hpp"
@@ -167,78 +166,9 @@ TrajPoint toPoint(int64_t utime, const double* p, const double* q) {
   return t;
 }
 
-// The truth's poses either side of time t and the weight of the later one (the end pose alone outside).
-struct TruthBracket {
-  const TrajPoint& before;
-  const TrajPoint& after;
-  double w;
-};
-TruthBracket truthBracket(const Trajectory& gt, double t) {
-  auto it = std::lower_bound(gt.begin(), gt.end(), t, [](const TrajPoint& a, double v) { return a.t < v; });
-  if (it == gt.begin()) return {gt.front(), gt.front(), 0.0};
-  if (it == gt.end()) return {gt.back(), gt.back(), 0.0};
-  const TrajPoint& a = *(it - 1);
-  return {a, *it, (t - a.t) / std::max(1e-12, it->t - a.t)};
-}
-
-// The truth's position at time t by linear interpolation, for error curves.
-Eigen::Vector3d truthAt(const Trajectory& gt, double t) {
-  const TruthBracket k = truthBracket(gt, t);
-  return k.before.p + k.w * (k.after.p - k.before.p);
-}
-
-// The truth's attitude at time t (slerp between the neighbouring poses).
-Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) {
-  const TruthBracket k = truthBracket(gt, t);
-  return k.before.q.slerp(k.w, k.after.q);
-}
-
-// The tracker's deltas against the truth (camera 0's poses, `truth_cam0`): the mean NEES of the translation and of
-// the rotation (3 dof each, 3 when the covariance is honest) over the valid deltas inside the truth, and the lag-1
-// correlation of the translation errors (0 for white errors; the filters take them as white).
-struct DeltaConsistency {
-  int deltas = 0;
-  double nees_translation = NAN, nees_rotation = NAN, lag1_correlation = NAN;
-};
-DeltaConsistency deltaConsistency(const std::vector<ips::tracker_delta_t>& deltas, const Trajectory& truth_cam0) {
-  DeltaConsistency c;
-  if (truth_cam0.size() < 2) return c;
-  auto poseAt = [&truth_cam0](double t) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = truthAttitudeAt(truth_cam0, t).toRotationMatrix();
-    T.translation() = truthAt(truth_cam0, t);
-    return T;
-  };
-  std::vector<Eigen::Vector3d> errors;
-  double sum_t = 0, sum_r = 0;
-  for (const auto& d : deltas) {
-    const double t0 = d.utime_prev * 1e-6, t1 = d.utime * 1e-6;
-    if (!d.valid || t0 < truth_cam0.front().t || t1 > truth_cam0.back().t) continue;
-    const Eigen::Isometry3d truth = poseAt(t0).inverse() * poseAt(t1);
-    const Eigen::Vector3d e_t = ips::fw::vectorFromArray(d.translation) - truth.translation();
-    const Eigen::Vector3d e_r =
-        ips::logSO3(ips::fw::quaternionFromArray(d.rotation).toRotationMatrix() * truth.linear().transpose());
-    const Eigen::Matrix<double, 6, 6> C = Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(d.covariance);
-    sum_t += e_t.dot(C.topLeftCorner<3, 3>().ldlt().solve(e_t));
-    sum_r += e_r.dot(C.bottomRightCorner<3, 3>().ldlt().solve(e_r));
-    errors.push_back(e_t);
-  }
-  c.deltas = static_cast<int>(errors.size());
-  if (c.deltas == 0) return c;
-  c.nees_translation = sum_t / c.deltas;
-  c.nees_rotation = sum_r / c.deltas;
-  if (c.deltas >= 3) {
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const auto& e : errors) mean += e / c.deltas;
-    double cov1 = 0, var = 0;
-    for (size_t i = 0; i < errors.size(); ++i) {
-      var += (errors[i] - mean).squaredNorm();
-      if (i + 1 < errors.size()) cov1 += (errors[i] - mean).dot(errors[i + 1] - mean);
-    }
-    c.lag1_correlation = var > 0 ? cov1 / var : NAN;
-  }
-  return c;
-}
+// The truth's position and attitude at time t (ips::eval::interpolate: linear, slerp; the end poses outside).
+Eigen::Vector3d truthAt(const Trajectory& gt, double t) { return ips::eval::interpolate(gt, t).p; }
+Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) { return ips::eval::interpolate(gt, t).q; }
 
 // The estimate expressed in the truth's frame by the start pose (position and heading; roll and pitch are
 // observable from gravity and are not aligned): how a dead-reckoning system is judged, the start being known.
@@ -686,19 +616,6 @@ int main(int argc, char** argv) {
                                    ") says it did not play its log to the end: the recording covers part of the input");
     // What disturbed a run that is complete: named with the time, and the run's status says so.
     std::vector<std::string> warnings = disturbances(runs, procs, deltas_valid);
-    // The tracker's deltas chain, each from the pair of the one before (a dropped pair is bridged by the next delta,
-    // an invalid one is the next one's reference): a delta that does not start where the one before ended is missing
-    // from the recording, which the recorder lost (its queue full while the machine was loaded).
-    {
-      std::vector<std::pair<int64_t, int64_t>> steps;
-      for (const auto& d : delta_msgs) steps.emplace_back(d.utime, d.utime_prev);
-      std::sort(steps.begin(), steps.end());
-      int64_t breaks = 0;
-      for (size_t i = 1; i < steps.size(); ++i) breaks += steps[i].second != steps[i - 1].first ? 1 : 0;
-      if (breaks > 0)
-        warnings.push_back("the recording misses tracker deltas: the chain breaks " + std::to_string(breaks) +
-                           " times in " + std::to_string(steps.size()) + " (the recorder fell behind)");
-    }
 
     std::sort(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t < b.t; });
     gt.erase(std::unique(gt.begin(), gt.end(), [](const TrajPoint& a, const TrajPoint& b) { return a.t == b.t; }),
@@ -866,7 +783,7 @@ int main(int argc, char** argv) {
         Trajectory est, ref;
         int64_t lost = 0;
       };
-      DeltaConsistency delta_consistency;
+      ips::eval::DeltaConsistency delta_consistency;
       std::vector<Estimate> estimates;
       if (!delta_msgs.empty()) {
         std::sort(delta_msgs.begin(), delta_msgs.end(),
@@ -878,6 +795,13 @@ int main(int argc, char** argv) {
         for (const auto& d : delta_msgs)
           chain.add(d.utime, d.utime_prev, d.valid, ips::fw::quaternionFromArray(d.rotation),
                     ips::fw::vectorFromArray(d.translation));
+        // Each delta starts at a pair the ones before reached (a dropped pair is bridged by the next delta, a pair
+        // too poor to be a reference is skipped): one whose reference is unknown follows a delta missing from the
+        // recording, which the recorder lost (its queue full while the machine was loaded).
+        if (chain.unreferenced() > 0)
+          warnings.push_back("the recording misses tracker deltas: the chain breaks " +
+                             std::to_string(chain.unreferenced()) + " times in " + std::to_string(delta_msgs.size()) +
+                             " (the recorder fell behind)");
         Estimate t{"tracker", {}, {}, chain.invalid()};
         for (const auto& p : chain.poses()) {
           TrajPoint q;
@@ -898,7 +822,18 @@ int main(int argc, char** argv) {
           t.ref.push_back(q);
         }
         if (!t.ref.empty()) ips::eval::writeTum(out + "/trajectory_ground_truth_cam0.tum", t.ref);
-        delta_consistency = deltaConsistency(delta_msgs, t.ref);
+        std::vector<ips::eval::RelativePoseMeasurement> steps;
+        for (const auto& d : delta_msgs) {
+          if (!d.valid) continue;
+          ips::eval::RelativePoseMeasurement m;
+          m.t0 = d.utime_prev * 1e-6;
+          m.t1 = d.utime * 1e-6;
+          m.T.linear() = ips::fw::quaternionFromArray(d.rotation).toRotationMatrix();
+          m.T.translation() = ips::fw::vectorFromArray(d.translation);
+          m.covariance = Eigen::Map<const Eigen::Matrix<double, 6, 6, Eigen::RowMajor>>(d.covariance);
+          steps.push_back(m);
+        }
+        delta_consistency = ips::eval::deltaConsistency(steps, t.ref);
         ips::eval::writeTum(out + "/trajectory_tracker.tum", t.est);
         {
           // On the page beside the truth: the chain placed at the truth's camera-0 pose at its first pair, as its

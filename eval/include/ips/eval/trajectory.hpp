@@ -70,6 +70,25 @@ double fullNees(const filter::FilterOutput& out, const filter::NavState& truth);
 
 Trajectory toTrajectory(const std::vector<filter::FilterOutput>& outputs);
 
+// The pose at time t: position linear, attitude slerp between the neighbouring poses; the end poses outside.
+TrajPoint interpolate(const Trajectory& traj, double t);
+
+// A measured relative pose between times t0 and t1 (X_t0 = T X_t1, as the tracker's deltas) with its covariance
+// (translation, then rotation vector).
+struct RelativePoseMeasurement {
+  double t0 = 0, t1 = 0;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  Eigen::Matrix<double, 6, 6> covariance = Eigen::Matrix<double, 6, 6>::Identity();
+};
+// How honest such measurements' covariance is against the truth's poses (of the same frame): the mean NEES of the
+// translation and of the rotation (3 dof each: 3 when honest) over the measurements inside the truth, and the lag-1
+// correlation of the translation errors (0 for white errors, as a filter takes them).
+struct DeltaConsistency {
+  int deltas = 0;
+  double nees_translation = NAN, nees_rotation = NAN, lag1_correlation = NAN;
+};
+DeltaConsistency deltaConsistency(const std::vector<RelativePoseMeasurement>& deltas, const Trajectory& truth);
+
 // Top-down (x-y) plot of a reference and any number of estimates, written as PNG.
 void plotTopDown(const std::string& path, const Trajectory& ref, const std::vector<Trajectory>& estimates,
                  const std::vector<std::string>& labels);

@@ -27,6 +27,7 @@ class DeltaChain {
     auto ref = by_time_.find(utime_prev);
     if (!valid || ref == by_time_.end()) {
       ++invalid_;
+      if (valid) ++unreferenced_;
       push(utime, poses_.back().T_world_cam0);
       return;
     }
@@ -38,6 +39,9 @@ class DeltaChain {
 
   const std::vector<Pose>& poses() const { return poses_; }
   int64_t invalid() const { return invalid_; }
+  // Of those, valid increments whose reference pair the chain never saw: an increment missing before them (a
+  // recording that lost messages).
+  int64_t unreferenced() const { return unreferenced_; }
 
  private:
   void push(int64_t utime, const Eigen::Isometry3d& T) {
@@ -46,7 +50,7 @@ class DeltaChain {
   }
   std::vector<Pose> poses_;
   std::map<int64_t, size_t> by_time_;
-  int64_t invalid_ = 0;
+  int64_t invalid_ = 0, unreferenced_ = 0;
 };
 
 }  // namespace ips::tracker
