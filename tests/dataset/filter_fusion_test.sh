@@ -33,9 +33,15 @@ for name in ('ekf', 'ukf'):
     # covered 1.5 m.
     ok = ok and e['distance_m'] > 0.97 * tracker['distance_m']
     ok = ok and accepted >= 148 and rejected == 0 and late == 0
-    # Measured: ATE 3.7 mm beside the tracker's 3.9, end error 0.30 % beside 0.16 %; before, 3.0 mm and 0.37 % over
-    # the last 1.5 m only. Bounds with a margin for the arithmetic of another machine.
-    ok = ok and e['ate_rmse_m'] <= 1.1 * tracker['ate_rmse_m'] and e['end_error_pct'] <= 0.40
+    # Measured (published in the start frame, config/filter_recording.yaml): ATE 3.77 mm beside the tracker's 3.92,
+    # end error 0.23 % beside 0.17 %; in the world frame the level learnt on the way bends the path: 0.32 %. Bounds
+    # with a margin for the arithmetic of another machine.
+    ok = ok and e['ate_rmse_m'] <= 1.1 * tracker['ate_rmse_m'] and e['end_error_pct'] <= 0.30
+for f in r['filters']:
+    # The same judged by the filter's whole first pose (the start frame's roll and pitch are the start's).
+    print(f"{f['filter']}: end error {f['end_error_pct']:.3f} %, tilt {f['tilt_error_start_mrad']:.1f} -> "
+          f"{f['tilt_error_end_mrad']:.1f} mrad")
+    ok = ok and f['end_error_pct'] <= 0.30
 sys.exit(0 if ok else 1)
 PY
 echo "PASS: both filters fuse the real IMU from the first frames"

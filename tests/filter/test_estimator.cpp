@@ -709,3 +709,68 @@ TEST(FilterEstimator, CalibrationStatesKeepWhatTheyLearntOverARestart) {
     EXPECT_TRUE(est.filter().state().clones.empty()) << toString(type);
   }
 }
+
+// A head without a tilt sensor starts level from its accelerometer, bias included (here 12 mrad of tilt), and learns
+// its level as it turns. In the world frame that correction turns the path already published about its start; in the
+// start frame (output_frame start) the path since the first image is the filter's best estimate of it, within the
+// covariance it publishes, and the local vertical it publishes is the world run's: the same filter underneath.
+TEST(FilterEstimator, TheStartFrameKeepsThePathSinceTheStartWhenTheLevelIsLearnt) {
+  WalkParams wp;
+  wp.rest_s = 0.0;
+  wp.ramp_s = 0.01;
+  const AnalyticWalk walk(wp);
+  const ips::StereoCalibration calib = testbedCalibration();
+  SensorSimParams sp;
+  sp.accel_bias = Eigen::Vector3d(0.06, -0.1, 0.04);
+  for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
+    std::vector<FilterOutput> out[2];
+    for (OutputFrame frame : {OutputFrame::World, OutputFrame::Start}) {
+      SensorSim sim(walk, sp, calib, 23);
+      FilterParams p = paramsFor(type);
+      p.output_frame = frame;
+      Estimator est(p, calib);
+      std::vector<Msg> msgs = makeMessages(sim, 0, 30'000'000);
+      msgs.erase(std::remove_if(msgs.begin(), msgs.end(), [](const Msg& m) { return m.kind == 1; }), msgs.end());
+      for (const Msg& m : msgs) {
+        feed(est, {m});
+        for (FilterOutput& o : est.takeOutputs()) out[frame == OutputFrame::Start].push_back(std::move(o));
+      }
+      ASSERT_EQ(est.startsInMotion(), 1) << toString(type);
+    }
+    const std::vector<FilterOutput>&world = out[0], &start = out[1];
+    ASSERT_EQ(world.size(), start.size());
+    ASSERT_GT(world.size(), 4000u);
+    SensorSim truth_sim(walk, sp, calib, 23);
+    // The rotation since the first output against the truth's, at the end (in the body frame at the start), and its
+    // part about the horizontal axes there: what learning the level turns (heading drifts alike in both frames).
+    const NavState truth0 = truth_sim.truth(world.front().state.utime);
+    const Eigen::Vector3d up0 = truth0.orientation.conjugate() * Eigen::Vector3d::UnitZ();
+    auto turnError = [&](const std::vector<FilterOutput>& o) {
+      const NavState t1 = truth_sim.truth(o.back().state.utime);
+      const Eigen::Quaterniond est = o.front().state.orientation.conjugate() * o.back().state.orientation;
+      const Eigen::Quaterniond tru = truth0.orientation.conjugate() * t1.orientation;
+      return logQuat(tru * est.conjugate());
+    };
+    auto levelPart = [&](const Eigen::Vector3d& e) { return (e - e.dot(up0) * up0).norm(); };
+    const double world_error = levelPart(turnError(world)), start_error = levelPart(turnError(start));
+    EXPECT_GT(world_error, 4e-3) << toString(type) << ": the level was not learnt, the case is not shown";
+    EXPECT_LT(start_error, 0.3 * world_error) << toString(type) << " world " << world_error;
+    // Within what the start frame's covariance claims for the attitude since the start (3 sigma).
+    const double sigma = std::sqrt(start.back().covariance.block<3, 3>(kErrTh, kErrTh).trace());
+    EXPECT_LT(turnError(start).norm(), 3 * sigma) << toString(type);
+    for (size_t i = 0; i < world.size(); i += 97) {
+      const FilterOutput &w = world[i], &s = start[i];
+      ASSERT_EQ(w.state.utime, s.state.utime);
+      EXPECT_EQ(w.frame, OutputFrame::World);
+      EXPECT_EQ(s.frame, OutputFrame::Start);
+      EXPECT_LT((w.up - Eigen::Vector3d::UnitZ()).norm(), 1e-12);
+      // The body's up as each frame has it: the same filter.
+      const Eigen::Vector3d body_up_w = w.state.orientation.conjugate() * w.up;
+      const Eigen::Vector3d body_up_s = s.state.orientation.conjugate() * s.up;
+      EXPECT_LT((body_up_w - body_up_s).norm(), 1e-6) << toString(type) << " at " << i;
+      EXPECT_LT((w.state.accel_bias - s.state.accel_bias).norm(), 1e-6) << toString(type) << " at " << i;
+    }
+    // Before and at the first image the two frames are one.
+    EXPECT_LT((world.front().state.position - start.front().state.position).norm(), 1e-12);
+  }
+}

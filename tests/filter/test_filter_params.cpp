@@ -31,6 +31,25 @@ TEST(FilterParams, TypeFromTheConfigAndAnUnknownOneRefused) {
   }
 }
 
+TEST(FilterParams, TheOutputFrameByNameAndAnUnknownOneRefused) {
+  using ips::filter::OutputFrame;
+  for (OutputFrame f : {OutputFrame::World, OutputFrame::Start})
+    EXPECT_EQ(ips::filter::outputFrameFromString(ips::filter::toString(f)), f);
+  EXPECT_EQ(ips::filter::loadFilterParams(ips::Config(writeTempYaml("none.yaml", "gravity: 9.8\n"))).output_frame,
+            OutputFrame::World);
+  EXPECT_EQ(
+      ips::filter::loadFilterParams(ips::Config(writeTempYaml("start.yaml", "output_frame: start\n"))).output_frame,
+      OutputFrame::Start);
+  try {
+    ips::filter::loadFilterParams(ips::Config(writeTempYaml("bad_frame.yaml", "output_frame: body\n")));
+    FAIL() << "output_frame body taken";
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("key 'output_frame' must be 'world' or 'start', not 'body'"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(FilterParams, TheSensorsFiguresAreTheHeadsNotTheConfigs) {
   for (const char* key : {"imu:\n  rate_hz: 100\n", "process_noise:\n  gyro_bias_psd: 1e-10\n",
                           "tilt:\n  sigma: 0.01\n", "init:\n  sigma_accel_bias: 0.1\n"}) {

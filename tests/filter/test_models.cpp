@@ -67,6 +67,34 @@ TEST(FilterModels, BoxplusBoxminusRoundTrip) {
   EXPECT_THROW(boxplus(x, Eigen::VectorXd::Zero(5)), std::invalid_argument);
 }
 
+// The start frame's map and its Jacobian (FilterParams::output_frame start) against central differences through the
+// error state, with the anchor among other clones; and the map is the identity while the anchor is where it started.
+TEST(FilterModels, StartFrameJacobianMatchesNumeric) {
+  std::mt19937 rng(31);
+  const FullState x = randomFull(rng, 3);
+  const int anchor = 1;
+  const PoseClone start = randomFull(rng, 1).clones.front();
+  const Eigen::MatrixXd J = startFrameJacobian(x, anchor, start);
+  ASSERT_EQ(J.rows(), kCoreErrorDim);
+  ASSERT_EQ(J.cols(), x.errorDim());
+  const NavState y = toStartFrame(x.nav, x.clones[anchor], start);
+  const double h = 1e-6;
+  Eigen::MatrixXd Jn(kCoreErrorDim, x.errorDim());
+  for (int i = 0; i < x.errorDim(); ++i) {
+    Eigen::VectorXd d = Eigen::VectorXd::Zero(x.errorDim());
+    d(i) = h;
+    const FullState xp = boxplus(x, d), xm = boxplus(x, (-d).eval());
+    Jn.col(i) = (boxminus(toStartFrame(xp.nav, xp.clones[anchor], start), y) -
+                 boxminus(toStartFrame(xm.nav, xm.clones[anchor], start), y)) /
+                (2 * h);
+  }
+  EXPECT_LT((J - Jn).cwiseAbs().maxCoeff(), 1e-6) << "analytic\n" << J << "\nnumeric\n" << Jn;
+
+  const PoseClone unmoved = x.clones[anchor];
+  const NavState same = toStartFrame(x.nav, unmoved, unmoved);
+  EXPECT_LT(boxminus(same, x.nav).norm(), 1e-12);
+}
+
 TEST(FilterModels, So3RightJacobian) {
   const Eigen::Vector3d phi(0.4, -0.7, 0.2), d(1e-6, -2e-6, 1.5e-6);
   const Eigen::Matrix3d lhs = expSO3(phi + d);

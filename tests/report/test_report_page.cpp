@@ -124,6 +124,7 @@ void writeRun(const fs::path& dir) {
       ips::filter_state_t s{};
       s.utime = t;
       s.filter_type = type;
+      s.up[2] = 1;
       toArrays(T, s.position, s.orientation);
       s.position[0] += kDriftMps * (t - kStartUs) * 1e-6;
       s.cov_dim = 21;

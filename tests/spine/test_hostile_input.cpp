@@ -304,6 +304,7 @@ TEST(HostileInput, FilterStateWithNonFiniteCovarianceOrBiasIsRejected) {
   ips::filter_state_t m{};
   m.utime = 5;
   m.orientation[0] = 1;
+  m.up[2] = 1;
   m.cov_dim = 2;
   m.covariance.assign(2, std::vector<double>(2, 0.0));
   EXPECT_TRUE(ips::fw::validate(m).ok());
@@ -316,6 +317,20 @@ TEST(HostileInput, FilterStateWithNonFiniteCovarianceOrBiasIsRejected) {
   ips::filter_state_t ragged = m;
   ragged.covariance[1].resize(1);
   EXPECT_EQ(ips::fw::validate(ragged).reason, "bad_size");
+  // The frame is one of the two, its local vertical a unit vector.
+  ips::filter_state_t start = m;
+  start.frame = ips::filter_state_t::FRAME_START;
+  start.up[0] = 0.6, start.up[2] = 0.8;
+  EXPECT_TRUE(ips::fw::validate(start).ok());
+  ips::filter_state_t no_frame = m;
+  no_frame.frame = 7;
+  EXPECT_EQ(ips::fw::validate(no_frame).reason, "bad_value");
+  ips::filter_state_t no_up = m;
+  no_up.up[2] = 0;
+  EXPECT_EQ(ips::fw::validate(no_up).reason, "bad_value");
+  ips::filter_state_t nan_up = m;
+  nan_up.up[1] = std::nan("");
+  EXPECT_EQ(ips::fw::validate(nan_up).reason, "bad_value");
 }
 
 // A log of three IMU samples (LogWriter is LCM's own writer); returns its bytes.

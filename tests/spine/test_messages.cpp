@@ -108,6 +108,7 @@ TEST(Messages, FilterStateRoundTrip) {
   s.utime = 3;
   s.filter_type = ips::filter_state_t::FILTER_UKF;
   s.orientation[0] = 1;
+  s.up[2] = 1;
   s.cov_dim = 21;
   s.covariance.assign(21, std::vector<double>(21, 0.0));
   for (int i = 0; i < 21; ++i) s.covariance[i][i] = i + 1;

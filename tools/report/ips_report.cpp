@@ -170,11 +170,11 @@ TrajPoint toPoint(int64_t utime, const double* p, const double* q) {
 Eigen::Vector3d truthAt(const Trajectory& gt, double t) { return ips::eval::interpolate(gt, t).p; }
 Eigen::Quaterniond truthAttitudeAt(const Trajectory& gt, double t) { return ips::eval::interpolate(gt, t).q; }
 
-// The estimate expressed in the truth's frame by the start pose (position and heading; roll and pitch are
-// observable from gravity and are not aligned): how a dead-reckoning system is judged, the start being known.
-// The transform that puts an estimate's first pose on the ground truth at that time, by heading and position
-// (roll and pitch are the estimator's own: gravity makes them observable).
-Eigen::Isometry3d startAlignment(const Trajectory& est, const Trajectory& gt) {
+// The transform that puts an estimate's first pose on the ground truth at that time: how a dead-reckoning system is
+// judged, the start being known. By heading and position for a filter in the world frame (roll and pitch are its
+// own: gravity makes them observable); by the whole pose for one in the start frame (its roll and pitch are the
+// start's by construction, and its covariance is that of the motion since).
+Eigen::Isometry3d startAlignment(const Trajectory& est, const Trajectory& gt, bool whole_pose) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   if (est.empty() || gt.empty()) return T;
   const TrajPoint& e0 = est.front();
@@ -189,13 +189,14 @@ Eigen::Isometry3d startAlignment(const Trajectory& est, const Trajectory& gt) {
     const Eigen::Vector3d x = q * Eigen::Vector3d::UnitX();
     return std::atan2(x.y(), x.x());
   };
-  T.linear() = Eigen::AngleAxisd(yaw(qg) - yaw(e0.q), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.linear() = whole_pose ? (qg * e0.q.inverse()).toRotationMatrix()
+                          : Eigen::AngleAxisd(yaw(qg) - yaw(e0.q), Eigen::Vector3d::UnitZ()).toRotationMatrix();
   T.translation() = pg - T.linear() * e0.p;
   return T;
 }
 
-Trajectory alignStart(const Trajectory& est, const Trajectory& gt) {
-  const Eigen::Isometry3d T = startAlignment(est, gt);
+Trajectory alignStart(const Trajectory& est, const Trajectory& gt, bool whole_pose) {
+  const Eigen::Isometry3d T = startAlignment(est, gt, whole_pose);
   Trajectory out = est;
   for (auto& p : out) {
     p.p = T * p.p;
@@ -655,7 +656,8 @@ int main(int argc, char** argv) {
     for (auto& run : runs) {
       Trajectory est;
       for (const auto& s : run.states) est.push_back(toPoint(s.utime, s.position, s.orientation));
-      Trajectory aligned = alignStart(est, gt);
+      const bool start_frame = !run.states.empty() && run.states.back().frame == ips::filter_state_t::FRAME_START;
+      Trajectory aligned = alignStart(est, gt, start_frame);
       const std::string name = run.type == ips::filter_state_t::FILTER_UKF ? "ukf" : "ekf";
       double ate = NAN, end_err = NAN, end_pct = NAN;
       if (est.size() >= 3 && gt.size() >= 3) {
@@ -687,7 +689,7 @@ int main(int argc, char** argv) {
       if (!run.states.empty() && !gt.empty()) {
         auto tiltError = [&gt](const ips::filter_state_t& st) {
           const Eigen::Vector3d up_est =
-              ips::fw::quaternionFromArray(st.orientation).conjugate() * Eigen::Vector3d::UnitZ();
+              ips::fw::quaternionFromArray(st.orientation).conjugate() * ips::fw::vectorFromArray(st.up);
           const Eigen::Vector3d up_gt = truthAttitudeAt(gt, st.utime * 1e-6).conjugate() * Eigen::Vector3d::UnitZ();
           return 1e3 * std::atan2(up_est.cross(up_gt).norm(), up_est.dot(up_gt));
         };
@@ -912,7 +914,7 @@ int main(int argc, char** argv) {
       if (!runs.empty() && !runs.front().states.empty()) {
         Trajectory est;
         for (const auto& st : runs.front().states) est.push_back(toPoint(st.utime, st.position, st.orientation));
-        T_truth_map = startAlignment(est, gt);
+        T_truth_map = startAlignment(est, gt, runs.front().states.back().frame == ips::filter_state_t::FRAME_START);
       }
       auto surfaceKeys = [&](const std::vector<Eigen::Vector3d>& pts, const Eigen::Isometry3d& T,
                              const std::string& sfx) {

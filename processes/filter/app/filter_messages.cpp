@@ -35,6 +35,9 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   }
   const Eigen::Vector4d q_wxyz(s.orientation.w(), s.orientation.x(), s.orientation.y(), s.orientation.z());
   for (int i = 0; i < 4; ++i) m.orientation[i] = q_wxyz[i];
+  m.frame = out.frame == ips::filter::OutputFrame::Start ? ips::filter_state_t::FRAME_START
+                                                         : ips::filter_state_t::FRAME_WORLD;
+  copyBlock(out.up, m.up);
   namespace layout = ips::fw::filter_state_layout;
   static_assert(layout::kVelocity == ips::filter::kErrV && layout::kAngularRate == ips::filter::kErrW &&
                 layout::kGyroBias == ips::filter::kErrBg && layout::kDim == ips::filter::kCoreErrorDim);

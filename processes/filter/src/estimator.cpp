@@ -88,6 +88,7 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
     keep(x.camera_alignment, was.camera_alignment, Eigen::Quaterniond::Identity(), was.cameraAlignmentOffset(),
          kCameraAlignmentErrorDim, params_.camera_alignment_sigma);
   run_.kf->reset(x, P);
+  anchor_utime_ = INT64_MIN;  // a new start: its first image anchors the start frame again
   run_.last_imu_time = state.utime;
   run_.consecutive_rejects.fill(0);
   run_.in_gap = false;
@@ -198,8 +199,9 @@ void Estimator::pruneClones(KalmanFilter& kf) {
     const bool recent = ++images <= params_.max_clones;
     const bool pinned = keyframe && keyframes < params_.max_keyframe_clones;
     const bool awaited = earlier_images_fused_.count(t) == 0 && newest - t <= params_.clone_wait_us;
+    const bool anchor = t == anchor_utime_;
     if (keyframe) ++keyframes;
-    if (!recent && !pinned && !awaited) kf.removeClone(i);
+    if (!recent && !pinned && !awaited && !anchor) kf.removeClone(i);
   }
   // Marks of clones that are gone can no longer matter.
   const int64_t oldest = kf.state().clones.front().utime;
@@ -219,7 +221,7 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
   // A-priori state at the image time: a copy of the filter (its clones left out: no IMU or tilt measurement involves
   // them) takes the buffered IMU and tilt samples up to then.
   Runner ahead;
-  ahead.kf = run_.kf->copyWithoutClones();
+  ahead.kf = run_.kf->copyWithoutClones(run_.kf->state().findClone(anchor_utime_));
   ahead.last_imu_time = run_.last_imu_time;
   ahead.consecutive_rejects = run_.consecutive_rejects;
   ahead.in_gap = run_.in_gap;
@@ -386,7 +388,11 @@ void Estimator::process(const Event& e) {
         break;
       }
       predictTo(run_, e.time);
-      kf.addClone();
+      const int clone = kf.addClone();
+      if (params_.output_frame == OutputFrame::Start && anchor_utime_ == INT64_MIN) {
+        anchor_utime_ = e.time;
+        start_pose_ = kf.state().clones[clone];
+      }
       ++counters_[kSensorImage].accepted;
       pruneClones(kf);
       break;
@@ -649,6 +655,16 @@ FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const 
   FilterOutput o;
   o.state = kf.state().nav;
   o.covariance = kf.covariance().topLeftCorner<kCoreErrorDim, kCoreErrorDim>();
+  // In the start frame once its anchor exists (before, the two frames are the same).
+  const int anchor = kf.state().findClone(anchor_utime_);
+  o.frame = params_.output_frame;
+  if (anchor >= 0) {
+    const PoseClone& a = kf.state().clones[static_cast<size_t>(anchor)];
+    o.up = start_pose_.orientation * (a.orientation.conjugate() * Eigen::Vector3d::UnitZ());
+    o.state = toStartFrame(o.state, a, start_pose_);
+    const Eigen::MatrixXd j = startFrameJacobian(kf.state(), anchor, start_pose_);
+    o.covariance = j * kf.covariance() * j.transpose();
+  }
   o.lever_arm_estimated = kf.state().lever_arm.has_value();
   o.lever_arm = T_imu_cam0_.translation();
   if (o.lever_arm_estimated) {

@@ -38,11 +38,22 @@ int KalmanFilter::addClone() {
   return static_cast<int>(x_.clones.size()) - 1;
 }
 
-std::unique_ptr<KalmanFilter> KalmanFilter::copyWithoutClones() const {
+std::unique_ptr<KalmanFilter> KalmanFilter::copyWithoutClones(int keep) const {
   std::unique_ptr<KalmanFilter> c = copy();
-  const int keep = x_.cloneOffset(0);
+  const int core = x_.cloneOffset(0);
   c->x_.clones.clear();
-  c->P_ = P_.topLeftCorner(keep, keep);
+  if (keep < 0 || keep >= static_cast<int>(x_.clones.size())) {
+    c->P_ = P_.topLeftCorner(core, core);
+    return c;
+  }
+  c->x_.clones.push_back(x_.clones[keep]);
+  const int o = x_.cloneOffset(keep);
+  Eigen::MatrixXd P(core + kCloneErrorDim, core + kCloneErrorDim);
+  P.topLeftCorner(core, core) = P_.topLeftCorner(core, core);
+  P.topRightCorner(core, kCloneErrorDim) = P_.block(0, o, core, kCloneErrorDim);
+  P.bottomLeftCorner(kCloneErrorDim, core) = P_.block(o, 0, kCloneErrorDim, core);
+  P.bottomRightCorner(kCloneErrorDim, kCloneErrorDim) = P_.block(o, o, kCloneErrorDim, kCloneErrorDim);
+  c->P_ = std::move(P);
   return c;
 }
 

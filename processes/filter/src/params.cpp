@@ -23,6 +23,14 @@ std::optional<FilterType> filterTypeFromString(const std::string& name) {
   return std::nullopt;
 }
 
+std::string toString(OutputFrame frame) { return frame == OutputFrame::Start ? "start" : "world"; }
+
+std::optional<OutputFrame> outputFrameFromString(const std::string& name) {
+  if (name == "world") return OutputFrame::World;
+  if (name == "start") return OutputFrame::Start;
+  return std::nullopt;
+}
+
 FilterParams loadFilterParams(const Config& c) {
   FilterParams p;
   // The sensors' own figures belong to the head's description (the calibration file), not to the method's settings.
@@ -36,6 +44,10 @@ FilterParams loadFilterParams(const Config& c) {
   const std::optional<FilterType> t = filterTypeFromString(type);
   if (!t) throw ConfigError(c.path() + ": key 'type' must be 'ekf' or 'ukf', not '" + type + "'");
   p.type = *t;
+  const std::string frame = c.getString("output_frame", toString(p.output_frame));
+  const std::optional<OutputFrame> f = outputFrameFromString(frame);
+  if (!f) throw ConfigError(c.path() + ": key 'output_frame' must be 'world' or 'start', not '" + frame + "'");
+  p.output_frame = *f;
   p.gravity = c.getDouble("gravity", p.gravity);
   positive(c, "gravity", p.gravity);
 

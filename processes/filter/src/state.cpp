@@ -31,6 +31,36 @@ int FullState::findClone(int64_t t) const {
   return -1;
 }
 
+NavState toStartFrame(const NavState& nav, const PoseClone& anchor, const PoseClone& start) {
+  const Eigen::Quaterniond c = start.orientation * anchor.orientation.conjugate();
+  NavState s = nav;
+  s.position = c * (nav.position - anchor.position) + start.position;
+  s.velocity = c * nav.velocity;
+  s.acceleration = c * nav.acceleration;
+  s.orientation = (c * nav.orientation).normalized();
+  return s;
+}
+
+Eigen::MatrixXd startFrameJacobian(const FullState& x, int anchor, const PoseClone& start) {
+  // With the anchor's errors dp_a, dth_a (world, from the left): C_true = C Exp(-dth_a), so a world vector u maps to
+  // C u + C [u]x dth_a to first order, and an attitude error dth to C (dth - dth_a).
+  const PoseClone& a = x.clones.at(static_cast<size_t>(anchor));
+  const Eigen::Matrix3d c = (start.orientation * a.orientation.conjugate()).toRotationMatrix();
+  const int pa = x.cloneOffset(anchor), tha = pa + 3;
+  Eigen::MatrixXd j = Eigen::MatrixXd::Zero(kCoreErrorDim, x.errorDim());
+  j.block<3, 3>(kErrP, kErrP) = c;
+  j.block<3, 3>(kErrP, pa) = -c;
+  j.block<3, 3>(kErrP, tha) = c * skew(x.nav.position - a.position);
+  j.block<3, 3>(kErrV, kErrV) = c;
+  j.block<3, 3>(kErrV, tha) = c * skew(x.nav.velocity);
+  j.block<3, 3>(kErrA, kErrA) = c;
+  j.block<3, 3>(kErrA, tha) = c * skew(x.nav.acceleration);
+  for (int body : {kErrBa, kErrW, kErrBg}) j.block<3, 3>(body, body).setIdentity();
+  j.block<3, 3>(kErrTh, kErrTh) = c;
+  j.block<3, 3>(kErrTh, tha) = -c;
+  return j;
+}
+
 NavState boxplus(const NavState& x, const Eigen::Ref<const Vector21d>& dx) {
   NavState n = x;
   n.position += dx.segment<3>(kErrP);

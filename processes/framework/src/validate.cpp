@@ -106,6 +106,10 @@ Verdict validate(const ips::filter_state_t& m) {
   // vehicle exceeds (10 000 km from the origin, 10 km/s, 1000 m/s^2, 100 rad/s).
   const double* q = m.orientation;
   if (!unitQuaternion(q)) return bad("bad_value", "filter state orientation is not a unit quaternion");
+  if (m.frame != ips::filter_state_t::FRAME_WORLD && m.frame != ips::filter_state_t::FRAME_START)
+    return bad("bad_value", "filter state frame " + std::to_string(m.frame) + " is neither world nor start");
+  if (!finite(m.up, 3) || std::abs(norm3(m.up) - 1.0) > 1e-3)
+    return bad("bad_value", "filter state local vertical is not a unit vector");
   if (norm3(m.position) > 1e7 || norm3(m.velocity) > 1e4 || norm3(m.acceleration) > 1e3 || norm3(m.angular_rate) > 100)
     return bad("bad_value", "filter state with a position, velocity, acceleration or rate out of any vehicle's range");
   if (m.cov_dim < 0 || m.cov_dim > 64 || static_cast<int>(m.covariance.size()) != m.cov_dim)

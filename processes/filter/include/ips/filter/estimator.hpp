@@ -80,6 +80,10 @@ struct SensorCounters {
 struct FilterOutput {
   NavState state;
   Matrix21d covariance = Matrix21d::Zero();
+  // The frame of the state (FilterParams::output_frame) and the local vertical in it (unit; z in World). In Start the
+  // covariance is that of the motion since the first image.
+  OutputFrame frame = OutputFrame::World;
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   // Camera 0's origin in the IMU frame [m]: the filter's estimate and its covariance when it estimates the lever arm
   // (FilterParams::estimate_lever_arm), the calibration's with covariance zero otherwise.
   bool lever_arm_estimated = false;
@@ -226,6 +230,10 @@ class Estimator {
   int64_t cloud_applied_late_ = 0;
   int64_t imu_since_output_ = 0;
   std::vector<FilterOutput> outputs_;
+  // The start frame's anchor (FilterParams::output_frame start): the first image time since the (re)start, and the
+  // clone as it was taken then.
+  int64_t anchor_utime_ = INT64_MIN;
+  PoseClone start_pose_;
   // Keyframe times (latency-corrected) announced by E3D, newest last; bounded by the clones they can still pin.
   std::set<int64_t> keyframe_times_;
   // Image times a tracker delta has used as its earlier image: those clones wait for nothing more.

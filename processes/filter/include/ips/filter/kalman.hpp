@@ -43,7 +43,8 @@ class KalmanFilter {
   // A copy without the pose clones: what a look-ahead to the next image needs. No IMU or tilt measurement involves
   // a clone, so its navigation state and their covariance evolve exactly as the full filter's would, at the cost of
   // the core states (the full covariance with a backlog of clones is ten times larger).
-  std::unique_ptr<KalmanFilter> copyWithoutClones() const;
+  // Clone `keep` (an index, or -1 for none) stays: the start frame's anchor.
+  std::unique_ptr<KalmanFilter> copyWithoutClones(int keep = -1) const;
   // Replaces parts of the state directly (e.g. zeroing stale rates after a gap), keeping P.
   NavState& mutableNav() { return x_.nav; }
 

@@ -125,6 +125,15 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
 // a (-) b: the error-state vector taking b to a (same layout required: the optional states and the clones).
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b);
 
+// The start frame (FilterParams::output_frame): the world frame as the filter knew it when it took the clone `start`
+// (its first image's pose as it was then), carried by `anchor`, its current estimate of that pose. Positions map as
+// C (p - p_anchor) + p_start with C = R_start R_anchor^T; velocity, acceleration and attitude by C; the body-frame
+// states stay.
+NavState toStartFrame(const NavState& nav, const PoseClone& anchor, const PoseClone& start);
+// The derivative of that map by x's error state, clone `anchor` being the anchor (21 x errorDim()): the start frame's
+// covariance is J P J^T.
+Eigen::MatrixXd startFrameJacobian(const FullState& x, int anchor, const PoseClone& start);
+
 // SO(3): the project's maps (ips/rotation.hpp).
 using ips::expQuat;
 using ips::expSO3;

@@ -54,6 +54,7 @@ inline ips::filter_state_t sampleFilterState(int64_t utime = 1000) {
   ips::filter_state_t m{};
   m.utime = utime;
   m.orientation[0] = 1;
+  m.up[2] = 1;
   m.cov_dim = 3;
   m.covariance.assign(3, std::vector<double>(3, 0.0));
   m.num_sensors = 1;
