@@ -186,6 +186,8 @@ report_rc=0
 # The logger writes results.lcmlog.00 (and .01, ... if it was restarted: ips_report then fails the run).
 results=$(ls "$run"/results.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
 [ -n "$results" ] || { say "FAILED: no recording (results.lcmlog.*) in $run"; exit 1; }
+results_states=$(ls "$run"/results_states.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
+[ -n "$results_states" ] && report_args+=(--states-log "$results_states")
 results_bulk=$(ls "$run"/results_bulk.lcmlog.[0-9]* 2>/dev/null | sort | paste -sd, -)
 [ -n "$results_bulk" ] && report_args+=(--bulk-log "$results_bulk")
 # Evaluated against the truth when the processes ran on a perturbed calibration (sim with calibration_errors).

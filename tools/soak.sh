@@ -111,7 +111,7 @@ for victim in $VICTIMS; do
   check_memory "$soak/rss_$victim.txt" | tee -a "$soak/soak.txt" || { say "FAIL: memory grew"; fail=1; }
   # every recording part readable: all of it, or (a logger killed with SIGKILL cannot finish its last write)
   # all but an incomplete last event
-  for part in "$run"/results.lcmlog.[0-9]*; do
+  for part in "$run"/results.lcmlog.[0-9]* "$run"/results_states.lcmlog.[0-9]*; do
     if ! err=$(log_diff --channels 'GT_POSE' "$part" "$part" 2>&1 >/dev/null); then
       size=$(stat -c %s "$part")
       if [[ "$err" =~ ([0-9]+)\ bytes\ at\ byte\ ([0-9]+)\ after\ event\ ([0-9]+) ]] &&

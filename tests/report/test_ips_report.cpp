@@ -414,6 +414,28 @@ TEST(IpsReport, ARestartedRecorderFailsTheRun) {
   EXPECT_NE(r.report.find("the recorder restarted (2 parts)"), std::string::npos) << r.report;
 }
 
+// The main job's states at IMU rate on a recorder of their own (results_states.lcmlog) beside the navigation
+// results': read together, one run; that recorder restarted fails the run as the first would.
+TEST(IpsReport, TheStatesRecorderIsReadBesideTheResults) {
+  const std::string results = tempLog("results"), states = tempLog("states.00"), again = tempLog("states.01");
+  {
+    Recording r(results);
+    for (int64_t t = 1'100'000; t <= 11'000'000; t += 100'000) r.add("TRACKER_DELTA", t, step(t, 0.1));
+  }
+  writeRun(states, 11'000'000);
+  writeRun(again, 11'000'000);
+  Result r = runReport(results, "states_apart", "--states-log " + states);
+  EXPECT_EQ(r.exit_code, 0) << r.report;
+  ASSERT_FALSE(r.report.empty());
+  const nlohmann::json j = nlohmann::json::parse(r.report);
+  EXPECT_EQ(j.at("status"), "ok") << r.report;
+  EXPECT_EQ(j.at("tracker_deltas"), 100) << r.report;
+  EXPECT_EQ(j.at("filters").at(0).at("states"), 101) << r.report;
+  r = runReport(results, "states_restarted", "--states-log " + states + "," + again);
+  EXPECT_EQ(r.exit_code, 4);
+  EXPECT_NE(r.report.find("the states' recorder restarted (2 parts)"), std::string::npos) << r.report;
+}
+
 TEST(IpsReport, EmptyDisparityMapIsCountedNotFatal) {
   const std::string log = tempLog("zero_map");
   writeRun(log, 11'000'000);

@@ -375,6 +375,9 @@ int main(int argc, char** argv) {
     args.required(
             "--log", "FILE[,FILE]",
             "LCM log recorded during the run (filter states, deltas, disparity, health, GT), or its parts in order")
+        .option("--states-log", "FILE[,FILE]",
+                "the recording of the filters' states and the ground truth, or its parts in order, where the run had a "
+                "recorder of its own for them")
         .option("--bulk-log", "FILE[,FILE]",
                 "the recording of the bulk bus (disparity maps, points), or its parts in order, where the run had one")
         .option("--images", "FILE", "the input log with STEREO pairs (for the disparity pictures)")
@@ -465,17 +468,18 @@ int main(int argc, char** argv) {
     if (parts.size() > 1)
       failures.push_back("the recorder restarted (" + std::to_string(parts.size()) +
                          " parts): messages published between the parts are missing");
-    // The bulk bus's recorder (dense maps and points), read after the control bus's: what it holds is grouped by
-    // channel, never ordered against the small messages.
-    {
-      std::stringstream ss(args.get("--bulk-log"));
-      std::vector<std::string> bulk;
+    // The other recorders (the states at IMU rate, the bulk bus's dense maps and points), read after the first:
+    // each holds its own channels, so every channel's messages stay in order.
+    for (const auto& [option, what] : {std::pair<std::string, std::string>{"--states-log", "the states' recorder"},
+                                       {"--bulk-log", "the bulk bus's recorder"}}) {
+      std::stringstream ss(args.get(option));
+      std::vector<std::string> more;
       for (std::string part; std::getline(ss, part, ',');)
-        if (!part.empty()) bulk.push_back(part);
-      if (bulk.size() > 1)
-        failures.push_back("the bulk bus's recorder restarted (" + std::to_string(bulk.size()) +
-                           " parts): maps published between the parts are missing");
-      parts.insert(parts.end(), bulk.begin(), bulk.end());
+        if (!part.empty()) more.push_back(part);
+      if (more.size() > 1)
+        failures.push_back(what + " restarted (" + std::to_string(more.size()) +
+                           " parts): messages published between the parts are missing");
+      parts.insert(parts.end(), more.begin(), more.end());
     }
     int64_t events = 0;
     // The recording holds whatever was on the bus, damaged, repeated or forged messages included: each channel's
