@@ -249,11 +249,16 @@ TEST(IpsReport, DisturbancesAreNamedAndAnUnfinishedPlayerFailsTheRun) {
       r.add("FILTER_STATE", t, s);
     }
     r.add("HEALTH_FILTER", 11'000'000, health(11'000'000, "filter", {{"imu_seq_gap", 37}}));
+    // 40 pairs lost on the bus before the tracker, beside 100 received; e3d skipping pairs is no disturbance.
+    r.add("HEALTH_TRACKER", 11'000'000, health(11'000'000, "tracker", {{"stereo_seq_gap", 40}}));
+    r.add("HEALTH_E3D", 11'000'000, health(11'000'000, "e3d", {{"stereo_seq_gap", 40}}));
   }
   Result r = runReport(log, "disturbed");
   EXPECT_EQ(r.exit_code, 0) << r.report;
   EXPECT_NE(r.report.find("\"status\": \"disturbed\""), std::string::npos) << r.report;
   EXPECT_NE(r.report.find("filter: 37 IMU samples lost on the way (imu_seq_gap)"), std::string::npos) << r.report;
+  EXPECT_NE(r.report.find("tracker: 40 pairs lost on the way (stereo_seq_gap)"), std::string::npos) << r.report;
+  EXPECT_EQ(r.report.find("e3d: 40 pairs lost"), std::string::npos) << r.report;
   EXPECT_NE(r.report.find("FILTER_STATE: position sigma rose from 0.020 to 0.200 m within a second, at t=5.0 s"),
             std::string::npos)
       << r.report;

@@ -44,6 +44,24 @@ echo "pairs $pairs; tracker: stereo_time_rebased $(counter tracker stereo_time_r
 # Every real pair: its image time cloned and (but for the first few before the filter starts) its delta fused.
 [ "$(counter filter image_accepted)" -ge $((pairs - 20)) ] || { echo "FAIL: the filter lost real image times"; fail=1; }
 [ "$(counter filter tracker_accepted)" -ge $((pairs - 25)) ] || { echo "FAIL: the filter lost real deltas"; fail=1; }
+# Their health stamps follow the real inputs, not the forged first ones (the last HEALTH of each, read from the log:
+# events are sync word, number, timestamp, channel and data lengths, channel, data; health_t's utime follows its
+# 8-byte fingerprint).
+python3 - "$W/results.lcmlog" <<'PY' || fail=1
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+last, at = {}, 0
+while at + 28 <= len(data):
+    sync, _, _, clen, dlen = struct.unpack('>IqqII', data[at:at + 28])
+    if sync != 0xEDA1DA01: break
+    channel = data[at + 28:at + 28 + clen].decode()
+    body = data[at + 28 + clen:at + 28 + clen + dlen]
+    if channel.startswith('HEALTH_') and len(body) >= 16: last[channel] = struct.unpack('>q', body[8:16])[0]
+    at += 28 + clen + dlen
+print('last health stamps:', last)
+bad = [c for c in ('HEALTH_TRACKER', 'HEALTH_FILTER') if not 0 < last.get(c, 0) < 5e15]
+if bad: print('FAIL: the health stamp of', bad, 'is not a real one'); sys.exit(1)
+PY
 mkdir -p "$W/report"
 "$BIN/ips_report" --log "$W/results.lcmlog" --filters FILTER_STATE --pictures 0 --out "$W/report" > "$W/report.txt" 2>&1 ||
   { cat "$W/report.txt"; echo "FAIL: ips_report flags the run"; fail=1; }

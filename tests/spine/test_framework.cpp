@@ -163,6 +163,36 @@ TEST(Framework, StreamOrderLeavesAForgedFirstStampBehind) {
   EXPECT_TRUE(order.check(1'050'000, 10).accept);
 }
 
+// The health stamp is the newest accepted input's: a refused stamp far ahead leaves it; a stream started again at its
+// real stamps brings it down from a forged first one.
+TEST(Framework, HealthStampFollowsAcceptedInputsOnly) {
+  ips::fw::Health h("filter");
+  h.received(1000);
+  h.accepted();
+  h.received(9'000'000'000'000'000);
+  h.bad("time_ahead_of_host", "forged");
+  EXPECT_EQ(h.report(1.0).utime, 1000);
+  h.received(2000);
+  h.accepted();
+  EXPECT_EQ(h.report(1.0).utime, 2000);
+
+  ips::fw::Health fresh("tracker");
+  ips::fw::StreamOrder order;
+  fresh.received(9'000'000'000'000'000);
+  ASSERT_TRUE(ips::fw::admitInOrder(order, 9'000'000'000'000'000, 0, fresh, "stereo"));
+  fresh.accepted();
+  EXPECT_EQ(fresh.report(1.0).utime, 9'000'000'000'000'000);
+  // Real pairs until the stream leaves the forged first stamp behind.
+  int64_t t = 1'000'000;
+  for (int i = 1; i < 40 && fresh.counter("stereo_time_rebased") == 0; ++i, t += 50'000) {
+    fresh.received(t);
+    if (ips::fw::admitInOrder(order, t, i, fresh, "stereo")) fresh.accepted();
+  }
+  ASSERT_EQ(fresh.counter("stereo_time_rebased"), 1);
+  EXPECT_LT(fresh.report(1.0).utime, t);
+  EXPECT_GE(fresh.report(1.0).utime, 1'000'000);
+}
+
 TEST(Framework, HealthReportsRatesAndCounters) {
   ips::fw::Health h("tracker");
   for (int i = 0; i < 10; ++i) {

@@ -328,6 +328,13 @@ TEST(HostileInput, FilterStateWithNonFiniteCovarianceOrBiasIsRejected) {
   ips::filter_state_t no_up = m;
   no_up.up[2] = 0;
   EXPECT_EQ(ips::fw::validate(no_up).reason, "bad_value");
+  // Finite values no navigation state can have.
+  ips::filter_state_t zero_q = m;
+  zero_q.orientation[0] = 0;
+  EXPECT_EQ(ips::fw::validate(zero_q).reason, "bad_value");
+  ips::filter_state_t far = m;
+  far.position[0] = 1e308;
+  EXPECT_EQ(ips::fw::validate(far).reason, "bad_value");
   ips::filter_state_t nan_up = m;
   nan_up.up[1] = std::nan("");
   EXPECT_EQ(ips::fw::validate(nan_up).reason, "bad_value");

@@ -347,6 +347,11 @@ std::vector<std::string> disturbances(const std::vector<FilterRun>& runs,
     if (deltas_valid > 20 && h.num_counters > 0 && counterOf(h, "image_accepted") > 0 && fused < 0.9 * deltas_valid)
       out.push_back(name + ": fused " + std::to_string(fused) + " of " + std::to_string(deltas_valid) +
                     " valid tracker deltas (" + std::to_string(late) + " too late)");
+    // Pairs lost on the bus before the tracker saw them: beyond what a camera loses itself (the simulated head drops
+    // 1-2 %), navigation went without them. The dense products skip pairs by design.
+    if (const int64_t lost = counterOf(h, "stereo_seq_gap");
+        name == "tracker" && lost > 0.05 * static_cast<double>(lost + h.received))
+      out.push_back(name + ": " + std::to_string(lost) + " pairs lost on the way (stereo_seq_gap)");
     if (const int64_t stale = counterOf(h, "stale_pair"); stale > 0 && stale > 0.005 * std::max<int64_t>(1, h.received))
       out.push_back(name + ": dropped " + std::to_string(stale) + " of " + std::to_string(h.received) +
                     " pairs it fell behind on (stale_pair)");

@@ -28,12 +28,18 @@ Health::Health(std::string process) : process_(std::move(process)), host_(hostNa
 void Health::received(int64_t utime) {
   std::lock_guard<std::mutex> lock(mutex_);
   ++received_;
-  if (utime > last_utime_) last_utime_ = utime;
+  received_utime_ = utime;
 }
 
 void Health::accepted() {
   std::lock_guard<std::mutex> lock(mutex_);
   ++interval_accepted_;
+  if (received_utime_ > last_utime_) last_utime_ = received_utime_;
+}
+
+void Health::restartClock(int64_t utime) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  last_utime_ = utime;
 }
 
 void Health::published() {

@@ -334,6 +334,7 @@ bool admitInOrder(StreamOrder& order, int64_t utime, int64_t seq, Health& health
   }
   if (r.rebased) {
     health.count(what + "_time_rebased");
+    health.restartClock(utime);
     IPS_WARN(what << ": the stream's first stamps did not hold (one far off, or a restart); following it from " << utime
                   << " us");
   } else if (r.clock_step) {

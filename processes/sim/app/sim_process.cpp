@@ -188,6 +188,7 @@ int runLive(ips::sim::Simulation& sim, const std::string& url, double rate) {
         ++late;
       node.publishRaw(enc.channel, enc.data.data(), static_cast<unsigned>(enc.data.size()));
       node.health().received(enc.log_utime);
+      node.health().accepted();
       if (std::chrono::steady_clock::now() - last_health > std::chrono::seconds(1)) {
         node.health().set("late_events", late);
         node.publishHealth(std::chrono::duration<double>(std::chrono::steady_clock::now() - last_health).count());

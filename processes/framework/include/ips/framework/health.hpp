@@ -17,8 +17,13 @@ class Health {
  public:
   explicit Health(std::string process);
 
-  void received(int64_t utime);  // an input arrived (utime: its stamp, for the health stamp)
-  void accepted();               // an input passed the checks and was processed or queued
+  // An input arrived (utime: its stamp). The health stamp is the newest stamp of an accepted input: a refused one,
+  // far ahead, must not hold it there.
+  void received(int64_t utime);
+  void accepted();  // the input last received passed the checks and was processed or queued
+  // A stream started again at `utime` (its first stamps were left behind as forged or stale): the health stamp
+  // follows it there, down from a forged first stamp that was accepted before any other could judge it.
+  void restartClock(int64_t utime);
   void published();
   // An input that could not be used: counted under `reason` (e.g. "decode_error", "bad_size", "nan",
   // "time_backwards") and in `bad`; logged at most every few seconds with the number held back.
@@ -43,6 +48,7 @@ class Health {
   std::string process_;
   std::string host_;
   int64_t last_utime_ = 0;
+  int64_t received_utime_ = 0;
   int64_t received_ = 0, published_ = 0, dropped_ = 0, bad_ = 0;
   int64_t interval_accepted_ = 0, interval_published_ = 0;
   double interval_latency_sum_ms_ = 0;
