@@ -273,9 +273,26 @@ bool Estimator::insert(Event&& e) {
       return false;
     }
   }
+  const bool first_imu = sensor == kSensorImu && newest_imu_time_ == INT64_MIN;
   buffer_.emplace(t, std::move(e));  // equal times keep arrival order
   newest_time_ = std::max(newest_time_, t);
   if (sensor == kSensorImu) newest_imu_time_ = std::max(newest_imu_time_, t);
+  if (first_imu) {
+    // What waited for the IMU's first sample is judged against it now, as it would have been had the IMU come
+    // first: a stamp further ahead than imu_silence_release_us is refused and counted, and the time line is the
+    // remaining ones'.
+    newest_time_ = t;
+    for (auto it = buffer_.begin(); it != buffer_.end();) {
+      if (it->second.sensor != kSensorImu && it->first > t + params_.imu_silence_release_us) {
+        ++counters_[it->second.sensor].rejected;
+        ++ahead_of_imu_;
+        it = buffer_.erase(it);
+      } else {
+        newest_time_ = std::max(newest_time_, it->first);
+        ++it;
+      }
+    }
+  }
   if (newest_imu_time_ == INT64_MIN) {
     // Before the IMU's first sample nothing can start the filter and nothing may pass: the others wait (the oldest
     // go beyond a bound), so that no stamp of theirs is taken for the time.
