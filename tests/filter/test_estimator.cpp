@@ -68,6 +68,14 @@ SensorSimParams mapAlignmentParams() {
   return sp;
 }
 
+// The analytic walk walking from t = 0: no window at rest ever comes.
+AnalyticWalk walkingFromTheStart() {
+  WalkParams wp;
+  wp.rest_s = 0.0;
+  wp.ramp_s = 0.01;
+  return AnalyticWalk(wp);
+}
+
 FilterParams paramsFor(FilterType type) {
   FilterParams p;
   p.type = type;
@@ -118,10 +126,7 @@ TEST(FilterEstimator, StaticInitialisationFromAccelerometerAndTilt) {
 }
 
 TEST(FilterEstimator, DoesNotInitialiseWhileMoving) {
-  WalkParams wp;
-  wp.rest_s = 0.0;  // walking from t = 0
-  wp.ramp_s = 0.01;
-  const AnalyticWalk walk(wp);
+  const AnalyticWalk walk = walkingFromTheStart();
   const ips::StereoCalibration calib = testbedCalibration();
   SensorSim sim(walk, SensorSimParams{}, calib, 12);
   FilterParams p = paramsFor(FilterType::Ekf);
@@ -162,10 +167,7 @@ TEST(FilterEstimator, APriorStateCarriesThePairsOwnStamp) {
 
 TEST(FilterEstimator, StartsInMotionAndConvergesFromTheTrackerDeltas) {
   // A filter (re)started while the head walks: no window at rest ever comes.
-  WalkParams wp;
-  wp.rest_s = 0.0;
-  wp.ramp_s = 0.01;
-  const AnalyticWalk walk(wp);
+  const AnalyticWalk walk = walkingFromTheStart();
   const ips::StereoCalibration calib = testbedCalibration();
   for (FilterType type : {FilterType::Ekf, FilterType::Ukf}) {
     SensorSim sim(walk, SensorSimParams{}, calib, 13);
@@ -737,10 +739,7 @@ TEST(FilterEstimator, CalibrationStatesKeepWhatTheyLearntOverARestart) {
 // start frame (output_frame start) the path since the first image is the filter's best estimate of it, within the
 // covariance it publishes, and the local vertical it publishes is the world run's: the same filter underneath.
 TEST(FilterEstimator, TheStartFrameKeepsThePathSinceTheStartWhenTheLevelIsLearnt) {
-  WalkParams wp;
-  wp.rest_s = 0.0;
-  wp.ramp_s = 0.01;
-  const AnalyticWalk walk(wp);
+  const AnalyticWalk walk = walkingFromTheStart();
   const ips::StereoCalibration calib = testbedCalibration();
   SensorSimParams sp;
   sp.accel_bias = Eigen::Vector3d(0.06, -0.1, 0.04);
