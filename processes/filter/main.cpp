@@ -23,7 +23,9 @@ int main(int argc, char** argv) {
         .option("--name", "NAME", "process name (health channel HEALTH_<NAME>), to run several filters side by side",
                 "filter")
         .option("--state-channel", "CH", "channel of the a-posteriori states", ips::channels::kFilterState)
-        .option("--prior-channel", "CH", "channel of the a-priori states at image times ('none': do not publish)",
+        .option("--prior-channel", "CH",
+                "channel of the a-priori states at image times, and CH_NONE of the image times without one ('none': do "
+                "not publish)",
                 ips::channels::kFilterPrior);
     ips::fw::addCommonOptions(args, "config/filter.yaml");
     if (!args.parse()) return 0;
@@ -50,7 +52,7 @@ int main(int argc, char** argv) {
     IPS_INFO("running the " << ips::filter::toString(params.type) << " filter on the IMU "
                             << (calib.imu->model.empty() ? "of the calibration" : calib.imu->model)
                             << (calib.tilt ? " and the tilt sensor" : ", no tilt sensor"));
-    const int rc = node.run();
+    const int rc = node.run([&process] { process.publishOutputs(); });
     process.flush();
     // The counters with what the flush applied: the report reads the last health message.
     node.publishHealth(1.0);

@@ -1,8 +1,9 @@
 // tracker: the IPS stereo tracker as a process. STEREO pairs in, TRACKER_DELTA out.
 // The search windows of the inter-matching are placed by the best motion prior on the bus: the filter's
 // a-priori state at the new image time (FILTER_PRIOR) when a filter runs, else the gyro (IMU), else constant
-// velocity. When a filter has been seen, a pair waits for its prior (the filter publishes one for every image
-// time), else for the IMU to cover its time, so that a replayed log gives the same deltas as the live run.
+// velocity. When a filter has been seen, a pair waits for its answer (the filter answers every image time: a prior on
+// FILTER_PRIOR, or FILTER_PRIOR_NONE before its start), else for the IMU to cover its time, so that a replayed log
+// gives the same deltas as the live run.
 // A tracker behind the camera (a starved host) reads what has piled up in its socket first and skips the pairs it
 // cannot catch up with (health: dropped, stale_pair), so that its deltas still reach the filter's image clones.
 // With process/intra_from_disparity, a pair E3D matches (seq % disparity_every_nth == 0) also waits for its

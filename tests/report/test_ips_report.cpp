@@ -232,8 +232,9 @@ ips::health_t health(int64_t utime, const std::string& process,
   return h;
 }
 
-// A complete run that lost IMU samples on the way and whose position sigma jumped: "disturbed" (exit 0), each
-// disturbance named; a player whose last account does not say it reached the end of its log fails the run.
+// A complete run that lost IMU samples on the way, fused too few of the tracker's deltas, lost states on the way to
+// its recorder and whose position sigma jumped: "disturbed" (exit 0), each disturbance named; a player whose last
+// account does not say it reached the end of its log fails the run.
 TEST(IpsReport, DisturbancesAreNamedAndAnUnfinishedPlayerFailsTheRun) {
   const std::string log = tempLog("disturbed");
   {
@@ -248,9 +249,27 @@ TEST(IpsReport, DisturbancesAreNamedAndAnUnfinishedPlayerFailsTheRun) {
       for (int i = 0; i < 3; ++i) s.covariance[i][i] = sigma * sigma / 3;
       r.add("FILTER_STATE", t, s);
     }
-    r.add("HEALTH_FILTER", 11'000'000, health(11'000'000, "filter", {{"imu_seq_gap", 37}}));
-    // 40 pairs lost on the bus before the tracker, beside 100 received; e3d skipping pairs is no disturbance.
-    r.add("HEALTH_TRACKER", 11'000'000, health(11'000'000, "tracker", {{"stereo_seq_gap", 40}}));
+    // 50 valid deltas of which the filter fused 40 (10 too late); it published 120 states, the recording holds 101.
+    for (int64_t t = 1'100'000; t <= 6'000'000; t += 100'000) {
+      ips::tracker_delta_t d{};
+      d.utime = t;
+      d.utime_prev = t - 100'000;
+      d.seq = t / 100'000;
+      d.valid = true;
+      d.rotation[0] = d.far_rotation[0] = 1;
+      for (int i = 0; i < 6; ++i) d.covariance[i * 7] = 1e-6;
+      r.add("TRACKER_DELTA", t, d);
+    }
+    r.add("HEALTH_FILTER", 11'000'000,
+          health(11'000'000, "filter",
+                 {{"imu_seq_gap", 37},
+                  {"image_accepted", 50},
+                  {"tracker_accepted", 40},
+                  {"tracker_too_late", 10},
+                  {"published_FILTER_STATE", 120}}));
+    // 40 pairs lost on the bus before the tracker, beside 100 received, and 3 it fell behind on; e3d skipping pairs
+    // is no disturbance.
+    r.add("HEALTH_TRACKER", 11'000'000, health(11'000'000, "tracker", {{"stereo_seq_gap", 40}, {"stale_pair", 3}}));
     r.add("HEALTH_E3D", 11'000'000, health(11'000'000, "e3d", {{"stereo_seq_gap", 40}}));
   }
   Result r = runReport(log, "disturbed");
@@ -259,6 +278,12 @@ TEST(IpsReport, DisturbancesAreNamedAndAnUnfinishedPlayerFailsTheRun) {
   EXPECT_NE(r.report.find("filter: 37 IMU samples lost on the way (imu_seq_gap)"), std::string::npos) << r.report;
   EXPECT_NE(r.report.find("tracker: 40 pairs lost on the way (stereo_seq_gap)"), std::string::npos) << r.report;
   EXPECT_EQ(r.report.find("e3d: 40 pairs lost"), std::string::npos) << r.report;
+  EXPECT_NE(r.report.find("tracker: dropped 3 of 100 pairs it fell behind on (stale_pair)"), std::string::npos)
+      << r.report;
+  EXPECT_NE(r.report.find("filter: fused 40 of 50 valid tracker deltas (10 too late)"), std::string::npos) << r.report;
+  EXPECT_NE(r.report.find("FILTER_STATE: the recording holds 101 of the 120 states filter published"),
+            std::string::npos)
+      << r.report;
   EXPECT_NE(r.report.find("FILTER_STATE: position sigma rose from 0.020 to 0.200 m within a second, at t=5.0 s"),
             std::string::npos)
       << r.report;

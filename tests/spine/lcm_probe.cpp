@@ -138,10 +138,11 @@ void attack(lcm::LCM& lcm, double wait_s) {
   send.hostileLengths(ch::kFilterState, ips::test_support::sampleFilterState(seen.stereo_utime));
   send.hostileLengths(ch::kDisparity, ips::test_support::sampleDisparityMap(seen.stereo_utime));
   send.hostileLengths("HEALTH_PROBE", ips::test_support::sampleHealth(seen.stereo_utime));
-  // Messages cut short on the small channels the filter reads (they have no lengths to forge).
+  // Messages cut short on the small channels the filter and the tracker read (they have no lengths to forge).
   for (const auto& [channel, bytes] :
        {std::pair<const char*, std::vector<uint8_t>>{ch::kImu, encodeMessage(imuSample(seen.imu_utime, 1))},
         {ch::kStereoTime, encodeMessage(ips::stereo_time_t{seen.stereo_utime, 1})},
+        {ch::kFilterPriorNone, encodeMessage(ips::stereo_time_t{seen.stereo_utime, 1})},
         {ch::kTrackerDelta, encodeMessage(deltaSample(seen.stereo_utime, seen.stereo_utime - 125'000))}})
     send.raw("truncated", channel, std::vector<uint8_t>(bytes.begin(), bytes.begin() + bytes.size() / 2));
 

@@ -173,6 +173,23 @@ TEST(PriorReady, TheFilterPriorOfTheImageTimeElseGyroUpToItElseNothingToWaitFor)
   EXPECT_TRUE(ips::tracker::priorReady(b, 1'000'000));
 }
 
+TEST(PriorReady, TheFiltersAnswerThatItHasNoPriorLetsThePairGoOnWithTheGyroOnceItCoversThePair) {
+  ips::tracker::PriorBuilder b(Eigen::Isometry3d::Identity(), ips::tracker::PriorBuilderParams{},
+                               ips::tracker::PriorParams{});
+  b.addGyro(900'000, Eigen::Vector3d::Zero());
+  b.addFilterNone(1'000'000);  // the filter has not started: it says so for this image time
+  EXPECT_TRUE(b.filterSeen());
+  EXPECT_FALSE(ips::tracker::priorReady(b, 1'000'000));  // the gyro does not reach the pair yet
+  b.addGyro(1'000'000, Eigen::Vector3d::Zero());
+  EXPECT_TRUE(ips::tracker::priorReady(b, 1'000'000));
+  // The next pair waits for the filter's answer to it, though the gyro covers it already.
+  b.addGyro(1'100'000, Eigen::Vector3d::Zero());
+  EXPECT_FALSE(ips::tracker::priorReady(b, 1'050'000));
+  b.addFilterNone(1'050'000);
+  EXPECT_TRUE(ips::tracker::priorReady(b, 1'050'000));
+  EXPECT_FALSE(b.fromFilter(1'000'000, 1'050'000).has_value());
+}
+
 TEST(LoadDisparityWait, ReadsTheProcessKeysAndRefusesValuesOutOfRange) {
   const DisparityWait w = ips::tracker::loadDisparityWait(
       ips::Config(writeTempYaml(

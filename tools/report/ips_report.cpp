@@ -356,6 +356,13 @@ std::vector<std::string> disturbances(const std::vector<FilterRun>& runs,
       out.push_back(name + ": dropped " + std::to_string(stale) + " of " + std::to_string(h.received) +
                     " pairs it fell behind on (stale_pair)");
   }
+  // States a filter sent (its health's published_<channel>) that the recording does not hold: lost between them.
+  for (const auto& run : runs)
+    for (const auto& [name, f] : procs)
+      if (const int64_t sent = counterOf(f.last, "published_" + run.channel);
+          sent > static_cast<int64_t>(run.states.size()))
+        out.push_back(run.channel + ": the recording holds " + std::to_string(run.states.size()) + " of the " +
+                      std::to_string(sent) + " states " + name + " published");
   constexpr int kPosition = 0, kAttitude = 18;  // filter_state_t's covariance layout
   for (const auto& run : runs) {
     if (run.states.empty()) continue;

@@ -16,6 +16,7 @@ namespace ips::filter_app {
 namespace {
 
 constexpr int kFlushPacingUs = 1000;  // between the held-back states published at shutdown
+constexpr double kStatesPerMs = 1.0, kStateBurst = 8;
 
 }  // namespace
 
@@ -34,11 +35,13 @@ FilterProcess::FilterProcess(fw::Node& node, filter::Estimator& estimator, std::
 
 void FilterProcess::flush() {
   est_.flush();
-  for (const auto& out : est_.takeOutputs()) {
-    node_.publish(state_channel_, toMessage(out));
+  for (auto& out : est_.takeOutputs()) pending_.push_back(std::move(out));
+  while (!pending_.empty()) {
+    node_.publish(state_channel_, toMessage(pending_.front()));
+    pending_.pop_front();
+    ++published_;
     std::this_thread::sleep_for(std::chrono::microseconds(kFlushPacingUs));
   }
-  publishOutputs();
 }
 
 template <class Msg>
@@ -75,10 +78,14 @@ void FilterProcess::onTilt(const ips::tilt_sample_t& m) {
 void FilterProcess::onStereo(const ips::stereo_time_t& m) {
   if (!check(m, stereo_order_, "stereo")) return;
   auto prior = est_.addImageTime(m.utime);
-  if (prior && !prior_channel_.empty())
+  if (prior_channel_.empty()) return;
+  if (prior) {
     node_.publish(prior_channel_, toMessage(*prior));
-  else
+  } else {
+    // Answered all the same, so that the tracker does not wait for a prior that is not coming.
+    node_.publish(prior_channel_ + "_NONE", m);
     node_.health().count("no_prior_yet");
+  }
 }
 
 void FilterProcess::onDelta(const ips::tracker_delta_t& m) {
@@ -110,7 +117,16 @@ void FilterProcess::onCloudDelta(const ips::tracker_delta_t& m) {
 }
 
 void FilterProcess::publishOutputs() {
-  for (const auto& out : est_.takeOutputs()) node_.publish(state_channel_, toMessage(out));
+  for (auto& out : est_.takeOutputs()) pending_.push_back(std::move(out));
+  const auto now = std::chrono::steady_clock::now();
+  send_budget_ = std::min(
+      kStateBurst, send_budget_ + kStatesPerMs * std::chrono::duration<double, std::milli>(now - budget_time_).count());
+  budget_time_ = now;
+  for (; send_budget_ >= 1 && !pending_.empty(); send_budget_ -= 1) {
+    node_.publish(state_channel_, toMessage(pending_.front()));
+    pending_.pop_front();
+    ++published_;
+  }
 }
 
 void FilterProcess::reportCounters(fw::Health& health) const {
@@ -124,6 +140,8 @@ void FilterProcess::reportCounters(fw::Health& health) const {
   health.set("imu_gaps", est_.imuGaps());
   health.set("ahead_of_imu", est_.aheadOfImu());
   health.set("starts_in_motion", est_.startsInMotion());
+  health.set("published_" + state_channel_, published_);
+  health.set("states_queued", static_cast<int64_t>(pending_.size()));
   // The camera's delay against the IMU as estimated online [us], whether it is applied, and how often it ran.
   const filter::CameraDelayEstimator::Figures& delay = est_.cameraDelay();
   health.set("camera_delay_us", std::llround(delay.delay_us));

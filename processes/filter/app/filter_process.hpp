@@ -1,6 +1,8 @@
 #pragma once
 // The filter's LCM side: IMU, TILT, STEREO_TIME (image times), TRACKER_DELTA, KEYFRAME and CLOUD_DELTA in, checked and
 // converted to the estimator's plain types; FILTER_STATE and FILTER_PRIOR out; the estimator's counters as health.
+#include <chrono>
+#include <deque>
 #include <ips/imu_sample_t.hpp>
 #include <ips/keyframe_t.hpp>
 #include <ips/stereo_time_t.hpp>
@@ -22,6 +24,12 @@ class FilterProcess {
   // End of input: applies what the reordering window still holds and publishes it, paced, because LCM
   // receivers drop a burst of hundreds of messages sent back to back (their receive queue overflows).
   void flush();
+  // The estimator's new states join the queue, and what the pace allows goes out now (kStatesPerMs, bursts of
+  // kStateBurst): a start in motion or a late delta gives hundreds at once, and a receiver that keeps LCM's
+  // 30-message queue (lcm-logger) drops most of a burst sent back to back. The steady rate is one state per IMU
+  // sample (200 Hz), so a backlog drains within a fraction of a second; the pace is the wall clock's (transport
+  // only: what is published does not depend on it).
+  void publishOutputs();  // also between inputs (Node::run's tick)
 
  private:
   template <class Msg>
@@ -32,7 +40,6 @@ class FilterProcess {
   void onDelta(const tracker_delta_t& m);
   void onKeyframe(const keyframe_t& m);
   void onCloudDelta(const tracker_delta_t& m);
-  void publishOutputs();
   // The estimator's counters into the health message, once per report.
   void reportCounters(fw::Health& health) const;
 
@@ -40,6 +47,10 @@ class FilterProcess {
   filter::Estimator& est_;
   std::string state_channel_, prior_channel_;
   fw::StreamOrder imu_order_, tilt_order_, stereo_order_, delta_order_, cloud_order_;
+  std::deque<filter::FilterOutput> pending_;
+  double send_budget_ = 0;  // states that may go out now
+  std::chrono::steady_clock::time_point budget_time_ = std::chrono::steady_clock::now();
+  int64_t published_ = 0;  // states sent on state_channel_ (the report counts what its recording holds against it)
 };
 
 }  // namespace ips::filter_app

@@ -15,6 +15,7 @@ namespace ips::fw {
 
 namespace {
 constexpr int kSmallQueue = 4000, kBulkQueue = 30;
+constexpr int kDrainQuietMs = 50, kDrainMaxMs = 1000;  // handling what came before a stop (Node::run)
 std::atomic<bool> g_stop{false};
 extern "C" void onSignal(int) { g_stop = true; }
 }  // namespace
@@ -132,9 +133,9 @@ bool Node::handleOnce(int timeout_ms) {
   return ok;
 }
 
-bool Node::inputWaiting() {
+bool Node::inputWaiting(int timeout_ms) {
   pollfd fds[2] = {{lcm_->getFileno(), POLLIN, 0}, {bulk_ ? bulk_->getFileno() : -1, POLLIN, 0}};
-  return ::poll(fds, bulk_ ? 2 : 1, 0) > 0 && ((fds[0].revents & POLLIN) || (fds[1].revents & POLLIN));
+  return ::poll(fds, bulk_ ? 2 : 1, timeout_ms) > 0 && ((fds[0].revents & POLLIN) || (fds[1].revents & POLLIN));
 }
 
 void Node::publishHealth(double interval_s) {
@@ -162,6 +163,8 @@ int Node::run(std::function<void()> on_tick, double health_period_s) {
       last_health = now;
     }
   }
+  const auto drain_end = clock::now() + std::chrono::milliseconds(kDrainMaxMs);
+  while (clock::now() < drain_end && inputWaiting(kDrainQuietMs)) handleOnce(0);
   publishHealth(std::chrono::duration<double>(clock::now() - last_health).count());
   IPS_INFO("stopped");
   return 0;

@@ -75,6 +75,7 @@ TrackerProcess::TrackerProcess(fw::Node& node, const StereoCalibration& calib, c
   if (wait.enabled)
     node_.subscribe<disparity_map_t>(channels::kDisparity, [this](const disparity_map_t& m) { onDisparity(m); });
   node_.subscribe<filter_state_t>(channels::kFilterPrior, [this](const filter_state_t& m) { onPrior(m); });
+  node_.subscribe<stereo_time_t>(channels::kFilterPriorNone, [this](const stereo_time_t& m) { onPriorNone(m); });
   node_.subscribe<imu_sample_t>(channels::kImu, [this](const imu_sample_t& m) { onImu(m); });
 }
 
@@ -114,6 +115,13 @@ void TrackerProcess::onDisparity(const disparity_map_t& m) {
     return;
   }
   pairs_.addMap(m.utime, m.seq, fromMessage(m, *scale));
+  drain();
+}
+
+void TrackerProcess::onPriorNone(const stereo_time_t& m) {
+  const fw::Verdict v = fw::validate(m);
+  if (!v.ok()) return node_.health().bad(v.reason, "filter prior none: " + v.detail);
+  priors_.addFilterNone(m.utime);
   drain();
 }
 

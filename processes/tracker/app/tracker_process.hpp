@@ -5,6 +5,7 @@
 #include <ips/filter_state_t.hpp>
 #include <ips/imu_sample_t.hpp>
 #include <ips/stereo_pair_t.hpp>
+#include <ips/stereo_time_t.hpp>
 
 #include "ips/calibration.hpp"
 #include "ips/config.hpp"
@@ -32,6 +33,7 @@ class TrackerProcess {
  private:
   void onStereo(const stereo_pair_t& m);
   void onPrior(const filter_state_t& m);
+  void onPriorNone(const stereo_time_t& m);
   void onDisparity(const disparity_map_t& m);
   void onImu(const imu_sample_t& m);
   void processOldest();

@@ -21,7 +21,10 @@ DisparityWait loadDisparityWait(const Config& cfg, bool queue) {
 }
 
 bool priorReady(const PriorBuilder& priors, int64_t utime) {
-  return priors.filterSeen() ? priors.hasFilterState(utime) : !priors.gyroSeen() || priors.gyroCovers(utime);
+  const bool gyro_ready = !priors.gyroSeen() || priors.gyroCovers(utime);
+  if (!priors.filterSeen()) return gyro_ready;
+  // Without a state from the filter the pair falls back on the gyro: then it waits for that too.
+  return priors.hasFilterState(utime) || (priors.filterAnswered(utime) && gyro_ready);
 }
 
 void PairScheduler::addPair(PendingPair p) {

@@ -27,6 +27,12 @@ void PriorBuilder::addFilterState(const FilterPriorState& s) {
   while (static_cast<int>(filter_.size()) > params_.max_filter_states) filter_.erase(filter_.begin());
 }
 
+void PriorBuilder::addFilterNone(int64_t utime) {
+  filter_seen_ = true;
+  filter_none_.insert(utime);
+  while (static_cast<int>(filter_none_.size()) > params_.max_filter_states) filter_none_.erase(filter_none_.begin());
+}
+
 void PriorBuilder::addGyro(int64_t utime, const Eigen::Vector3d& rate) {
   if (!gyro_.empty() && utime <= gyro_.back().first) return;
   gyro_.emplace_back(utime, rate);

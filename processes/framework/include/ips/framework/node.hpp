@@ -70,14 +70,16 @@ class Node {
 
   // Handles LCM until a stop is requested, publishing the health message every `health_period_s` (wall clock:
   // health is about the running process, no result depends on it). `on_tick`, if set, runs after each
-  // handled batch or timeout (at least every 100 ms) in this thread.
+  // handled batch or timeout (at least every 100 ms) in this thread. After the stop it goes on handling what
+  // reached its sockets (a pair still being reassembled, a delta sent by a process stopped just before) until they
+  // stay quiet for 50 ms, at most 1 s: what was sent before the stop is not lost.
   int run(std::function<void()> on_tick = nullptr, double health_period_s = 1.0);
 
   // Handles whatever is pending for up to timeout_ms; for tests and custom loops. Returns false on an LCM error.
   bool handleOnce(int timeout_ms);
   // Whether more input already waits in the socket: a process that does heavy work per message reads what has
   // piled up first (a backlog in the kernel's buffer is invisible to it otherwise) and then decides what to do.
-  bool inputWaiting();
+  bool inputWaiting(int timeout_ms = 0);
   void publishHealth(double interval_s);
   // Called just before each health message is made, to set figures the process keeps elsewhere (an estimator's
   // counters) once per report instead of at every message.

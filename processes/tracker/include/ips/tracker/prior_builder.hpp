@@ -7,6 +7,7 @@
 #include <deque>
 #include <map>
 #include <optional>
+#include <set>
 
 #include "ips/tracker/params.hpp"
 #include "ips/tracker/stereo_tracker.hpp"
@@ -41,12 +42,16 @@ class PriorBuilder {
   PriorBuilder(const Eigen::Isometry3d& T_imu_cam0, const PriorBuilderParams& params, const PriorParams& motion);
 
   void addFilterState(const FilterPriorState& s);
+  // The filter's answer that it has no a-priori state for this image time (FILTER_PRIOR_NONE).
+  void addFilterNone(int64_t utime);
   // Samples whose stamp does not increase are ignored (the filter counts bad IMU input; here it only places
   // search windows).
   void addGyro(int64_t utime, const Eigen::Vector3d& rate);
 
   bool filterSeen() const { return filter_seen_; }
   bool hasFilterState(int64_t utime) const { return filter_.count(utime) > 0; }
+  // The filter answered for this image time: with a state, or that it has none.
+  bool filterAnswered(int64_t utime) const { return hasFilterState(utime) || filter_none_.count(utime) > 0; }
   bool gyroSeen() const { return !gyro_.empty(); }
   // The gyro samples reach t: a prior from them no longer depends on when the rest arrives.
   bool gyroCovers(int64_t utime) const { return !gyro_.empty() && gyro_.back().first >= utime; }
@@ -63,6 +68,7 @@ class PriorBuilder {
   PriorBuilderParams params_;
   PriorParams motion_;
   std::map<int64_t, FilterPriorState> filter_;
+  std::set<int64_t> filter_none_;
   std::deque<std::pair<int64_t, Eigen::Vector3d>> gyro_;
   bool filter_seen_ = false;
 };
