@@ -22,7 +22,11 @@ constexpr double kStatesPerMs = 1.0, kStateBurst = 8;
 
 FilterProcess::FilterProcess(fw::Node& node, filter::Estimator& estimator, std::string state_channel,
                              std::string prior_channel)
-    : node_(node), est_(estimator), state_channel_(std::move(state_channel)), prior_channel_(std::move(prior_channel)) {
+    : node_(node),
+      est_(estimator),
+      state_channel_(std::move(state_channel)),
+      prior_channel_(std::move(prior_channel)),
+      prior_none_channel_(prior_channel_ + "_NONE") {
   using namespace ips::channels;
   node_.subscribe<ips::imu_sample_t>(kImu, [this](const ips::imu_sample_t& m) { onImu(m); });
   node_.subscribe<ips::tilt_sample_t>(kTilt, [this](const ips::tilt_sample_t& m) { onTilt(m); });
@@ -37,11 +41,15 @@ void FilterProcess::flush() {
   est_.flush();
   for (auto& out : est_.takeOutputs()) pending_.push_back(std::move(out));
   while (!pending_.empty()) {
-    node_.publish(state_channel_, toMessage(pending_.front()));
-    pending_.pop_front();
-    ++published_;
+    publishOldest();
     std::this_thread::sleep_for(std::chrono::microseconds(kFlushPacingUs));
   }
+}
+
+void FilterProcess::publishOldest() {
+  node_.publish(state_channel_, toMessage(pending_.front()));
+  pending_.pop_front();
+  ++published_;
 }
 
 template <class Msg>
@@ -83,7 +91,7 @@ void FilterProcess::onStereo(const ips::stereo_time_t& m) {
     node_.publish(prior_channel_, toMessage(*prior));
   } else {
     // Answered all the same, so that the tracker does not wait for a prior that is not coming.
-    node_.publish(prior_channel_ + "_NONE", m);
+    node_.publish(prior_none_channel_, m);
     node_.health().count("no_prior_yet");
   }
 }
@@ -122,11 +130,7 @@ void FilterProcess::publishOutputs() {
   send_budget_ = std::min(
       kStateBurst, send_budget_ + kStatesPerMs * std::chrono::duration<double, std::milli>(now - budget_time_).count());
   budget_time_ = now;
-  for (; send_budget_ >= 1 && !pending_.empty(); send_budget_ -= 1) {
-    node_.publish(state_channel_, toMessage(pending_.front()));
-    pending_.pop_front();
-    ++published_;
-  }
+  for (; send_budget_ >= 1 && !pending_.empty(); send_budget_ -= 1) publishOldest();
 }
 
 void FilterProcess::reportCounters(fw::Health& health) const {

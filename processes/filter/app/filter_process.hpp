@@ -40,12 +40,14 @@ class FilterProcess {
   void onDelta(const tracker_delta_t& m);
   void onKeyframe(const keyframe_t& m);
   void onCloudDelta(const tracker_delta_t& m);
+  void publishOldest();  // the queue's oldest state, counted
   // The estimator's counters into the health message, once per report.
   void reportCounters(fw::Health& health) const;
 
   fw::Node& node_;
   filter::Estimator& est_;
   std::string state_channel_, prior_channel_;
+  std::string prior_none_channel_;  // image times without a prior (channels::kFilterPriorNone for the default)
   fw::StreamOrder imu_order_, tilt_order_, stereo_order_, delta_order_, cloud_order_;
   std::deque<filter::FilterOutput> pending_;
   double send_budget_ = 0;  // states that may go out now
