@@ -4,7 +4,8 @@
 # e3d, logger, lcm-logplayer). Every pair after the first must give a tracker delta, e3d must publish maps,
 # and ips_report must read the recording as a complete run and measure the tracker against the ground truth.
 # The log holds the cameras alone (--no-imu): no filter steers the tracker, so the replay must give what the tracker
-# gives offline on these pairs; the filters on the recording's IMU are judged by filter_fusion_mh01.
+# gives offline on these pairs (navigate_log over the same log), pose for pose, on a loaded host too (the replay's
+# tracker keeps every pair, --queue); the filters on the recording's IMU are judged by filter_fusion_mh01.
 set -euo pipefail
 BIN=$1; SRC=$2; DATA=$3; W=${4:-$(mktemp -d)}
 IN=$DATA/euroc/MH_01_easy_first150
@@ -30,6 +31,14 @@ bulk=$(ls "$W"/replay.lcmlog_bulk.[0-9]* | paste -sd,)
 ips_report --log "$parts" --bulk-log "$bulk" --images "$W/mh01.lcmlog" --calib "$IPS_CALIB" --filters FILTER_STATE --lengths 1,2 \
   --pictures 0 --out "$W/report" > "$W/report.txt" 2>&1 ||
   { cat "$W/report.txt"; echo "FAIL: ips_report flags the replay"; exit 1; }
+navigate_log --log "$W/mh01.lcmlog" --tracker-config "$IPS_TRACKER_CONFIG" --filter-config "$IPS_FILTER_CONFIG" \
+  --out "$W/offline.lcmlog" > "$W/offline.txt" 2>&1 || { cat "$W/offline.txt"; echo "FAIL: navigate_log failed"; exit 1; }
+ips_report --log "$W/offline.lcmlog" --calib "$IPS_CALIB" --lengths 1,2 --pictures 0 --out "$W/offline" \
+  > "$W/offline_report.txt" 2>&1 || { cat "$W/offline_report.txt"; echo "FAIL: ips_report flags the offline run"; exit 1; }
+cmp -s "$W/offline/trajectory_tracker.tum" "$W/report/trajectory_tracker.tum" ||
+  { diff "$W/offline/trajectory_tracker.tum" "$W/report/trajectory_tracker.tum" | head -5
+    echo "FAIL: the replay's tracker path differs from the offline tracker's"; exit 1; }
+echo "tracker: $(($(wc -l < "$W/report/trajectory_tracker.tum") - 1)) poses, replay = offline"
 python3 - "$W/report/report.json" "$pairs" <<'PY'
 import json, sys
 r = json.load(open(sys.argv[1])); pairs = int(sys.argv[2])

@@ -4,7 +4,7 @@
 # with lcm-logplayer through fresh processes, twice. All three recordings must hold identical tracker deltas,
 # filter states, disparity maps, map points and points from one camera: every process takes time from message stamps
 # only.
-# IPS_TRACKER_ON_E3D=1: the tracker takes its intra-matches from E3D's maps and waits for each (--queue-disparity),
+# IPS_TRACKER_ON_E3D=1: the tracker takes its intra-matches from E3D's maps and waits for each (--queue),
 # live too; without the filter (whose reorder window a delta waiting for lavapipe's E3D would miss) and the mapper.
 set -euo pipefail
 BIN=$1; SRC=$2; WORK=${3:-$(mktemp -d)}
@@ -22,7 +22,7 @@ run_once() {
   if [ "$ON_E3D" = 1 ]; then
     "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 4 --queue --log-level warn &
     local e3d=$!
-    "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/tracker_on_e3d.yaml" --queue-disparity \
+    "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/tracker_on_e3d.yaml" --queue \
       --log-level warn & pids+=($!)
   else
     "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/tracker.yaml" --log-level warn & pids+=($!)

@@ -136,9 +136,13 @@ void TrackerProcess::drain() {
   // camera skips the pairs it cannot catch up with instead of working through a backlog whose deltas come too
   // late for the filter. Without a backlog this changes nothing: each pair is the only one pending.
   if (const int stale = pairs_.dropStale()) node_.health().dropped("stale_pair", stale);
-  // A bus that never falls silent (a flood) must not hold more than max_pending pairs back.
-  if (node_.inputWaiting() && pairs_.size() < static_cast<size_t>(pairs_.wait().max_pending)) return;
-  while (!pairs_.empty() && pairs_.oldestGoesOn(tracker::priorReady(priors_, pairs_.oldestUtime()))) processOldest();
+  // Read again after each pair (the socket's buffer holds a few pairs only); a bus that never falls silent (a flood)
+  // must not hold more than max_pending pairs back.
+  const auto reads_first = [this]() {
+    return node_.inputWaiting() && pairs_.size() < static_cast<size_t>(pairs_.wait().max_pending);
+  };
+  while (!pairs_.empty() && !reads_first() && pairs_.oldestGoesOn(tracker::priorReady(priors_, pairs_.oldestUtime())))
+    processOldest();
   node_.health().queueLength(static_cast<int>(pairs_.size()));
 }
 

@@ -19,7 +19,7 @@ struct DisparityWait {
   bool enabled = false;
   int every_nth = 1;     // E3D's process/every_nth: the pairs it matches
   int wait_pairs = 2;    // live: newer pairs pending before a pair goes on without its map
-  bool queue = false;    // replay: wait until the map (or a later one) arrives
+  bool queue = false;    // replay: wait until the map (or a later one) arrives, and drop no pair stale
   int max_pending = 64;  // the bound on pairs held in either mode (two images each)
   // Live: a pending pair this much older than the newest pending one is dropped unseen (the tracker fell behind).
   int64_t max_backlog_us = 1'000'000;
