@@ -56,6 +56,18 @@ TEST(Config, ValuesAndErrorsNameFileAndKey) {
   EXPECT_THROW(ips::Config(writeFile("bad.yaml", "%YAML:1.0\n---\na: [1, 2\n")), ips::ConfigError);
 }
 
+// A comment after a string value ends it, as in YAML (OpenCV's reader keeps it as part of the value); a '#' inside
+// a word stays.
+TEST(Config, ACommentAfterAStringIsNotPartOfIt) {
+  ips::Config c(writeFile("comment.yaml",
+                          "%YAML:1.0\n---\ncost: census  # the matching cost\nframe: \"world\" # quoted\n"
+                          "name: cam#2 # a camera\nn: 3 # a number\n"));
+  EXPECT_EQ(c.getString("cost"), "census");
+  EXPECT_EQ(c.getString("frame"), "world");
+  EXPECT_EQ(c.getString("name"), "cam#2");
+  EXPECT_EQ(c.getInt("n"), 3);
+}
+
 // Keys nothing asked for are listed by their full path (through sections too) and refused naming file and key; a
 // sub-tree taken raw (node()) counts as read.
 TEST(Config, UnreadKeysAreNamedAndRefused) {

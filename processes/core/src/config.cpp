@@ -220,11 +220,30 @@ bool Config::getBool(const std::string& key) const {
   return *v;
 }
 
+namespace {
+
+// OpenCV's reader keeps a comment after a plain string (`cost: census  # ...` reads "census  # ..."), where YAML
+// ends the value at a blank followed by '#'. The reader does not tell a quoted value from a plain one, so a blank
+// and '#' end a quoted string too.
+std::string withoutTrailingComment(std::string s) {
+  for (size_t i = 1; i < s.size(); ++i) {
+    if (s[i] == '#' && (s[i - 1] == ' ' || s[i - 1] == '\t')) {
+      s.erase(i);
+      break;
+    }
+  }
+  s.erase(s.find_last_not_of(" \t") + 1);
+  return s;
+}
+
+}  // namespace
+
 std::string Config::getString(const std::string& key) const {
   cv::FileNode n = required(key);
   if (!n.isString()) fail(key, "must be a string");
-  record(key, yamlString(static_cast<std::string>(n)), false);
-  return static_cast<std::string>(n);
+  const std::string value = withoutTrailingComment(static_cast<std::string>(n));
+  record(key, yamlString(value), false);
+  return value;
 }
 
 cv::Mat Config::getMat(const std::string& key) const {

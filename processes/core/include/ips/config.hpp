@@ -30,6 +30,7 @@ class Config {
   double getDouble(const std::string& key) const;
   int getInt(const std::string& key) const;
   bool getBool(const std::string& key) const;
+  // Without a trailing comment ("census  # the cost" reads "census"; a blank and '#' end a quoted value too).
   std::string getString(const std::string& key) const;
   cv::Mat getMat(const std::string& key) const;
   // A matrix of exactly rows x cols (written either as !!opencv-matrix or as a flat sequence).
