@@ -8,6 +8,9 @@
 #include <string>
 #include <vector>
 
+#include "ips/calibration.hpp"
+#include "ips/eval/run_report.hpp"
+
 namespace ips::report {
 
 // A JSON array of numbers with `digits` significant digits (non-finite values as null).
@@ -27,9 +30,6 @@ cv::Mat colourMapped(const cv::Mat& values, double vmin, double vmax, int colorm
 std::string colourBarDataUri(int colormap);
 // "#rrggbb" of a BGR colour, for the page's legend swatches.
 std::string cssColour(const cv::Scalar& bgr);
-
-// Evenly spaced indices into a series of n samples, at most `max_samples` of them, the last sample included.
-std::vector<size_t> subsample(size_t n, size_t max_samples);
 
 // The page's disparity pictures: maps on OpenCV's TURBO colour map, the error on INFERNO, and the colours of the
 // pixels they cannot show.
@@ -69,5 +69,25 @@ std::string mapJson(const std::vector<Eigen::Vector3d>& points, const std::vecto
 
 void writePage(const std::string& template_path, const std::vector<PageScript>& scripts, const std::string& data_json,
                const std::string& out_path);
+
+// The page's disparity examples: `want` maps spread over the run (among those with a truth, else all), each beside
+// its rectified left image (from the input log's STEREO pairs, rectified with `calib`), its truth and its error map;
+// the middle one triangulated into the 3D view's cloud. Pairs of another size or invalid are counted in `bad`; a
+// damaged input log is named in `failures`.
+struct DisparityExamples {
+  std::vector<std::string> examples;  // JSON objects, by seq
+  std::string cloud = "null";
+  int64_t bad = 0;
+};
+DisparityExamples disparityExamples(const std::string& input_log, const ips::StereoCalibration& calib,
+                                    const ips::eval::RunLog& log, const std::vector<ips::eval::DisparityScore>& scores,
+                                    int want, double t0, std::vector<std::string>& failures);
+
+// Everything the page draws, as its JSON data: report.json's figures, the trajectories (the truth, each filter on the
+// truth, the tracker's chain), the filters' errors with their bounds, the tracker's matches, the processes' latency,
+// the disparity examples, the cloud and the map (`map_json`, "null" where none).
+std::string pageData(const ips::eval::Json& report, const std::string& run, double t0, const ips::eval::RunLog& log,
+                     const ips::eval::FiltersSection& filters, const ips::eval::EstimatorsSection& estimators,
+                     const DisparityExamples& examples, const std::string& map_json);
 
 }  // namespace ips::report

@@ -8,6 +8,8 @@
 #include <ips/filter_state_t.hpp>
 #include <ips/health_t.hpp>
 #include <ips/point_cloud_t.hpp>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "ips/framework/log_writer.hpp"
@@ -74,6 +76,22 @@ inline ips::health_t sampleHealth(int64_t utime = 1000) {
   m.counter_names = {"bad", "nan"};
   m.counter_values = {3, 1};
   return m;
+}
+
+// A process's health at `utime` (100 inputs received) with these counters, as a run's recording holds it.
+inline ips::health_t healthWithCounters(int64_t utime, const std::string& process,
+                                        const std::vector<std::pair<std::string, int64_t>>& counters) {
+  ips::health_t h{};
+  h.utime = utime;
+  h.process = process;
+  h.host = "test";
+  h.received = 100;
+  for (const auto& [name, value] : counters) {
+    h.counter_names.push_back(name);
+    h.counter_values.push_back(value);
+  }
+  h.num_counters = static_cast<int32_t>(counters.size());
+  return h;
 }
 
 inline ips::point_cloud_t samplePointCloud(int64_t utime = 1000) {
