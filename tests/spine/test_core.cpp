@@ -144,6 +144,17 @@ TEST(Config, InputsThatBrokeOpenCvsReaderAreConfigErrors) {
   EXPECT_THROW(ips::Config(IPS_SOURCE_DIR "/tests/fuzz/corpus/fuzz_config/opencv_length_error.yaml"), ips::ConfigError);
   EXPECT_THROW(ips::Config(IPS_SOURCE_DIR "/tests/fuzz/corpus/fuzz_config/opencv_hang_21_bytes.yaml"),
                ips::ConfigError);
+  // cv::FileStorage loops forever on a second document after an indented map (" s: 1", "---", "-:"): refused first.
+  const std::string second = IPS_SOURCE_DIR "/tests/fuzz/corpus/fuzz_config/opencv_hang_second_document.yaml";
+  try {
+    ips::Config c(second);
+    FAIL() << "a second document was accepted";
+  } catch (const ips::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(second + ":3: not valid YAML here: a second document"), std::string::npos)
+        << e.what();
+  }
+  // A file as OpenCV writes it (its header, then "---") is one document.
+  EXPECT_NO_THROW(ips::Config(writeFile("opencv_header.yaml", "%YAML:1.0\n---\na: 1\n")));
 }
 
 TEST(Config, NonFiniteNumbersAreErrorsNamingTheKey) {
