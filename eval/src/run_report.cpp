@@ -46,20 +46,6 @@ bool decode(const ips::fw::LogMessage& e, Msg* m) {
   return m->decode(e.data.data(), 0, static_cast<int>(e.data.size())) >= 0;
 }
 
-// Calls fn for every message of the LCM log at `path`, in order. A damaged log ends the reading there and is
-// recorded in `failures` (what was read before still counts). Returns the messages read.
-template <class Fn>
-int64_t forEachMessage(const std::string& path, std::vector<std::string>& failures, Fn fn) {
-  ips::fw::LogReader reader(path);
-  ips::fw::LogMessage m;
-  try {
-    while (reader.next(&m)) fn(m);
-  } catch (const ips::fw::LogError& err) {
-    failures.push_back(err.what());
-  }
-  return reader.events();
-}
-
 TrajPoint toPoint(int64_t utime, const double* p, const double* q) {
   TrajPoint t;
   t.t = utime * 1e-6;

@@ -25,8 +25,6 @@ namespace {
 
 // The map on the page: every voxel up to this many (a building's map of a few 100 000 voxels is thinned evenly).
 constexpr size_t kMaxMapPagePoints = 120000;
-// The filters' errors over time as the page draws them.
-constexpr size_t kMaxPageErrorSamples = 2000;
 
 std::vector<std::string> splitList(const std::string& text) {
   std::vector<std::string> items;
@@ -149,7 +147,8 @@ int main(int argc, char** argv) {
 
     const double t0 = ev::pageStartTime(log);  // the page's time axis
     ev::Json report = ev::overviewSection(log);
-    const ev::FiltersSection filters = ev::filtersSection(log, truth_calib, ran_on, t0, kMaxPageErrorSamples);
+    const ev::FiltersSection filters =
+        ev::filtersSection(log, truth_calib, ran_on, t0, ips::report::kMaxPageErrorSamples);
     report.update(filters.json);
     for (const auto& f : filters.results) {
       writeNees(out + "/nees_" + f.channel + ".tsv", f.channel, f.errors);

@@ -16,7 +16,6 @@
 #include "ips/eval/disparity.hpp"
 #include "ips/eval/run_report.hpp"
 #include "ips/framework/image.hpp"
-#include "ips/framework/log_reader.hpp"
 #include "ips/framework/validate.hpp"
 
 namespace ips::report {
@@ -26,7 +25,6 @@ namespace {
 // What the page draws per series: enough for a line that looks continuous at a screen's width (a few thousand
 // pixels), few enough that the self-contained page stays a few megabytes for a run of hours.
 constexpr size_t kMaxPageTrajectoryPoints = 3000;
-constexpr size_t kMaxPageErrorSamples = 2000;
 // The 3D view's point cloud (one disparity map triangulated): enough to see the scene's surfaces, few enough to
 // rotate smoothly in a laptop's browser.
 constexpr size_t kMaxCloudPoints = 40000;
@@ -224,52 +222,46 @@ DisparityExamples disparityExamples(const std::string& input_log, const ips::Ste
   std::map<int64_t, const ips::eval::DisparityScore*> score_of;
   for (const auto& sc : scores) score_of[sc.seq] = &sc;
   std::map<int64_t, std::string> examples;  // by seq, in order
-  ips::fw::LogReader reader(input_log);
-  ips::fw::LogMessage im;
-  try {
-    while (reader.next(&im)) {
-      if (im.channel != "STEREO") continue;
-      ips::stereo_pair_t p;
-      if (p.decode(im.data.data(), 0, static_cast<int>(im.data.size())) < 0 || !pick.count(p.seq) ||
-          !log.est_disp.count(p.utime) || examples.count(p.seq))
-        continue;
-      if (!ips::fw::validate(p).ok() || p.width != calib.cam0.width || p.height != calib.cam0.height) {
-        ++out.bad;
-        continue;
-      }
-      cv::Mat r0, r1;
-      ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
-      const ips::disparity_map_t& dm = log.est_disp.at(p.utime);
-      // The page draws values below zero as "none".
-      cv::Mat d = ips::fw::disparityImage(dm);
-      cv::patchNaNs(d, -1.0);
-      cv::resize(r0, r0, d.size(), 0, 0, cv::INTER_AREA);
-      cv::Mat truth;
-      if (const auto g = log.gt_disp.find(p.utime); g != log.gt_disp.end()) {  // at the map's scale, as scored
-        truth = ips::eval::truthAtSize(ips::fw::disparityImage(g->second), d.size());
-        cv::patchNaNs(truth, -1.0);
-      }
-      ips::eval::Json fields;
-      fields["seq"] = p.seq;
-      fields["t"] = ips::eval::figure(p.utime * 1e-6 - t0);
-      if (score_of.count(p.seq)) {
-        const ips::eval::DisparityScore& sc = *score_of[p.seq];
-        fields["bad2_pct"] = ips::eval::figure(sc.bad2_pct);
-        fields["density_pct"] = ips::eval::figure(sc.density_pct);
-        fields["evaluated"] = sc.evaluated;
-      }
-      // disparityExampleJson takes its extra members each with a leading ", ".
-      std::string members = fields.dump();
-      members = ", " + members.substr(1, members.size() - 2);
-      examples[p.seq] = disparityExampleJson(r0, d, truth, dm.min_disparity, dm.min_disparity + dm.num_disparities,
-                                             2 * ips::eval::kBadDisparityPx, members);
-      if (p.seq == cloud_seq && dm.focal_px > 0 && dm.baseline_m > 0)
-        out.cloud = pointCloudJson(d, r0, dm.focal_px, dm.cx, dm.cy, dm.baseline_m, kMaxCloudPoints,
-                                   kMinCloudDisparityPx, p.seq);
+  ips::eval::forEachMessage(input_log, failures, [&](const ips::fw::LogMessage& im) {
+    if (im.channel != "STEREO") return;
+    ips::stereo_pair_t p;
+    if (p.decode(im.data.data(), 0, static_cast<int>(im.data.size())) < 0 || !pick.count(p.seq) ||
+        !log.est_disp.count(p.utime) || examples.count(p.seq))
+      return;
+    if (!ips::fw::validate(p).ok() || p.width != calib.cam0.width || p.height != calib.cam0.height) {
+      ++out.bad;
+      return;
     }
-  } catch (const ips::fw::LogError& err) {
-    failures.push_back(err.what());
-  }
+    cv::Mat r0, r1;
+    ips::rectifyPair(rect, ips::fw::leftImage(p), ips::fw::rightImage(p), r0, r1);
+    const ips::disparity_map_t& dm = log.est_disp.at(p.utime);
+    // The page draws values below zero as "none".
+    cv::Mat d = ips::fw::disparityImage(dm);
+    cv::patchNaNs(d, -1.0);
+    cv::resize(r0, r0, d.size(), 0, 0, cv::INTER_AREA);
+    cv::Mat truth;
+    if (const auto g = log.gt_disp.find(p.utime); g != log.gt_disp.end()) {  // at the map's scale, as scored
+      truth = ips::eval::truthAtSize(ips::fw::disparityImage(g->second), d.size());
+      cv::patchNaNs(truth, -1.0);
+    }
+    ips::eval::Json fields;
+    fields["seq"] = p.seq;
+    fields["t"] = ips::eval::figure(p.utime * 1e-6 - t0);
+    if (score_of.count(p.seq)) {
+      const ips::eval::DisparityScore& sc = *score_of[p.seq];
+      fields["bad2_pct"] = ips::eval::figure(sc.bad2_pct);
+      fields["density_pct"] = ips::eval::figure(sc.density_pct);
+      fields["evaluated"] = sc.evaluated;
+    }
+    // disparityExampleJson takes its extra members each with a leading ", ".
+    std::string members = fields.dump();
+    members = ", " + members.substr(1, members.size() - 2);
+    examples[p.seq] = disparityExampleJson(r0, d, truth, dm.min_disparity, dm.min_disparity + dm.num_disparities,
+                                           2 * ips::eval::kBadDisparityPx, members);
+    if (p.seq == cloud_seq && dm.focal_px > 0 && dm.baseline_m > 0)
+      out.cloud =
+          pointCloudJson(d, r0, dm.focal_px, dm.cx, dm.cy, dm.baseline_m, kMaxCloudPoints, kMinCloudDisparityPx, p.seq);
+  });
   for (const auto& kv : examples) out.examples.push_back(kv.second);
   return out;
 }

@@ -13,6 +13,10 @@
 
 namespace ips::report {
 
+// The samples the page draws of a series over time (a filter's errors, the tracker's matches, a process's latency):
+// enough for a line that looks continuous at a screen's width, few enough that the page stays a few megabytes.
+constexpr size_t kMaxPageErrorSamples = 2000;
+
 // A JSON array of numbers with `digits` significant digits (non-finite values as null).
 std::string jsonArray(const std::vector<double>& values, int digits = 6);
 // A JSON string literal.

@@ -19,6 +19,7 @@
 
 #include "ips/calibration.hpp"
 #include "ips/eval/trajectory.hpp"
+#include "ips/framework/log_reader.hpp"
 
 namespace ips::sim {
 class World;
@@ -80,6 +81,20 @@ struct RunLog {
   int64_t bad_messages = 0;                           // undecodable, invalid or out of order
   int64_t events = 0;
 };
+
+// Calls fn for every message of the LCM log at `path`, in order. A damaged log ends the reading there and is
+// recorded in `failures` (what was read before still counts). Returns the messages read.
+template <class Fn>
+int64_t forEachMessage(const std::string& path, std::vector<std::string>& failures, Fn fn) {
+  ips::fw::LogReader reader(path);
+  ips::fw::LogMessage m;
+  try {
+    while (reader.next(&m)) fn(m);
+  } catch (const ips::fw::LogError& err) {
+    failures.push_back(err.what());
+  }
+  return reader.events();
+}
 
 // The recorders' files, each a list of parts in order (lcm-logger -i starts FILE.00, then FILE.01 when restarted).
 struct RunLogFiles {
