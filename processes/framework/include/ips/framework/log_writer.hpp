@@ -1,6 +1,7 @@
 #pragma once
 // Writes an LCM log (lcm-logger's format): the simulator's walk, a converted recording, test logs. A failed write
 // throws LogError naming the file, so that no tool leaves a half-written log behind without saying so.
+#include <cstdio>
 #include <lcm/lcm-cpp.hpp>
 #include <string>
 #include <vector>
@@ -35,6 +36,10 @@ class LogWriter {
   template <class Msg>
   void write(const std::string& channel, int64_t utime, const Msg& m) {
     write(channel, utime, encodeMessage(m));
+  }
+  // Hands what is buffered to the kernel, so that a process killed later leaves every event written so far.
+  void flush() {
+    if (std::fflush(log_.getFilePtr()) != 0) throw LogError(path_ + ": writing the LCM log failed (disk full?)");
   }
   int64_t events() const { return events_; }
 
