@@ -167,3 +167,31 @@ TEST(RunReport, TrackerIncrementsAreChainedAndABreakIsNamed) {
   ASSERT_EQ(s.warnings.size(), 1u);
   EXPECT_NE(s.warnings[0].find("the chain breaks 1 times in 99"), std::string::npos) << s.warnings[0];
 }
+
+// A disturbed run's counters and states, each just over or under the line at which the report names it: a filter
+// that fused 80 of 100 valid deltas is named, one that fused 95 is not; a tracker that dropped 3 of its 100 pairs
+// stale is named, its 4 pairs lost on the bus (under 5 %) are not; a recording without 2 of the states a filter
+// published, and a position sigma that rose fivefold within a second, are named with the time.
+TEST(RunReport, DisturbancesNameUnfusedDeltasStalePairsMissingStatesAndJumps) {
+  ev::RunLog log;
+  log.deltas = log.deltas_valid = 100;
+  log.procs["filter"].last = health(
+      "filter",
+      {{"image_accepted", 50}, {"tracker_accepted", 80}, {"tracker_too_late", 15}, {"published_FILTER_STATE", 12}});
+  log.procs["filter_ukf"].last =
+      health("filter_ukf", {{"image_accepted", 50}, {"tracker_accepted", 95}, {"published_FILTER_STATE_UKF", 21}});
+  log.procs["tracker"].last = health("tracker", {{"stale_pair", 3}, {"stereo_seq_gap", 4}});
+  log.runs.push_back({"FILTER_STATE", 0, {}});
+  for (int i = 0; i < 10; ++i) log.runs[0].states.push_back(state(1'000'000 + 100'000 * i, 0.1 * i, 0.01));
+  log.runs.push_back({"FILTER_STATE_UKF", 0, {}});
+  for (int i = 0; i <= 20; ++i)
+    log.runs[1].states.push_back(state(1'000'000 + 100'000 * i, 0.1 * i, i < 10 ? 0.01 : 0.05));
+  const std::vector<std::string> d = ev::disturbances(log);
+  const std::vector<std::string> expected = {
+      "filter: fused 80 of 100 valid tracker deltas (15 too late)",
+      "tracker: dropped 3 of 100 pairs it fell behind on (stale_pair)",
+      "FILTER_STATE: the recording holds 10 of the 12 states filter published",
+      "FILTER_STATE_UKF: position sigma rose from 0.017 to 0.087 m within a second, at t=1.0 s of its states"};
+  EXPECT_EQ(d, expected);
+  EXPECT_EQ(ev::runStatus({}, d), "disturbed");
+}
