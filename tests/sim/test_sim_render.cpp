@@ -10,7 +10,7 @@
 
 #include "ips/calibration.hpp"
 #include "ips/shared_data_test.hpp"
-#include "ips/sim/renderer.hpp"
+#include "ips/sim/stereo_renderer.hpp"
 
 using namespace ips::sim;
 

@@ -4,7 +4,7 @@
 #include <opencv2/core.hpp>
 
 #include "ips/polar_rectification.hpp"
-#include "ips/sim/renderer.hpp"
+#include "ips/sim/stereo_renderer.hpp"
 
 namespace ips::sim {
 

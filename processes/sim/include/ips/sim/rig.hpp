@@ -2,7 +2,7 @@
 // The simulated head in its world on its trajectory, ready to render: what a simulation draws its pairs and truth
 // from. Evaluations and tests that need rendered pairs and true poses but not the sensor streams build one of these;
 // Simulation adds the IMU, the tilt sensor and the arrival order.
-#include "ips/sim/renderer.hpp"
+#include "ips/sim/stereo_renderer.hpp"
 #include "ips/sim/scenario.hpp"
 #include "ips/sim/sensors.hpp"
 #include "ips/sim/trajectory.hpp"

@@ -43,6 +43,14 @@ class Rng {
   bool has_spare_ = false;
 };
 
+// The sum of four 16-bit uniforms minus its mean (Irwin-Hall): a pixel's noise before scaling, from its row's stream
+// (a stream's state, advanced as Rng::next does). Variance 4 * (65536^2 - 1) / 12.
+inline float irwinHall4(uint64_t& state) {
+  state += 0x9e3779b97f4a7c15ULL;
+  const uint64_t r = mix64(state);
+  return static_cast<float>((r & 0xffff) + ((r >> 16) & 0xffff) + ((r >> 32) & 0xffff) + (r >> 48)) - 2.0f * 65535.0f;
+}
+
 // Purposes of the random streams of one scenario.
 enum RngStream : uint64_t {
   kStreamHead = 1,
