@@ -2,9 +2,10 @@
 # The filters on a real IMU: EuRoC MH_01 frames 0-149 (the ADIS16448 at 200 Hz, the head carried over a pallet) through
 # dataset_to_lcm and navigate_log (the tracker steered by the EKF's predictions, the UKF beside it: the main job's
 # navigation without the bus), scored by ips_report against the official ground truth. Both filters must start at
-# the first frames from the tracker's deltas (the head moves from the start), fuse every delta, and stay as accurate
-# as the tracker alone: before the start from the deltas, the filters began a second late and their heading ran off
-# with the gyro's 0.08 rad/s turn-on bias. Skips (77) when ../shared/data is missing.
+# the first frames from the tracker's deltas (the head moves from the start), fuse every delta, and be more accurate
+# than the tracker alone (the IMU gives the scale of its steps): before the start from the deltas, the filters began
+# a second late and their heading ran off with the gyro's 0.08 rad/s turn-on bias. Skips (77) when ../shared/data is
+# missing.
 set -euo pipefail
 BIN=$1 SRC=$2 DATA=$3
 IN=$DATA/euroc/MH_01_easy_first150
@@ -33,15 +34,16 @@ for name in ('ekf', 'ukf'):
     # covered 1.5 m.
     ok = ok and e['distance_m'] > 0.97 * tracker['distance_m']
     ok = ok and accepted >= 148 and rejected == 0 and late == 0
-    # Measured (published in the start frame, config/filter_recording.yaml): ATE 3.77 mm beside the tracker's 3.92,
-    # end error 0.23 % beside 0.17 %; in the world frame the level learnt on the way bends the path: 0.32 %. Bounds
-    # with a margin for the arithmetic of another machine.
-    ok = ok and e['ate_rmse_m'] <= 1.1 * tracker['ate_rmse_m'] and e['end_error_pct'] <= 0.30
+    # Measured (published in the start frame, config/filter_recording.yaml, the tracker's scale learnt from the IMU):
+    # ATE 3.51 mm beside the tracker's 3.92, end error 0.15 % beside 0.17 %; without the scale state 3.77 mm and
+    # 0.23 % (the tracker's steps are 0.9 % short, and the filter's path was too). Bounds with a margin for the
+    # arithmetic of another machine.
+    ok = ok and e['ate_rmse_m'] <= 0.95 * tracker['ate_rmse_m'] and e['end_error_pct'] <= tracker['end_error_pct']
 for f in r['filters']:
     # The same judged by the filter's whole first pose (the start frame's roll and pitch are the start's).
     print(f"{f['filter']}: end error {f['end_error_pct']:.3f} %, tilt {f['tilt_error_start_mrad']:.1f} -> "
           f"{f['tilt_error_end_mrad']:.1f} mrad")
-    ok = ok and f['end_error_pct'] <= 0.30
+    ok = ok and f['end_error_pct'] <= 0.20
 sys.exit(0 if ok else 1)
 PY
 echo "PASS: both filters fuse the real IMU from the first frames"
