@@ -84,7 +84,7 @@ TEST(SimCameraEffects, MotionBlurMatchesTheMeanOfRenderingsOverTheExposure) {
   auto renderAt = [&](double time) {
     cv::Mat radiance;
     scene.render(view, rig.head.cam0InWorld(rig.trajectory.pose(time)), &radiance, nullptr);
-    return cv::Mat(radiance * rig.renderer.gain(0));
+    return cv::Mat(radiance * rig.renderer.camera().gain(0));
   };
   auto meanOver = [&](int samples) {
     cv::Mat mean = cv::Mat::zeros(view.height, view.width, CV_32F);
@@ -171,16 +171,16 @@ TEST(SimCameraEffects, FramesAreLostAtTheConfiguredRateAndLeaveAGap) {
   const Rig rig(sc);
   int lost = 0;
   const int n = 4000;
-  for (int64_t k = 0; k < n; ++k) lost += rig.renderer.frameLost(k) ? 1 : 0;
+  for (int64_t k = 0; k < n; ++k) lost += rig.renderer.camera().frameLost(k) ? 1 : 0;
   // Binomial: 200 expected, sigma 14.
   EXPECT_NEAR(lost, 0.05 * n, 4 * std::sqrt(n * 0.05 * 0.95));
   int64_t k = 0;
-  while (!rig.renderer.frameLost(k)) ++k;
+  while (!rig.renderer.camera().frameLost(k)) ++k;
   const StereoFrame f = rig.renderer.render(k);
   EXPECT_TRUE(f.lost);
   EXPECT_TRUE(f.left.empty());
   // Without losses configured none is lost, and the stamps (jitter) do not depend on the setting.
   const Rig none(Scenario::defaults());
-  EXPECT_FALSE(none.renderer.frameLost(k));
+  EXPECT_FALSE(none.renderer.camera().frameLost(k));
   EXPECT_EQ(none.renderer.render(k).utime_stamp, f.utime_stamp);
 }

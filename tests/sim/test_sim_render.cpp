@@ -76,7 +76,7 @@ Residual photometric(const cv::Mat& rl, const cv::Mat& rr, const cv::Mat& dl, co
 
 TEST(SimRender, RectifiedPairAgreesWithGroundTruthDisparity) {
   Fixture& f = fixture();
-  const float gain_ratio = f.renderer->gain(0) / f.renderer->gain(1);
+  const float gain_ratio = f.renderer->camera().gain(0) / f.renderer->camera().gain(1);
   // Noise of the difference of two pixels: sqrt(2) sigma; |N(0, s)| has median 0.674 s.
   const double noise_median = 0.674 * std::sqrt(2.0) * f.sc.camera.noise_sigma;
   for (int64_t k : {40, 112}) {  // in the corridor; turning into the room
@@ -116,7 +116,7 @@ TEST(SimRender, RectifiedLeftMatchesPinholeRendering) {
   cv::Mat diff;
   cv::Mat rl32;
   rl.convertTo(rl32, CV_32F);
-  cv::absdiff(rl32, radiance * f.renderer->gain(0), diff);
+  cv::absdiff(rl32, radiance * f.renderer->camera().gain(0), diff);
   const cv::Rect inner(24, 24, diff.cols - 48, diff.rows - 48);
   const cv::Mat roi = diff(inner).clone();
   std::vector<float> v(roi.begin<float>(), roi.end<float>());

@@ -255,7 +255,7 @@ TEST(SimPeople, MotionBlurFollowsTheirMotion) {
   for (int j = 0; j < n; ++j) {
     const double t_sub = t + exposure_s * ((j + 0.5) / n - 0.5);
     scene.render(view, rig.head.cam0InWorld(rig.trajectory.pose(t_sub)), t_sub, &radiance, nullptr);
-    reference += radiance * rig.renderer.gain(0) / n;
+    reference += radiance * rig.renderer.camera().gain(0) / n;
   }
   reference = cv::min(reference, 255.0);
   cv::Mat blurred;

@@ -50,18 +50,12 @@ FrameTimes CameraModel::times(int64_t k) const {
   const CameraFigures& cf = scenario_.camera;
   FrameTimes f;
   f.utime_true = sampleUtime(scenario_.start_utime, k, cf.rate_hz);
+  // The stamp's jitter first, then the loss (so that the stamps stay as they are without losses).
   Rng rng(streamSeed(scenario_.seed, kStreamCamera, static_cast<uint64_t>(k)));
   f.utime_stamp = f.utime_true + std::llround(cf.stamp_offset_us + cf.jitter_us * rng.normal());
   f.utime_arrival = f.utime_true + std::llround(cf.latency_us);
+  f.lost = cf.frame_loss > 0 && rng.uniform() < cf.frame_loss;
   return f;
-}
-
-bool CameraModel::frameLost(int64_t k) const {
-  if (!(scenario_.camera.frame_loss > 0)) return false;
-  // The frame's own camera stream, after its stamp jitter's draw (which stays as it was without losses).
-  Rng rng(streamSeed(scenario_.seed, kStreamCamera, static_cast<uint64_t>(k)));
-  rng.normal();
-  return rng.uniform() < scenario_.camera.frame_loss;
 }
 
 double CameraModel::meteredGrey(const cv::Mat& radiance, int camera) const {

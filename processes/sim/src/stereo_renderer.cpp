@@ -98,23 +98,20 @@ StereoFrame StereoRenderer::render(int64_t k, bool with_gt_disparity) const {
   frame.utime_true = times.utime_true;
   frame.utime_stamp = times.utime_stamp;
   frame.utime_arrival = times.utime_arrival;
-  const CameraFigures& cf = scenario_.camera;
-  frame.lost = camera_.frameLost(k);
+  frame.lost = times.lost;
   if (frame.lost) return frame;
+  const CameraFigures& cf = scenario_.camera;
   const double t = (frame.utime_true - scenario_.start_utime) * 1e-6;
+  for (int c = 0; c < 2; ++c) {
+    const Exposure e = camera_.effects() ? exposureFor(k, c) : camera_.reference();
+    frame.exposure_us[c] = e.exposure_us;
+    frame.gain_db[c] = (c == 0 ? cf.gain_left_db : cf.gain_right_db) + 20.0 * std::log10(e.gain);
+    if (camera_.effects()) renderWithEffects(k, c, t, e, c == 0 ? frame.left : frame.right, &frame.blur_samples[c]);
+  }
   if (camera_.effects()) {
-    for (int c = 0; c < 2; ++c) {
-      const Exposure e = exposureFor(k, c);
-      frame.exposure_us[c] = e.exposure_us;
-      frame.gain_db[c] = (c == 0 ? cf.gain_left_db : cf.gain_right_db) + 20.0 * std::log10(e.gain);
-      renderWithEffects(k, c, t, e, c == 0 ? frame.left : frame.right, &frame.blur_samples[c]);
-    }
     if (with_gt_disparity) frame.gt_disparity = disparityFromDepth(rectifiedDepth(t, 0));
     return frame;
   }
-  frame.exposure_us[0] = frame.exposure_us[1] = cf.exposure_us;
-  frame.gain_db[0] = cf.gain_left_db;
-  frame.gain_db[1] = cf.gain_right_db;
   const Eigen::Isometry3d T_world_imu = trajectory_.pose(t);
   const std::vector<Quad> people = world_.peopleAt(t);
   const std::vector<SceneRenderer::CamQuad> quads[2] = {scene_.prepare(head_.cam0InWorld(T_world_imu), &people),

@@ -20,11 +20,12 @@ struct Exposure {
   double gain = 1;  // linear, on top of the camera's fixed gain
 };
 
-// When frame k happened, what its stamp says, and when it arrives.
+// When frame k happened, what its stamp says, when it arrives, and whether it arrives at all.
 struct FrameTimes {
   int64_t utime_true = 0;     // exposure mid-time
   int64_t utime_stamp = 0;    // with the camera's stamp offset and jitter
   int64_t utime_arrival = 0;  // delivered after the camera's latency
+  bool lost = false;          // dropped on the way (camera/frame_loss)
 };
 
 class CameraModel {
@@ -32,9 +33,9 @@ class CameraModel {
   // Cameras 0 and 1 of the head (their true lenses) with the scenario's camera figures.
   CameraModel(const Scenario& scenario, const SensorHead& head);
 
+  // Frame k's times and loss, from the frame's own camera stream (independent per frame).
   FrameTimes times(int64_t k) const;
-  // Whether frame k is lost on the way (camera/frame_loss; independent per frame, from the frame's seed).
-  bool frameLost(int64_t k) const;
+  bool frameLost(int64_t k) const { return times(k).lost; }
   // Every pixel's ray through camera 0's or 1's lens: what the scene renderer draws for it.
   const View& view(int camera) const { return raw_[camera]; }
   float gain(int camera) const { return gain_[camera]; }  // the fixed gain, linear

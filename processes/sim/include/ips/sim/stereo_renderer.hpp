@@ -44,8 +44,6 @@ class StereoRenderer {
 
   const StereoRectification& rectification() const { return rect_; }
   const CameraModel& camera() const { return camera_; }
-  float gain(int camera) const { return camera_.gain(camera); }
-  bool frameLost(int64_t k) const { return camera_.frameLost(k); }
   // The exposure camera 0 or 1 uses for frame k: the configured one, or with auto exposure the one that brings the
   // camera's image k-1 to the target grey (a function of k alone, so frames still render in any order).
   Exposure exposureFor(int64_t k, int camera) const;
