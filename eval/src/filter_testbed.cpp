@@ -29,16 +29,9 @@ StereoCalibration testbedCalibration() {
   return c;
 }
 
-filter::NavState navStateOf(const sim::GroundTruth& g) {
+filter::NavState navStateOf(const InertialState& g) {
   filter::NavState n;
-  n.utime = g.utime;
-  n.position = g.position;
-  n.velocity = g.velocity;
-  n.acceleration = g.acceleration;
-  n.orientation = g.orientation;
-  n.angular_rate = g.angular_rate;
-  n.gyro_bias = g.gyro_bias;
-  n.accel_bias = g.accel_bias;
+  static_cast<InertialState&>(n) = g;
   return n;
 }
 
@@ -50,14 +43,9 @@ Eigen::Vector3d SensorSim::noise3() {
 }
 
 NavState SensorSim::truth(int64_t utime) const {
-  const TruthSample s = walk_.at(utime * 1e-6);
   NavState n;
+  static_cast<KinematicState&>(n) = walk_.at(utime * 1e-6);
   n.utime = utime;
-  n.position = s.p;
-  n.velocity = s.v;
-  n.acceleration = s.a;
-  n.orientation = s.q;
-  n.angular_rate = s.w;
   n.gyro_bias = p_.gyro_bias;
   n.accel_bias = p_.accel_bias;
   return n;
@@ -71,21 +59,22 @@ NavState SensorSim::sampleAround(const NavState& truth, const Matrix21d& P) {
 }
 
 ImuSample SensorSim::imu(int64_t utime) {
-  const TruthSample s = walk_.at(utime * 1e-6);
+  const KinematicState s = walk_.at(utime * 1e-6);
   ImuSample m;
   m.utime = utime;
   const double sg = p_.gyro_noise_density * std::sqrt(p_.imu_rate_hz);
   const double sa = p_.accel_noise_density * std::sqrt(p_.imu_rate_hz);
-  m.angular_rate = s.w + p_.gyro_bias + sg * noise3();
-  m.specific_force = s.q.conjugate() * (s.a + Eigen::Vector3d(0, 0, p_.gravity)) + p_.accel_bias + sa * noise3();
+  m.angular_rate = s.angular_rate + p_.gyro_bias + sg * noise3();
+  m.specific_force = s.specificForce(p_.gravity) + p_.accel_bias + sa * noise3();
   return m;
 }
 
 TiltSample SensorSim::tilt(int64_t utime) {
-  const TruthSample s = walk_.at(utime * 1e-6);
+  const KinematicState s = walk_.at(utime * 1e-6);
   const Eigen::Matrix3d R_body_tilt = calib_.T_imu_cam0.linear() * calib_.R_tilt_cam0.transpose();
   // An accelerometer-type inclinometer: it senses the specific force (no response lag modelled here).
-  const Eigen::Vector2d z = TiltMeasurement::predict(s.q, R_body_tilt, s.a + Eigen::Vector3d(0, 0, p_.gravity));
+  const Eigen::Vector2d z =
+      TiltMeasurement::predict(s.orientation, R_body_tilt, s.acceleration + Eigen::Vector3d(0, 0, p_.gravity));
   TiltSample m;
   m.utime = utime;
   m.angle_x = z.x() + p_.tilt_offset.x() + p_.tilt_sigma * n01_(rng_);
@@ -94,10 +83,10 @@ TiltSample SensorSim::tilt(int64_t utime) {
 }
 
 TrackerDelta SensorSim::delta(int64_t utime_prev, int64_t utime) {
-  const TruthSample s0 = walk_.at(utime_prev * 1e-6), s1 = walk_.at(utime * 1e-6);
+  const KinematicState s0 = walk_.at(utime_prev * 1e-6), s1 = walk_.at(utime * 1e-6);
   PoseClone c0, c1;
-  c0.position = s0.p, c0.orientation = s0.q;
-  c1.position = s1.p, c1.orientation = s1.q;
+  c0.position = s0.position, c0.orientation = s0.orientation;
+  c1.position = s1.position, c1.orientation = s1.orientation;
   const Eigen::Isometry3d T = DeltaMeasurement::predict(c0, c1, calib_.T_imu_cam0);
   TrackerDelta d;
   d.utime = utime;

@@ -10,6 +10,7 @@
 
 namespace fs = std::filesystem;
 using namespace ips::dataset;
+using ips::InertialState;
 
 namespace {
 
@@ -81,7 +82,7 @@ TEST(DatasetKitti, FramesStampsCalibrationAndPosesMatchTheFiles) {
   EXPECT_TRUE(r.calib.T_imu_cam0.isApprox(Eigen::Isometry3d::Identity()));
   // poses/06.txt row 1 (frame 1): t = (-0.01401751, -0.02820321, 1.198998), kept with one sample before.
   ASSERT_GE(r.ground_truth.size(), 5u);
-  const GroundTruthPose& g1 = r.ground_truth[1];
+  const InertialState& g1 = r.ground_truth[1];
   EXPECT_EQ(g1.utime, r.frames[0].utime);
   EXPECT_NEAR(g1.position.x(), -1.401751e-02, 1e-9);
   EXPECT_NEAR(g1.position.z(), 1.198998, 1e-9);
@@ -151,7 +152,7 @@ TEST(DatasetEuroc, ImuAndStateGroundTruthOfV101) {
   // The official TUM file starts a second after these frames; the re-estimated csv covers them, with biases.
   EXPECT_NE(r.ground_truth_source.find("vicon2gt"), std::string::npos);
   ASSERT_FALSE(r.ground_truth.empty());
-  EXPECT_TRUE(r.ground_truth.front().has_state);
+  EXPECT_TRUE(r.ground_truth_has_state);
   EXPECT_DOUBLE_EQ(r.ground_truth.front().gyro_bias.z(), 0.0770299);
 }
 
@@ -318,7 +319,7 @@ TEST(DatasetKittiRaw, DriveLayoutCalibrationOxtsPosesAndInertialFields) {
   const Eigen::Vector3d origin = fx.body_in_world[0].translation();
   for (size_t i = 0; i < r.ground_truth.size(); ++i) {
     const size_t k = i + 1;
-    const GroundTruthPose& g = r.ground_truth[i];
+    const InertialState& g = r.ground_truth[i];
     EXPECT_LT((g.position - (fx.body_in_world[k].translation() - origin)).norm(), 1e-4) << k;
     EXPECT_LT(Eigen::AngleAxisd(g.orientation.toRotationMatrix().transpose() * fx.body_in_world[k].linear()).angle(),
               1e-9)

@@ -22,7 +22,7 @@ struct Strapdown {
   Eigen::Quaterniond q;
   Eigen::Vector3d v, p, g;
 
-  Strapdown(const TrajectoryState& start, double gravity)
+  Strapdown(const KinematicState& start, double gravity)
       : q(start.orientation), v(start.velocity), p(start.position), g(0, 0, -gravity) {}
 
   void step(const ImuMeasurement& prev, const ImuMeasurement& cur) {

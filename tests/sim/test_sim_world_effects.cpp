@@ -15,6 +15,7 @@
 #include "sim_test_support.hpp"
 
 using namespace ips::sim;
+using ips::KinematicState;
 
 namespace {
 
@@ -113,7 +114,7 @@ StrapdownErrors integrateIdealImu(const Scenario& sc, double t0, double t1) {
   ImuSimulator imu(ImuFigures::ideal(), traj, sc.start_utime, 7);
   ImuMeasurement prev = imu.next();
   while ((prev.utime_true - sc.start_utime) * 1e-6 < t0) prev = imu.next();
-  const TrajectoryState s0 = traj.state((prev.utime_true - sc.start_utime) * 1e-6);
+  const KinematicState s0 = traj.state((prev.utime_true - sc.start_utime) * 1e-6);
   test_support::Strapdown nav(s0, sc.gravity);
   StrapdownErrors out;
   while (true) {
@@ -121,7 +122,7 @@ StrapdownErrors integrateIdealImu(const Scenario& sc, double t0, double t1) {
     const double t = (cur.utime_true - sc.start_utime) * 1e-6;
     if (t > t1) break;
     nav.step(prev, cur);
-    const TrajectoryState s = traj.state(t);
+    const KinematicState s = traj.state(t);
     out.max_error = std::max(out.max_error, (nav.p - s.position).norm());
     out.max_vertical_error = std::max(out.max_vertical_error, std::abs(nav.p.z() - s.position.z()));
     out.climb = std::max(out.climb, nav.p.z() - s0.position.z());
@@ -302,7 +303,7 @@ TEST(SimRamp, WalkerFollowsTheFloor) {
   double worst_straight = 0, worst = 0, highest = 0;
   size_t on_slopes = 0;
   for (double t = 0; t < traj.duration(); t += 0.02) {
-    const TrajectoryState s = traj.state(t);
+    const KinematicState s = traj.state(t);
     const double floor = ramp.floorHeight(s.position.head<2>());
     const double off = std::abs(s.position.z() - sc.trajectory.height_m - floor);
     worst = std::max(worst, off);
@@ -344,11 +345,11 @@ TEST(SimRamp, ImuFollowsTheWalkerUpAndDown) {
     for (double offset : {-0.3, 0.0, 0.3}) {
       const double t = timeAt(kink + offset);
       ASSERT_FALSE(std::isnan(t));
-      const TrajectoryState s = traj.state(t), a = traj.state(t - h), b = traj.state(t + h);
+      const KinematicState s = traj.state(t), a = traj.state(t - h), b = traj.state(t + h);
       EXPECT_LT(((b.position - a.position) / (2 * h) - s.velocity).norm(), 1e-6) << "t=" << t;
       EXPECT_LT(((b.velocity - a.velocity) / (2 * h) - s.acceleration).norm(), 1e-5) << "t=" << t;
       const double z_dd = (b.position.z() - 2 * s.position.z() + a.position.z()) / (h * h);
-      EXPECT_NEAR((s.orientation * s.specific_force).z() - sc.gravity, z_dd, 1e-3) << "t=" << t;
+      EXPECT_NEAR((s.orientation * s.specificForce(sc.gravity)).z() - sc.gravity, z_dd, 1e-3) << "t=" << t;
     }
   // Strapdown from 3 m before the ramp to 3 m after it, beside the same on the walk without the ramp: the ramp adds
   // nothing to the integrator's own error (which grows with the gait's sway over half a minute).

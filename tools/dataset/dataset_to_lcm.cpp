@@ -13,6 +13,7 @@
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_writer.hpp"
 #include "ips/framework/message_arrays.hpp"
+#include "ips/framework/message_poses.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/log.hpp"
 
@@ -20,16 +21,10 @@ namespace {
 
 namespace ch = ips::channels;
 
-// Velocity and biases are zero when the source has none (GroundTruthPose::has_state).
-void writeGroundTruth(ips::fw::LogWriter& log, const ips::dataset::GroundTruthPose& g) {
-  ips::ground_truth_t m{};
-  m.utime = g.utime;
-  ips::fw::vectorToArray(g.position, m.position);
-  ips::fw::quaternionToArray(g.orientation, m.orientation);
-  ips::fw::vectorToArray(g.velocity, m.velocity);
-  ips::fw::vectorToArray(g.gyro_bias, m.gyro_bias);
-  ips::fw::vectorToArray(g.accel_bias, m.accel_bias);
-  log.write(ch::kGtPose, m.utime, m);
+// Velocity and biases are zero when the source has none (Recording::ground_truth_has_state), acceleration and
+// angular rate always.
+void writeGroundTruth(ips::fw::LogWriter& log, const ips::InertialState& g) {
+  log.write(ch::kGtPose, g.utime, ips::fw::groundTruthMessage(g));
 }
 
 }  // namespace

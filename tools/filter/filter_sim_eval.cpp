@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
         params.gravity = sc.gravity;
         if (static_start) {
           // What a deployment's config states: where the head stands and where it looks (yaw of body x).
-          const ips::sim::TrajectoryState s0 = traj.state(0.0);
+          const ips::KinematicState s0 = traj.state(0.0);
           const Eigen::Vector3d x_axis = s0.orientation * Eigen::Vector3d::UnitX();
           params.init.heading_rad = std::atan2(x_axis.y(), x_axis.x());
           params.init.position = s0.position;

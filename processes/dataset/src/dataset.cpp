@@ -110,15 +110,15 @@ std::vector<std::pair<int64_t, std::string>> readCameraCsv(const std::string& fo
 }
 
 // A TUM file "t tx ty tz qx qy qz qw" (t in seconds).
-std::vector<GroundTruthPose> readTumPoses(const std::string& path) {
-  std::vector<GroundTruthPose> out;
+std::vector<InertialState> readTumPoses(const std::string& path) {
+  std::vector<InertialState> out;
   int64_t prev = INT64_MIN;
   for (const auto& [n, line] : dataLines(path)) {
     const auto f = fields(line, ' ');
     if (f.size() != 8) fail(path, n, "expected 't tx ty tz qx qy qz qw' (8 numbers), got " + std::to_string(f.size()));
     double v[8];
     for (int i = 0; i < 8; ++i) v[i] = parseReal(f[i], path, n);
-    GroundTruthPose g;
+    InertialState g;
     g.utime = std::llround(v[0] * 1e6);
     requireIncreasing(prev, g.utime, path, n);
     prev = g.utime;
@@ -133,14 +133,16 @@ std::vector<GroundTruthPose> readTumPoses(const std::string& path) {
 
 // EuRoC's state_groundtruth_estimate0/data.csv: t_ns, p xyz, q wxyz, v xyz, bw xyz, ba xyz (the last three
 // groups optional), or the same first 8 columns of the per-frame files.
-std::vector<GroundTruthPose> readEurocStateCsv(const std::string& path) {
-  std::vector<GroundTruthPose> out;
+// *has_state: every row has the last three groups.
+std::vector<InertialState> readEurocStateCsv(const std::string& path, bool* has_state) {
+  std::vector<InertialState> out;
+  *has_state = true;
   int64_t prev = INT64_MIN;
   for (const auto& [n, line] : dataLines(path)) {
     const auto f = fields(line, ',');
     if (f.size() != 8 && f.size() != 17)
       fail(path, n, "expected 8 or 17 comma-separated columns, got " + std::to_string(f.size()));
-    GroundTruthPose g;
+    InertialState g;
     g.utime = nsToUs(parseInt(f[0], path, n));
     requireIncreasing(prev, g.utime, path, n);
     prev = g.utime;
@@ -150,8 +152,8 @@ std::vector<GroundTruthPose> readEurocStateCsv(const std::string& path) {
     g.orientation = Eigen::Quaterniond(v[3], v[4], v[5], v[6]);
     if (std::fabs(g.orientation.norm() - 1.0) > 1e-2) fail(path, n, "quaternion is not of unit length");
     g.orientation.normalize();
+    *has_state = *has_state && f.size() == 17;
     if (f.size() == 17) {
-      g.has_state = true;
       g.velocity = Eigen::Vector3d(v[7], v[8], v[9]);
       g.gyro_bias = Eigen::Vector3d(v[10], v[11], v[12]);
       g.accel_bias = Eigen::Vector3d(v[13], v[14], v[15]);
@@ -175,23 +177,26 @@ std::vector<T> window(const std::vector<T>& all, int64_t t0, int64_t t1) {
 // the one that covers the frames' time span wins, among those the one with the most samples in it (V1_01's
 // official file starts a second after the first frames, its re-estimated csv covers them; MH_01's 200 Hz TUM
 // file beats the per-frame csv).
-std::vector<GroundTruthPose> bestGroundTruthIn(const std::string& folder, int64_t t0, int64_t t1, std::string* source) {
+std::vector<InertialState> bestGroundTruthIn(const std::string& folder, int64_t t0, int64_t t1, std::string* source,
+                                             bool* has_state) {
   std::vector<std::string> candidates;
   for (const auto& e : fs::directory_iterator(folder))
     if (e.path().extension() == ".txt" || e.path().extension() == ".csv") candidates.push_back(e.path().string());
   std::sort(candidates.begin(), candidates.end());
-  std::vector<GroundTruthPose> best;
+  std::vector<InertialState> best;
   std::pair<bool, size_t> best_score{false, 0};
   for (const auto& path : candidates) {
-    auto gt = fs::path(path).extension() == ".txt" ? readTumPoses(path) : readEurocStateCsv(path);
+    bool state = false;
+    auto gt = fs::path(path).extension() == ".txt" ? readTumPoses(path) : readEurocStateCsv(path, &state);
     if (gt.empty()) continue;
     const bool covers = gt.front().utime <= t0 && gt.back().utime >= t1;
     const size_t inside = static_cast<size_t>(
-        std::count_if(gt.begin(), gt.end(), [&](const GroundTruthPose& g) { return g.utime >= t0 && g.utime <= t1; }));
+        std::count_if(gt.begin(), gt.end(), [&](const InertialState& g) { return g.utime >= t0 && g.utime <= t1; }));
     if (best.empty() || std::make_pair(covers, inside) > best_score) {
       best = std::move(gt);
       best_score = {covers, inside};
       *source = path;
+      *has_state = state;
     }
   }
   return best;
@@ -260,17 +265,18 @@ Recording readEuroc(const std::string& dir, const ReadOptions& options) {
   }
 
   // Ground truth: --gt (TUM), else the ASL state estimate, else the best file in groundtruth/.
-  std::vector<GroundTruthPose> gt;
+  std::vector<InertialState> gt;
   if (!options.gt_path.empty()) {
     rec.ground_truth_source = options.gt_path;
     gt = readTumPoses(options.gt_path);
   } else if (fs::exists(mav + "/state_groundtruth_estimate0/data.csv")) {
     rec.ground_truth_source = mav + "/state_groundtruth_estimate0/data.csv";
-    gt = readEurocStateCsv(rec.ground_truth_source);
+    gt = readEurocStateCsv(rec.ground_truth_source, &rec.ground_truth_has_state);
   } else if (fs::is_directory(dir + "/groundtruth")) {
-    gt = bestGroundTruthIn(dir + "/groundtruth", t0, t1, &rec.ground_truth_source);
+    gt = bestGroundTruthIn(dir + "/groundtruth", t0, t1, &rec.ground_truth_source, &rec.ground_truth_has_state);
   }
   rec.ground_truth = window(gt, t0, t1);
+  rec.ground_truth_has_state = rec.ground_truth_has_state && !rec.ground_truth.empty();
   return rec;
 }
 
@@ -349,7 +355,7 @@ Recording readKitti(const std::string& dir, const ReadOptions& options) {
   const std::string poses_path = dir + "/poses/" + seq + ".txt";
   if (fs::exists(poses_path)) {
     rec.ground_truth_source = poses_path;
-    std::vector<GroundTruthPose> gt;
+    std::vector<InertialState> gt;
     for (const auto& [n, line] : dataLines(poses_path)) {
       const auto f = fields(line, ' ');
       if (f.size() != 12) fail(poses_path, n, "expected 12 numbers (3x4 pose)");
@@ -357,7 +363,7 @@ Recording readKitti(const std::string& dir, const ReadOptions& options) {
       for (int i = 0; i < 12; ++i) m(i / 4, i % 4) = parseReal(f[i], poses_path, n);
       const size_t index = gt.size();
       if (index >= times.size()) fail(poses_path, n, "more poses than times.txt has frames");
-      GroundTruthPose g;
+      InertialState g;
       g.utime = times[index];
       g.position = m.col(3);
       Eigen::JacobiSVD<Eigen::Matrix3d> svd(m.leftCols<3>(), Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -561,7 +567,7 @@ Recording readKittiRaw(const std::string& dir, const ReadOptions& options) {
   // OXTS: one file per sample, the 30 values of oxts/dataformat.txt.
   const std::vector<int64_t> t_oxts = kittiTimestamps(dir + "/oxts/timestamps.txt");
   std::vector<ImuSample> imu_all;
-  std::vector<GroundTruthPose> gt_all;
+  std::vector<InertialState> gt_all;
   double scale = 0, lat0 = 0;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   for (size_t k = 0; k < t_oxts.size(); ++k) {
@@ -582,7 +588,7 @@ Recording readKittiRaw(const std::string& dir, const ReadOptions& options) {
     const Eigen::Vector3d p(scale * lon * M_PI * kEarthRadius / 180,
                             scale * kEarthRadius * std::log(std::tan((90 + lat) * M_PI / 360)), alt);
     if (k == 0) origin = p;
-    GroundTruthPose g;
+    InertialState g;
     g.utime = t_oxts[k];
     g.position = p - origin;  // metres from the first sample, x east, y north, z up
     g.orientation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
@@ -629,7 +635,7 @@ cv::Mat loadImage(const std::string& path, int width, int height) {
   return img;
 }
 
-Eigen::Isometry3d cameraPose(const GroundTruthPose& body, const StereoCalibration& calib) {
+Eigen::Isometry3d cameraPose(const InertialState& body, const StereoCalibration& calib) {
   Eigen::Isometry3d T_w_b = Eigen::Isometry3d::Identity();
   T_w_b.linear() = body.orientation.toRotationMatrix();
   T_w_b.translation() = body.position;

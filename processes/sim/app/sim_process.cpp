@@ -18,6 +18,7 @@
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_writer.hpp"
 #include "ips/framework/message_arrays.hpp"
+#include "ips/framework/message_poses.hpp"
 #include "ips/framework/node.hpp"
 #include "ips/framework/process.hpp"
 #include "ips/log.hpp"
@@ -95,16 +96,7 @@ Encoded encodeEvent(const SimEvent& e, const ips::sim::Simulation& sim) {
     }
     case SimEvent::kGtPose:
     default: {
-      const ips::sim::GroundTruth& g = e.truth;
-      ips::ground_truth_t m;
-      m.utime = g.utime;
-      ips::fw::vectorToArray(g.position, m.position);
-      ips::fw::quaternionToArray(g.orientation, m.orientation);
-      ips::fw::vectorToArray(g.velocity, m.velocity);
-      ips::fw::vectorToArray(g.acceleration, m.acceleration);
-      ips::fw::vectorToArray(g.angular_rate, m.angular_rate);
-      ips::fw::vectorToArray(g.gyro_bias, m.gyro_bias);
-      ips::fw::vectorToArray(g.accel_bias, m.accel_bias);
+      const ips::ground_truth_t m = ips::fw::groundTruthMessage(e.truth);
       return {e.log_utime, ch::kGtPose, encodeMessage(m)};
     }
   }

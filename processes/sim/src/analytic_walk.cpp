@@ -32,14 +32,14 @@ void AnalyticWalk::pathTime(double t, double* s, double* ds, double* dds) const 
   }
 }
 
-TruthSample AnalyticWalk::at(double t) const {
-  TruthSample s;
+KinematicState AnalyticWalk::at(double t) const {
+  KinematicState s;
   s.utime = static_cast<int64_t>(std::llround(t * 1e6));
   double roll, pitch, yaw, droll, dpitch, dyaw;
   if (p_.at_rest) {
-    s.p = Eigen::Vector3d::Zero();
-    s.v = Eigen::Vector3d::Zero();
-    s.a = Eigen::Vector3d::Zero();
+    s.position = Eigen::Vector3d::Zero();
+    s.velocity = Eigen::Vector3d::Zero();
+    s.acceleration = Eigen::Vector3d::Zero();
     roll = p_.rest_roll_rad, pitch = p_.rest_pitch_rad, yaw = p_.rest_yaw_rad;
     droll = dpitch = dyaw = 0;
   } else {
@@ -53,9 +53,9 @@ TruthSample AnalyticWalk::at(double t) const {
     const Eigen::Vector3d P(V * tau + A * std::sin(W * tau), B * (1 - std::cos(W * tau)) + sway.v, bounce.v);
     const Eigen::Vector3d dP(V + A * W * std::cos(W * tau), B * W * std::sin(W * tau) + sway.d, bounce.d);
     const Eigen::Vector3d ddP(-A * W * W * std::sin(W * tau), B * W * W * std::cos(W * tau) + sway.dd, bounce.dd);
-    s.p = P;
-    s.v = dP * dtau;
-    s.a = ddP * dtau * dtau + dP * ddtau;
+    s.position = P;
+    s.velocity = dP * dtau;
+    s.acceleration = ddP * dtau * dtau + dP * ddtau;
     // Heading along the meander's tangent (without the sway) plus looking around.
     const double vx = dP.x(), vy = B * W * std::sin(W * tau);
     const double ax = ddP.x(), ay = B * W * W * std::cos(W * tau);
@@ -66,19 +66,20 @@ TruthSample AnalyticWalk::at(double t) const {
     const Angle rl = sine(p_.head_roll_rad, 0.5 * p_.step_hz, tau, 0.5);
     pitch = pt.v, dpitch = pt.d * dtau, roll = rl.v, droll = rl.d * dtau;
   }
-  s.q = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
-        Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
+  s.orientation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitX());
   // Body rate of R = Rz(yaw) Ry(pitch) Rx(roll).
   const double sr = std::sin(roll), cr = std::cos(roll), sp = std::sin(pitch), cp = std::cos(pitch);
-  s.w = Eigen::Vector3d(droll - dyaw * sp, dpitch * cr + dyaw * sr * cp, -dpitch * sr + dyaw * cr * cp);
+  s.angular_rate = Eigen::Vector3d(droll - dyaw * sp, dpitch * cr + dyaw * sr * cp, -dpitch * sr + dyaw * cr * cp);
   return s;
 }
 
 double AnalyticWalk::distance(double t0, double t1) const {
   double d = 0;
-  Eigen::Vector3d prev = at(t0).p;
+  Eigen::Vector3d prev = at(t0).position;
   for (double t = t0 + 1e-3; t <= t1 + 1e-12; t += 1e-3) {
-    const Eigen::Vector3d p = at(t).p;
+    const Eigen::Vector3d p = at(t).position;
     d += (p - prev).norm();
     prev = p;
   }

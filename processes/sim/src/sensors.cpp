@@ -164,11 +164,12 @@ ImuMeasurement ImuSimulator::next() {
       bg_[i] += gyro_walk_ * rng_.normal();
       ba_[i] += accel_walk_ * rng_.normal();
     }
-  const TrajectoryState s = traj_.state((m.utime_true - start_utime_) * 1e-6);
+  const KinematicState s = traj_.state((m.utime_true - start_utime_) * 1e-6);
+  const Eigen::Vector3d specific_force = s.specificForce(traj_.gravity());
   const double gyro_max = f_.gyro_range_deg_s * kDeg, accel_max = f_.accel_range_g * 9.80665;
   for (int i = 0; i < 3; ++i) {
     const double w = s.angular_rate[i] + bg_[i] + gyro_sigma_ * rng_.normal();
-    const double a = s.specific_force[i] + ba_[i] + accel_sigma_ * rng_.normal();
+    const double a = specific_force[i] + ba_[i] + accel_sigma_ * rng_.normal();
     m.angular_rate[i] = quantize(std::clamp(w, -gyro_max, gyro_max), f_.gyro_lsb_deg_s * kDeg);
     m.specific_force[i] = quantize(std::clamp(a, -accel_max, accel_max), f_.accel_lsb_mg * kMg);
   }
@@ -194,7 +195,9 @@ TiltSimulator::TiltSimulator(const TiltFigures& f, const Trajectory& trajectory,
   filtered_ = forceAt(0);  // settled at the start
 }
 
-Eigen::Vector3d TiltSimulator::forceAt(double t) const { return R_tilt_imu_ * traj_.state(t).specific_force; }
+Eigen::Vector3d TiltSimulator::forceAt(double t) const {
+  return R_tilt_imu_ * traj_.state(t).specificForce(traj_.gravity());
+}
 
 TiltMeasurement TiltSimulator::next() {
   TiltMeasurement m;
@@ -217,7 +220,7 @@ TiltMeasurement TiltSimulator::next() {
     t_filter_ = t;
   }
   const Eigen::Vector2d angles = inclination(filtered_);
-  const TrajectoryState s = traj_.state(t);
+  const KinematicState s = traj_.state(t);
   const Eigen::Vector3d up_in_tilt = R_tilt_imu_ * (s.orientation.conjugate() * Eigen::Vector3d(0, 0, gravity_));
   const Eigen::Vector2d truth = inclination(up_in_tilt);
   const double res = f_.resolution_deg * kDeg;

@@ -21,22 +21,17 @@ Simulation::Simulation(const Scenario& scenario, const SimulationOptions& option
   next_tilt_ = tilt_.next();
 }
 
-GroundTruth groundTruthAt(const Trajectory& trajectory, int64_t start_utime, int64_t utime,
-                          const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias) {
-  const TrajectoryState s = trajectory.state((utime - start_utime) * 1e-6);
-  GroundTruth g;
+InertialState groundTruthAt(const Trajectory& trajectory, int64_t start_utime, int64_t utime,
+                            const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias) {
+  InertialState g;
+  static_cast<KinematicState&>(g) = trajectory.state((utime - start_utime) * 1e-6);
   g.utime = utime;
-  g.position = s.position;
-  g.orientation = s.orientation;
-  g.velocity = s.velocity;
-  g.acceleration = s.acceleration;
-  g.angular_rate = s.angular_rate;
   g.gyro_bias = gyro_bias;
   g.accel_bias = accel_bias;
   return g;
 }
 
-GroundTruth Simulation::truthAt(int64_t utime, const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) const {
+InertialState Simulation::truthAt(int64_t utime, const Eigen::Vector3d& bg, const Eigen::Vector3d& ba) const {
   return groundTruthAt(rig_.trajectory, rig_.scenario.start_utime, utime, bg, ba);
 }
 

@@ -6,13 +6,6 @@
 
 namespace ips::sim {
 
-Eigen::Isometry3d TrajectoryState::pose() const {
-  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = orientation.toRotationMatrix();
-  t.translation() = position;
-  return t;
-}
-
 Trajectory::Trajectory(const TrajectoryConfig& config, double gravity) : cfg_(config), gravity_(gravity) {
   if (cfg_.waypoints.empty()) throw std::invalid_argument("Trajectory: no waypoints");
   if (!(cfg_.speed_mps > 0) || !(cfg_.knot_spacing_s > 0))
@@ -132,7 +125,7 @@ Jet2 smootherstep(double t, double t0, double span) {
 
 }  // namespace
 
-TrajectoryState Trajectory::state(double t_scenario) const {
+KinematicState Trajectory::state(double t_scenario) const {
   if (cfg_.type == "stations") return stationsState(t_scenario);
   constexpr double kDeg = M_PI / 180;
   // The path and the gait run on the motion's own clock, which starts after the still start.
@@ -170,7 +163,7 @@ TrajectoryState Trajectory::state(double t_scenario) const {
   return fromJets(t_scenario, x, y, z, phi, theta, psi);
 }
 
-TrajectoryState Trajectory::stationsState(double t) const {
+KinematicState Trajectory::stationsState(double t) const {
   constexpr double kDeg = M_PI / 180;
   const auto& st = cfg_.stations;
   const double cycle = cfg_.station_hold_s + cfg_.station_move_s;
@@ -188,10 +181,10 @@ TrajectoryState Trajectory::stationsState(double t) const {
                   blend(r0.z() * kDeg, r1.z() * kDeg));
 }
 
-TrajectoryState Trajectory::fromJets(double t_scenario, const Jet2& x, const Jet2& y, const Jet2& z, const Jet2& phi,
-                                     const Jet2& theta, const Jet2& psi) const {
-  TrajectoryState s;
-  s.t = t_scenario;
+KinematicState Trajectory::fromJets(double t_scenario, const Jet2& x, const Jet2& y, const Jet2& z, const Jet2& phi,
+                                    const Jet2& theta, const Jet2& psi) const {
+  KinematicState s;
+  s.utime = std::llround(t_scenario * 1e6);  // since the scenario's start
   s.position = {x.v, y.v, z.v};
   s.velocity = {x.d, y.d, z.d};
   s.acceleration = {x.dd, y.dd, z.dd};
@@ -201,7 +194,6 @@ TrajectoryState Trajectory::fromJets(double t_scenario, const Jet2& x, const Jet
                   Eigen::AngleAxisd(phi.v, Eigen::Vector3d::UnitX());
   const double sf = std::sin(phi.v), cf = std::cos(phi.v), st = std::sin(theta.v), ct = std::cos(theta.v);
   s.angular_rate = {phi.d - psi.d * st, theta.d * cf + psi.d * sf * ct, -theta.d * sf + psi.d * cf * ct};
-  s.specific_force = s.orientation.conjugate() * (s.acceleration + Eigen::Vector3d(0, 0, gravity_));
   return s;
 }
 

@@ -20,11 +20,10 @@ namespace ips::eval {
 
 // The walk is the simulator's closed-form one (ips/sim/analytic_walk.hpp).
 using sim::AnalyticWalk;
-using sim::TruthSample;
 using sim::WalkParams;
 
 // The simulator's truth as the filter's state (for NEES and starting a filter on the truth).
-filter::NavState navStateOf(const sim::GroundTruth& truth);
+filter::NavState navStateOf(const InertialState& truth);
 
 struct SensorSimParams {
   double imu_rate_hz = 200.0;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "ips/calibration.hpp"
+#include "ips/kinematic_state.hpp"
 
 namespace ips::dataset {
 
@@ -38,23 +39,16 @@ struct ImuSample {
   Eigen::Vector3d specific_force = Eigen::Vector3d::Zero();  // [m/s^2], IMU frame
 };
 
-struct GroundTruthPose {
-  int64_t utime = 0;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();               // body in world [m]
-  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // body to world
-  bool has_state = false;  // velocity and biases below are given (EuRoC's state_groundtruth_estimate0)
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();
-  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
-};
-
 struct Recording {
   std::string format;  // "euroc" or "kitti"
   StereoCalibration calib;
   std::vector<StereoFrame> frames;
-  std::vector<ImuSample> imu;                 // empty when the recording has none
-  std::vector<GroundTruthPose> ground_truth;  // empty when none was found
-  std::string ground_truth_source;            // the file it came from
+  std::vector<ImuSample> imu;  // empty when the recording has none
+  // The body's truth (no acceleration or angular rate): empty when none was found. Velocity and biases are given
+  // when ground_truth_has_state (EuRoC's state_groundtruth_estimate0), zero otherwise.
+  std::vector<InertialState> ground_truth;
+  bool ground_truth_has_state = false;
+  std::string ground_truth_source;  // the file it came from
 };
 
 struct ReadOptions {
@@ -96,6 +90,6 @@ Recording readRecording(const std::string& format, const std::string& dir, const
 cv::Mat loadImage(const std::string& path, int width, int height);
 
 // The pose of camera 0 in the ground truth's world frame.
-Eigen::Isometry3d cameraPose(const GroundTruthPose& body, const StereoCalibration& calib);
+Eigen::Isometry3d cameraPose(const InertialState& body, const StereoCalibration& calib);
 
 }  // namespace ips::dataset

@@ -14,6 +14,7 @@
 #include <optional>
 #include <vector>
 
+#include "ips/kinematic_state.hpp"
 #include "ips/rotation.hpp"
 
 namespace ips::filter {
@@ -43,16 +44,8 @@ using Matrix21d = Eigen::Matrix<double, 21, 21>;
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
 
-struct NavState {
-  int64_t utime = 0;  // [us] on the head's common clock
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();
-  Eigen::Vector3d velocity = Eigen::Vector3d::Zero();
-  Eigen::Vector3d acceleration = Eigen::Vector3d::Zero();           // world, gravity removed
-  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();             // body
-  Eigen::Vector3d angular_rate = Eigen::Vector3d::Zero();           // body, bias removed
-  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();              // body
-  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // body to world (w x y z)
-
+// The filter's estimate of the body's motion and its IMU's biases (the same type as the ground truth).
+struct NavState : InertialState {
   // The 22 elements in the order of filter_state_t (p v a ba w bg q[w x y z]).
   Eigen::Matrix<double, 22, 1> toVector() const;
   static NavState fromVector(const Eigen::Matrix<double, 22, 1>& x, int64_t utime);

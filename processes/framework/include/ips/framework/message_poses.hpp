@@ -13,6 +13,7 @@
 
 #include "ips/framework/filter_state_layout.hpp"
 #include "ips/framework/message_arrays.hpp"
+#include "ips/kinematic_state.hpp"
 #include "ips/pose_buffer.hpp"
 
 namespace ips::fw {
@@ -48,6 +49,20 @@ inline bool bodyPose(const ips::ground_truth_t& g, BodyPose* out) {
   out->T_world_body.translation() = t;
   out->covariance.setZero();
   return true;
+}
+
+// The ground-truth message of a truth (one to one).
+inline ips::ground_truth_t groundTruthMessage(const InertialState& g) {
+  ips::ground_truth_t m{};
+  m.utime = g.utime;
+  vectorToArray(g.position, m.position);
+  quaternionToArray(g.orientation, m.orientation);
+  vectorToArray(g.velocity, m.velocity);
+  vectorToArray(g.acceleration, m.acceleration);
+  vectorToArray(g.angular_rate, m.angular_rate);
+  vectorToArray(g.gyro_bias, m.gyro_bias);
+  vectorToArray(g.accel_bias, m.accel_bias);
+  return m;
 }
 
 // As the pose buffers (ips/pose_buffer.hpp) keep it.

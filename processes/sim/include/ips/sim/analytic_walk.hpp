@@ -7,6 +7,8 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 
+#include "ips/kinematic_state.hpp"
+
 namespace ips::sim {
 
 // An open meander (not a closed loop, so heading drift shows in the end point): x = forward_speed * s +
@@ -30,19 +32,12 @@ struct WalkParams {
   double rest_roll_rad = 0.0, rest_pitch_rad = 0.0, rest_yaw_rad = 0.0;
 };
 
-struct TruthSample {
-  int64_t utime = 0;
-  Eigen::Vector3d p, v, a;  // world
-  Eigen::Quaterniond q;     // body to world
-  Eigen::Vector3d w;        // body angular rate
-};
-
 class AnalyticWalk {
  public:
   explicit AnalyticWalk(const WalkParams& p = {}) : p_(p) {}
   // Path time s(t) and its first two derivatives.
   void pathTime(double t, double* s, double* ds, double* dds) const;
-  TruthSample at(double t_s) const;
+  KinematicState at(double t_s) const;  // (utime: t_s)
   const WalkParams& params() const { return p_; }
   // Path length between t0 and t1 (numerically, 1 ms steps).
   double distance(double t0_s, double t1_s) const;

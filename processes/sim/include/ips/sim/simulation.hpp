@@ -11,22 +11,14 @@
 #include <set>
 #include <vector>
 
+#include "ips/kinematic_state.hpp"
 #include "ips/sim/rig.hpp"
 
 namespace ips::sim {
 
-// Maps one to one onto ips::ground_truth_t.
-struct GroundTruth {
-  int64_t utime = 0;  // true sensor time
-  Eigen::Vector3d position = Eigen::Vector3d::Zero(), velocity = Eigen::Vector3d::Zero(),
-                  acceleration = Eigen::Vector3d::Zero(), angular_rate = Eigen::Vector3d::Zero(),
-                  gyro_bias = Eigen::Vector3d::Zero(), accel_bias = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();  // body (IMU) to world
-};
-
 // The truth at `utime` (true sensor time) of a trajectory that starts at `start_utime`, with the sensors' biases.
-GroundTruth groundTruthAt(const Trajectory& trajectory, int64_t start_utime, int64_t utime,
-                          const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias);
+InertialState groundTruthAt(const Trajectory& trajectory, int64_t start_utime, int64_t utime,
+                            const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias);
 
 struct SimEvent {
   enum Kind { kStereo = 0, kGtDisparity = 1, kImu = 2, kTilt = 3, kGtPose = 4 };
@@ -36,7 +28,7 @@ struct SimEvent {
   std::shared_ptr<const StereoFrame> frame;  // kStereo and kGtDisparity (same frame)
   ImuMeasurement imu;
   TiltMeasurement tilt;
-  GroundTruth truth;
+  InertialState truth;  // kGtPose: ground_truth_t one to one
 };
 
 struct SimulationOptions {
@@ -59,7 +51,7 @@ class Simulation {
   // Appends the next events (those up to the next camera frame) in arrival order; false when all were given.
   bool next(std::vector<SimEvent>& out);
 
-  GroundTruth truthAt(int64_t utime, const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias) const;
+  InertialState truthAt(int64_t utime, const Eigen::Vector3d& gyro_bias, const Eigen::Vector3d& accel_bias) const;
 
  private:
   void push(SimEvent e);
