@@ -504,48 +504,29 @@ FiltersSection filtersSection(const RunLog& log, const std::optional<ips::Stereo
       f["tilt_error_start_mrad"] = figure(tiltError(run.states.front()));
       f["tilt_error_end_mrad"] = figure(tiltError(run.states.back()));
     }
-    // The head's calibration as the filter estimated it online, at the end, where it did (config lever_arm,
-    // delta_scale, delta_direction, delta_rotation_drift, tilt/estimate_offset, camera_alignment), beside the truth
-    // where the head is simulated.
+    // The head's calibration as the filter estimated it online (its optional states), at the end: each estimate as
+    // "name_unit": value(s) and "name_sigma_unit": sigma(s) (one dimension: a number, else an array), beside the
+    // truth where the head is simulated.
     if (!run.states.empty()) {
       const ips::filter_state_t& last = run.states.back();
-      // "key": [values], "sigma_key": [sigmas] of an estimated block (the message's fixed arrays).
-      auto estimatedBlock = [&f](const char* key, const char* sigma_key, const auto& values, const auto& sigmas) {
+      for (const ips::calibration_estimate_t& c : last.calibration) {
+        const std::string unit = c.unit.empty() ? "" : "_" + c.unit;
         Json v = Json::array(), s = Json::array();
-        for (double x : values) v.push_back(figure(x));
-        for (double x : sigmas) s.push_back(figure(x));
-        f[key] = v;
-        f[sigma_key] = s;
-      };
-      if (last.lever_arm_estimated) {
-        estimatedBlock("lever_arm_m", "lever_arm_sigma_m", last.lever_arm, last.lever_arm_sigma);
-        if (truth) {
+        for (double x : c.value) v.push_back(figure(x));
+        for (double x : c.sigma) s.push_back(figure(x));
+        f[c.name + unit] = c.dim == 1 ? v[0] : v;
+        f[c.name + "_sigma" + unit] = c.dim == 1 ? s[0] : s;
+        if (c.name == "lever_arm" && c.dim == 3 && truth) {
           Json error = Json::array();
-          for (int k = 0; k < 3; ++k) error.push_back(figure(last.lever_arm[k] - truth->T_imu_cam0.translation()(k)));
+          for (int k = 0; k < 3; ++k) error.push_back(figure(c.value[k] - truth->T_imu_cam0.translation()(k)));
           f["lever_arm_error_m"] = error;
         }
-      }
-      if (last.delta_scale_estimated) {
-        f["delta_scale"] = figure(last.delta_scale);
-        f["delta_scale_sigma"] = figure(last.delta_scale_sigma);
-      }
-      if (last.delta_direction_estimated)
-        estimatedBlock("delta_direction_rad", "delta_direction_sigma_rad", last.delta_direction,
-                       last.delta_direction_sigma);
-      if (last.delta_rotation_drift_estimated)
-        estimatedBlock("delta_rotation_drift_rad_per_m", "delta_rotation_drift_sigma_rad_per_m",
-                       last.delta_rotation_drift, last.delta_rotation_drift_sigma);
-      if (last.tilt_offset_estimated)
-        estimatedBlock("tilt_offset_rad", "tilt_offset_sigma_rad", last.tilt_offset, last.tilt_offset_sigma);
-      if (last.camera_alignment_estimated) {
-        estimatedBlock("camera_alignment_rad", "camera_alignment_sigma_rad", last.camera_alignment,
-                       last.camera_alignment_sigma);
         // The camera-to-IMU rotation's own error in the file the processes ran on (the principal points' part of
         // the alignment is not in it).
-        if (truth && ran_on) {
+        if (c.name == "camera_alignment" && truth && ran_on) {
           const Eigen::AngleAxisd err(ran_on->T_imu_cam0.linear().transpose() * truth->T_imu_cam0.linear());
-          const Eigen::Vector3d v = err.angle() * err.axis();
-          f["camera_alignment_calibration_error_rad"] = Json::array({figure(v.x()), figure(v.y()), figure(v.z())});
+          const Eigen::Vector3d e = err.angle() * err.axis();
+          f["camera_alignment_calibration_error_rad"] = Json::array({figure(e.x()), figure(e.y()), figure(e.z())});
         }
       }
     }

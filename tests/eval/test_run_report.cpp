@@ -147,6 +147,33 @@ TEST(RunReport, AFilterOnePercentLongIsOnePercentOff) {
   EXPECT_NEAR(s.results[0].aligned.back().p.x(), 10.1, 1e-9);
 }
 
+// The filter's calibration estimates at its last state, each as "<name>_<unit>" and "<name>_sigma_<unit>": one
+// dimension a number, more an array; the lever arm beside the truth's.
+TEST(RunReport, CalibrationEstimatesAreNamedByTheirUnits) {
+  ev::RunLog log;
+  log.gt = walk();
+  log.runs.push_back({"FILTER_STATE", ips::filter_state_t::FILTER_EKF, {}});
+  for (int i = 0; i <= 100; ++i) log.runs[0].states.push_back(state(1'000'000 + 100'000 * i, 0.1 * i, 0.1));
+  ips::filter_state_t& last = log.runs[0].states.back();
+  last.calibration = {{"lever_arm", "m", 3, {0.11, 0.2, -0.05}, {0.01, 0.02, 0.03}},
+                      {"delta_scale", "", 1, {0.004}, {0.001}},
+                      {"delta_rotation_drift", "rad_per_m", 3, {1e-5, 0, 0}, {1e-5, 1e-5, 1e-5}}};
+  last.num_calibration = 3;
+  ips::StereoCalibration truth;
+  truth.T_imu_cam0.translation() = Eigen::Vector3d(0.1, 0.2, -0.05);
+  const ev::FiltersSection s = ev::filtersSection(log, truth, std::nullopt, 1.0, 50);
+  const ev::Json& f = s.json["filters"][0];
+  EXPECT_EQ(f["lever_arm_m"], ev::Json::array({0.11, 0.2, -0.05}));
+  EXPECT_EQ(f["lever_arm_sigma_m"], ev::Json::array({0.01, 0.02, 0.03}));
+  EXPECT_NEAR(f["lever_arm_error_m"][0].get<double>(), 0.01, 1e-9);
+  EXPECT_EQ(f["lever_arm_error_m"][2].get<double>(), 0.0);
+  EXPECT_EQ(f["delta_scale"], 0.004);
+  EXPECT_EQ(f["delta_scale_sigma"], 0.001);
+  EXPECT_EQ(f["delta_rotation_drift_rad_per_m"][0], 1e-5);
+  EXPECT_EQ(f["delta_rotation_drift_sigma_rad_per_m"].size(), 3u);
+  EXPECT_FALSE(f.contains("tilt_offset_rad"));
+}
+
 // The tracker's increments chained on camera 0 (here the body): exact ones follow the truth; one whose reference
 // pair the recording lacks breaks the chain, which the section names.
 TEST(RunReport, TrackerIncrementsAreChainedAndABreakIsNamed) {

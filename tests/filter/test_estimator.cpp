@@ -10,6 +10,7 @@
 #include "ips/eval/filter_testbed.hpp"
 #include "ips/eval/trajectory.hpp"
 #include "ips/filter/models.hpp"
+#include "ips/filter/optional_states.hpp"
 #include "ips/log.hpp"
 #include "ips/random_vector.hpp"
 
@@ -709,26 +710,24 @@ TEST(FilterEstimator, CalibrationStatesKeepWhatTheyLearntOverARestart) {
     Estimator est(p, testbedCalibration());
     runSimulation(est, sim, 0.0, 20.0, true, true, Matrix21d::Zero());
     const FilterOutput before = est.current();
-    ASSERT_TRUE(before.lever_arm_estimated && before.delta_scale_estimated && before.tilt_offset_estimated &&
-                before.camera_alignment_estimated);
+    for (OptionalState id : {kLeverArm, kDeltaScale, kTiltOffset, kCameraAlignment})
+      ASSERT_TRUE(before.calibration[id]) << toString(type) << " " << id;
     // Learnt something: the start's sigmas have shrunk.
-    EXPECT_LT(before.tilt_offset_sigma.maxCoeff(), p.tilt_sigma) << toString(type);
-    EXPECT_LT(before.delta_scale_sigma, p.delta_scale_sigma) << toString(type);
+    EXPECT_LT(before.calibration[kTiltOffset]->sigma().maxCoeff(), p.tilt_sigma) << toString(type);
+    EXPECT_LT(before.calibration[kDeltaScale]->sigma()(0), p.delta_scale_sigma) << toString(type);
     const int64_t t = before.state.utime;
     const Matrix21d P0 = initialCovariance(p.init);
     est.initialize(sim.truth(t), P0);
     const FilterOutput after = est.current();
-    EXPECT_EQ(after.lever_arm, before.lever_arm) << toString(type);
-    EXPECT_EQ(after.lever_arm_covariance, before.lever_arm_covariance) << toString(type);
-    EXPECT_EQ(after.delta_scale, before.delta_scale) << toString(type);
-    EXPECT_EQ(after.delta_scale_sigma, before.delta_scale_sigma) << toString(type);
-    EXPECT_EQ(after.tilt_offset, before.tilt_offset) << toString(type);
-    EXPECT_EQ(after.tilt_offset_sigma, before.tilt_offset_sigma) << toString(type);
-    EXPECT_LT((after.camera_alignment - before.camera_alignment).norm(), 1e-12) << toString(type);
-    EXPECT_EQ(after.camera_alignment_sigma, before.camera_alignment_sigma) << toString(type);
+    for (OptionalState id : {kLeverArm, kDeltaScale, kTiltOffset, kCameraAlignment}) {
+      ASSERT_TRUE(after.calibration[id]) << toString(type) << " " << id;
+      EXPECT_EQ(after.calibration[id]->value, before.calibration[id]->value) << toString(type) << " " << id;
+      EXPECT_EQ(after.calibration[id]->covariance, before.calibration[id]->covariance) << toString(type) << " " << id;
+    }
     EXPECT_EQ(after.covariance, P0) << toString(type);
-    EXPECT_EQ(est.filter().covariance().rows(),
-              kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim + kTiltOffsetErrorDim + kCameraAlignmentErrorDim)
+    EXPECT_EQ(est.filter().covariance().rows(), kCoreErrorDim + optionalStateDim(kLeverArm) +
+                                                    optionalStateDim(kDeltaScale) + optionalStateDim(kTiltOffset) +
+                                                    optionalStateDim(kCameraAlignment))
         << toString(type);
     EXPECT_TRUE(est.filter().state().clones.empty()) << toString(type);
   }

@@ -48,9 +48,9 @@ TEST(FilterEstimator, LeverArmEstimatedOnlineConvergesToTheTruthOverTheWalk) {
     const std::vector<FilterOutput> out = runWalk(walk, sim, p, rough);
     ASSERT_FALSE(out.empty());
     const FilterOutput& last = out.back();
-    ASSERT_TRUE(last.lever_arm_estimated) << toString(type);
-    const Eigen::Vector3d error = last.lever_arm - truth_calib.T_imu_cam0.translation();
-    const Eigen::Vector3d sigma = last.lever_arm_covariance.diagonal().cwiseSqrt();
+    ASSERT_TRUE(last.calibration[kLeverArm]) << toString(type);
+    const Eigen::Vector3d error = last.calibration[kLeverArm]->value - truth_calib.T_imu_cam0.translation();
+    const Eigen::Vector3d sigma = last.calibration[kLeverArm]->sigma();
     // Within 1 cm of the truth (issue #15's target for a 2-minute walk) from 3 cm off.
     EXPECT_LT(error.cwiseAbs().maxCoeff(), 0.01)
         << toString(type) << " error " << error.transpose() << " sigma " << sigma.transpose();
@@ -84,13 +84,14 @@ TEST(FilterEstimator, TrackerScaleErrorEstimatedOnlineOverTheWalk) {
       ASSERT_FALSE(out.empty());
       const FilterOutput& last = out.back();
       end_error[estimate] = endError(out, sim);
-      ASSERT_EQ(last.delta_scale_estimated, estimate) << toString(type);
+      ASSERT_EQ(last.calibration[kDeltaScale].has_value(), estimate) << toString(type);
       if (!estimate) continue;
+      const double scale = last.calibration[kDeltaScale]->value(0),
+                   scale_sigma = last.calibration[kDeltaScale]->sigma()(0);
       std::printf("%s scale %.5f sigma %.5f (truth %.5f); end error %.3f m without, %.3f m with\n",
-                  toString(type).c_str(), last.delta_scale, last.delta_scale_sigma, sp.tracker_scale_error,
-                  end_error[0], end_error[1]);
-      EXPECT_LT(last.delta_scale_sigma, 0.75 * p.delta_scale_sigma) << toString(type);
-      EXPECT_LT(std::abs(last.delta_scale - sp.tracker_scale_error), 3.0 * last.delta_scale_sigma) << toString(type);
+                  toString(type).c_str(), scale, scale_sigma, sp.tracker_scale_error, end_error[0], end_error[1]);
+      EXPECT_LT(scale_sigma, 0.75 * p.delta_scale_sigma) << toString(type);
+      EXPECT_LT(std::abs(scale - sp.tracker_scale_error), 3.0 * scale_sigma) << toString(type);
     }
     EXPECT_LT(end_error[1], end_error[0]) << toString(type);
   }
@@ -127,15 +128,17 @@ TEST(FilterEstimator, TiltOffsetEstimatedOnlineOverTheWalk) {
       }
       nees_mean[estimate] = sum / n;
       const FilterOutput& last = out.back();
-      ASSERT_EQ(last.tilt_offset_estimated, estimate);
+      ASSERT_EQ(last.calibration[kTiltOffset].has_value(), estimate);
       if (!estimate) continue;
+      const Eigen::Vector2d offset = last.calibration[kTiltOffset]->value;
+      const Eigen::Vector2d offset_sigma = last.calibration[kTiltOffset]->sigma();
       std::printf(
           "%s tilt offset [mrad] %.3f %.3f sigma %.3f %.3f (truth 6, -4); roll/pitch NEES %.2f without, %.2f with\n",
-          toString(type).c_str(), 1e3 * last.tilt_offset.x(), 1e3 * last.tilt_offset.y(),
-          1e3 * last.tilt_offset_sigma.x(), 1e3 * last.tilt_offset_sigma.y(), nees_mean[0], nees_mean[1]);
-      EXPECT_LT(last.tilt_offset_sigma.maxCoeff(), 0.25 * p.tilt_sigma) << toString(type);
+          toString(type).c_str(), 1e3 * offset.x(), 1e3 * offset.y(), 1e3 * offset_sigma.x(), 1e3 * offset_sigma.y(),
+          nees_mean[0], nees_mean[1]);
+      EXPECT_LT(offset_sigma.maxCoeff(), 0.25 * p.tilt_sigma) << toString(type);
       for (int k = 0; k < 2; ++k)
-        EXPECT_LT(std::abs(last.tilt_offset(k) - sp.tilt_offset(k)), 3.0 * last.tilt_offset_sigma(k)) << toString(type);
+        EXPECT_LT(std::abs(offset(k) - sp.tilt_offset(k)), 3.0 * offset_sigma(k)) << toString(type);
     }
     EXPECT_LT(nees_mean[1], 2.0 * 2.0) << toString(type);  // mean 2 for consistent roll and pitch
   }
@@ -166,18 +169,18 @@ TEST(FilterEstimator, CameraAlignmentEstimatedOnlineOverTheWalk) {
       ASSERT_FALSE(out.empty());
       const FilterOutput& last = out.back();
       end_error[estimate] = endError(out, sim);
-      ASSERT_EQ(last.camera_alignment_estimated, estimate);
+      ASSERT_EQ(last.calibration[kCameraAlignment].has_value(), estimate);
       if (!estimate) continue;
-      const Eigen::Vector3d error = last.camera_alignment - misalignment;
+      const Eigen::Vector3d error = last.calibration[kCameraAlignment]->value - misalignment;
+      const Eigen::Vector3d alignment_sigma = last.calibration[kCameraAlignment]->sigma();
       std::printf(
           "%s camera alignment error [mrad] %.3f %.3f %.3f sigma %.3f %.3f %.3f; end error %.3f m without, "
           "%.3f m with\n",
-          toString(type).c_str(), 1e3 * error.x(), 1e3 * error.y(), 1e3 * error.z(),
-          1e3 * last.camera_alignment_sigma.x(), 1e3 * last.camera_alignment_sigma.y(),
-          1e3 * last.camera_alignment_sigma.z(), end_error[0], end_error[1]);
+          toString(type).c_str(), 1e3 * error.x(), 1e3 * error.y(), 1e3 * error.z(), 1e3 * alignment_sigma.x(),
+          1e3 * alignment_sigma.y(), 1e3 * alignment_sigma.z(), end_error[0], end_error[1]);
       for (int k = 0; k < 3; ++k) {
-        EXPECT_LT(std::abs(error(k)), 3.0 * last.camera_alignment_sigma(k)) << toString(type) << " axis " << k;
-        EXPECT_LT(last.camera_alignment_sigma(k), p.camera_alignment_sigma) << toString(type) << " axis " << k;
+        EXPECT_LT(std::abs(error(k)), 3.0 * alignment_sigma(k)) << toString(type) << " axis " << k;
+        EXPECT_LT(alignment_sigma(k), p.camera_alignment_sigma) << toString(type) << " axis " << k;
       }
     }
   }

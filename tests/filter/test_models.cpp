@@ -10,6 +10,7 @@
 #include "ips/eval/filter_testbed.hpp"
 #include "ips/filter/kalman.hpp"
 #include "ips/filter/models.hpp"
+#include "ips/filter/optional_states.hpp"
 #include "ips/random_vector.hpp"
 
 using namespace ips::filter;
@@ -177,7 +178,7 @@ TEST(FilterModels, DeltaJacobianWithTheLeverArmEstimatedMatchesNumeric) {
   std::mt19937 rng(9);
   FullState x = randomFull(rng, 3);
   x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
-  EXPECT_EQ(x.errorDim(), kCoreErrorDim + kLeverArmErrorDim + 3 * kCloneErrorDim);
+  EXPECT_EQ(x.errorDim(), kCoreErrorDim + optionalStateDim(kLeverArm) + 3 * kCloneErrorDim);
   Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
   T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
   T_imu_cam.translation() = Eigen::Vector3d(0.1, -0.05, 0.2);  // the calibration's: the state's replaces it
@@ -203,8 +204,9 @@ TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
   FullState x = randomFull(rng, 3);
   x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
   x.delta_scale = 0.004;
-  EXPECT_EQ(x.errorDim(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim + 3 * kCloneErrorDim);
-  EXPECT_EQ(x.deltaScaleOffset(), kCoreErrorDim + kLeverArmErrorDim);
+  EXPECT_EQ(x.errorDim(),
+            kCoreErrorDim + optionalStateDim(kLeverArm) + optionalStateDim(kDeltaScale) + 3 * kCloneErrorDim);
+  EXPECT_EQ(x.offset(kDeltaScale), kCoreErrorDim + optionalStateDim(kLeverArm));
   Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
   T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
   T_imu_cam.translation() = *x.lever_arm;
@@ -216,11 +218,11 @@ TEST(FilterModels, DeltaJacobianWithTheScaleEstimatedMatchesNumeric) {
   const Eigen::MatrixXd H = tracker_delta.jacobian(x);
   EXPECT_LT((H - numericH(tracker_delta, x)).cwiseAbs().maxCoeff(), 1e-6);
   // d (1 + s) t / d s = t, in the translation rows only.
-  EXPECT_LT((H.col(x.deltaScaleOffset()).head<3>() - predicted.translation()).norm(), 1e-12);
-  EXPECT_EQ(H.col(x.deltaScaleOffset()).tail<3>().norm(), 0.0);
+  EXPECT_LT((H.col(x.offset(kDeltaScale)).head<3>() - predicted.translation()).norm(), 1e-12);
+  EXPECT_EQ(H.col(x.offset(kDeltaScale)).tail<3>().norm(), 0.0);
   const DeltaMeasurement unscaled(0, 2, predicted, Matrix6d::Identity() * 1e-6, T_imu_cam);
   EXPECT_LT(unscaled.residual(x).norm(), 1e-12);
-  EXPECT_EQ(unscaled.jacobian(x).col(x.deltaScaleOffset()).norm(), 0.0);
+  EXPECT_EQ(unscaled.jacobian(x).col(x.offset(kDeltaScale)).norm(), 0.0);
   EXPECT_LT((unscaled.jacobian(x) - numericH(unscaled, x)).cwiseAbs().maxCoeff(), 1e-6);
 }
 
@@ -237,10 +239,10 @@ TEST(FilterModels, DeltaJacobianWithTheStepDirectionAndRotationDriftMatchesNumer
   x.delta_rotation_drift = Eigen::Vector3d(0.03, -0.05, 0.02);
   x.tilt_offset = Eigen::Vector2d(0.004, -0.007);
   x.camera_alignment = expQuat(Eigen::Vector3d(0.002, -0.001, 0.003));
-  EXPECT_EQ(x.deltaDirectionOffset(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim);
-  EXPECT_EQ(x.deltaRotationDriftOffset(), x.deltaDirectionOffset() + kDeltaDirectionErrorDim);
-  EXPECT_EQ(x.tiltOffsetOffset(), x.deltaRotationDriftOffset() + kDeltaRotationDriftErrorDim);
-  EXPECT_EQ(x.cloneOffset(0), x.cameraAlignmentOffset() + kCameraAlignmentErrorDim);
+  EXPECT_EQ(x.offset(kDeltaDirection), kCoreErrorDim + optionalStateDim(kLeverArm) + optionalStateDim(kDeltaScale));
+  EXPECT_EQ(x.offset(kDeltaRotationDrift), x.offset(kDeltaDirection) + optionalStateDim(kDeltaDirection));
+  EXPECT_EQ(x.offset(kTiltOffset), x.offset(kDeltaRotationDrift) + optionalStateDim(kDeltaRotationDrift));
+  EXPECT_EQ(x.cloneOffset(0), x.offset(kCameraAlignment) + optionalStateDim(kCameraAlignment));
   Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
   T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
   Eigen::Isometry3d T_state = T_imu_cam;
@@ -259,20 +261,20 @@ TEST(FilterModels, DeltaJacobianWithTheStepDirectionAndRotationDriftMatchesNumer
   EXPECT_LT((H - numericH(tracker, x)).cwiseAbs().maxCoeff(), 1e-6);
   // d (1 + s) (t + b x t) / d b = -(1 + s) [t]x, in the translation rows only.
   const Eigen::Matrix3d expected = -(1.0 + *x.delta_scale) * skew(predicted.translation());
-  EXPECT_LT((H.block<3, 3>(0, x.deltaDirectionOffset()) - expected).norm(), 1e-12);
-  EXPECT_EQ((H.block<3, 3>(3, x.deltaDirectionOffset()).norm()), 0.0);
+  EXPECT_LT((H.block<3, 3>(0, x.offset(kDeltaDirection)) - expected).norm(), 1e-12);
+  EXPECT_EQ((H.block<3, 3>(3, x.offset(kDeltaDirection)).norm()), 0.0);
   // The drift in the rotation rows only, about |t| J_l per axis.
-  EXPECT_EQ((H.block<3, 3>(0, x.deltaRotationDriftOffset()).norm()), 0.0);
-  EXPECT_GT((H.block<3, 3>(3, x.deltaRotationDriftOffset()).norm()), step);
+  EXPECT_EQ((H.block<3, 3>(0, x.offset(kDeltaRotationDrift)).norm()), 0.0);
+  EXPECT_GT((H.block<3, 3>(3, x.offset(kDeltaRotationDrift)).norm()), step);
   const DeltaMeasurement maps(0, 2, predicted, Matrix6d::Identity() * 1e-6, T_imu_cam);
   EXPECT_LT(maps.residual(x).norm(), 1e-12);
-  EXPECT_EQ(maps.jacobian(x).middleCols(x.deltaDirectionOffset(), 3).norm(), 0.0);
-  EXPECT_EQ(maps.jacobian(x).middleCols(x.deltaRotationDriftOffset(), 3).norm(), 0.0);
+  EXPECT_EQ(maps.jacobian(x).middleCols(x.offset(kDeltaDirection), 3).norm(), 0.0);
+  EXPECT_EQ(maps.jacobian(x).middleCols(x.offset(kDeltaRotationDrift), 3).norm(), 0.0);
   EXPECT_LT((maps.jacobian(x) - numericH(maps, x)).cwiseAbs().maxCoeff(), 1e-6);
   // Without the drift the tilt offsets follow the step direction.
   FullState no_drift = x;
   no_drift.delta_rotation_drift.reset();
-  EXPECT_EQ(no_drift.tiltOffsetOffset(), no_drift.deltaDirectionOffset() + kDeltaDirectionErrorDim);
+  EXPECT_EQ(no_drift.offset(kTiltOffset), no_drift.offset(kDeltaDirection) + optionalStateDim(kDeltaDirection));
 }
 
 TEST(FilterModels, BoxplusBoxminusRoundTripWithTheStepDirectionAndRotationDrift) {
@@ -283,8 +285,8 @@ TEST(FilterModels, BoxplusBoxminusRoundTripWithTheStepDirectionAndRotationDrift)
   x.delta_rotation_drift = Eigen::Vector3d(1e-4, -2e-4, 5e-5);
   const Eigen::VectorXd d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
   const FullState y = boxplus(x, d);
-  EXPECT_LT((*y.delta_direction - *x.delta_direction - d.segment<3>(x.deltaDirectionOffset())).norm(), 1e-15);
-  EXPECT_LT((*y.delta_rotation_drift - *x.delta_rotation_drift - d.segment<3>(x.deltaRotationDriftOffset())).norm(),
+  EXPECT_LT((*y.delta_direction - *x.delta_direction - d.segment<3>(x.offset(kDeltaDirection))).norm(), 1e-15);
+  EXPECT_LT((*y.delta_rotation_drift - *x.delta_rotation_drift - d.segment<3>(x.offset(kDeltaRotationDrift))).norm(),
             1e-15);
   EXPECT_LT((boxminus(y, x) - d).norm(), 1e-12);
   for (int which = 0; which < 2; ++which) {
@@ -306,18 +308,18 @@ TEST(FilterModels, TiltJacobianWithTheOffsetEstimatedMatchesNumeric) {
   x.nav.acceleration = Eigen::Vector3d(0.5, -0.2, 0.1);
   x.delta_scale = 0.001;
   x.tilt_offset = Eigen::Vector2d(0.004, -0.007);
-  EXPECT_EQ(x.tiltOffsetOffset(), kCoreErrorDim + kDeltaScaleErrorDim);
-  EXPECT_EQ(x.cloneOffset(0), kCoreErrorDim + kDeltaScaleErrorDim + kTiltOffsetErrorDim);
+  EXPECT_EQ(x.offset(kTiltOffset), kCoreErrorDim + optionalStateDim(kDeltaScale));
+  EXPECT_EQ(x.cloneOffset(0), kCoreErrorDim + optionalStateDim(kDeltaScale) + optionalStateDim(kTiltOffset));
   const Eigen::Matrix3d R_bt = expSO3(Eigen::Vector3d(0.01, 0.02, 0.5));
   const TiltMeasurement with(0.1, -0.2, R_bt, 1e-3, 9.81, true, true);
   EXPECT_FALSE(with.coreOnly());
   const Eigen::MatrixXd H = with.jacobian(x);
   EXPECT_LT((H - numericH(with, x)).cwiseAbs().maxCoeff(), 1e-6);
-  EXPECT_TRUE((H.block<2, 2>(0, x.tiltOffsetOffset()).isIdentity(0)));
+  EXPECT_TRUE((H.block<2, 2>(0, x.offset(kTiltOffset)).isIdentity(0)));
   const TiltMeasurement without(0.1, -0.2, R_bt, 1e-3, 9.81, true, false);
   EXPECT_TRUE(without.coreOnly());
   EXPECT_LT((with.residual(x) - without.residual(x) + *x.tilt_offset).norm(), 1e-15);
-  EXPECT_EQ((without.jacobian(x).block<2, 2>(0, x.tiltOffsetOffset()).norm()), 0.0);
+  EXPECT_EQ((without.jacobian(x).block<2, 2>(0, x.offset(kTiltOffset)).norm()), 0.0);
 }
 
 // The camera's alignment as states, after the others: it turns the predicted translation and conjugates the predicted
@@ -328,7 +330,7 @@ TEST(FilterModels, DeltaAndRotationJacobiansWithTheCameraAlignmentMatchNumeric) 
   x.lever_arm = Eigen::Vector3d(-0.05, 0.02, -0.06);
   x.delta_scale = 0.003;
   x.camera_alignment = expQuat(Eigen::Vector3d(0.002, -0.001, 0.003));
-  EXPECT_EQ(x.cameraAlignmentOffset(), kCoreErrorDim + kLeverArmErrorDim + kDeltaScaleErrorDim);
+  EXPECT_EQ(x.offset(kCameraAlignment), kCoreErrorDim + optionalStateDim(kLeverArm) + optionalStateDim(kDeltaScale));
   Eigen::Isometry3d T_imu_cam = Eigen::Isometry3d::Identity();
   T_imu_cam.linear() = expSO3(Eigen::Vector3d(1.2, -0.4, 0.3));
   Eigen::Isometry3d T_state = T_imu_cam;
@@ -341,7 +343,7 @@ TEST(FilterModels, DeltaAndRotationJacobiansWithTheCameraAlignmentMatchNumeric) 
   EXPECT_LT(delta.residual(x).norm(), 1e-12);
   const Eigen::MatrixXd H = delta.jacobian(x);
   EXPECT_LT((H - numericH(delta, x)).cwiseAbs().maxCoeff(), 1e-6);
-  EXPECT_GT(H.middleCols(x.cameraAlignmentOffset(), 3).topRows(3).norm(), 0.1);  // it turns the step
+  EXPECT_GT(H.middleCols(x.offset(kCameraAlignment), 3).topRows(3).norm(), 0.1);  // it turns the step
   const RotationMeasurement rotation(0, 2, predicted.linear(), Eigen::Matrix3d::Identity() * 1e-8, T_imu_cam);
   EXPECT_LT(rotation.residual(x).norm(), 1e-12);
   EXPECT_LT((rotation.jacobian(x) - numericH(rotation, x)).cwiseAbs().maxCoeff(), 1e-6);
@@ -361,14 +363,14 @@ TEST(FilterModels, BoxplusBoxminusRoundTripWithTheScale) {
   x.tilt_offset = Eigen::Vector2d(0.01, -0.02);
   d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
   const FullState z = boxplus(x, d);
-  EXPECT_LT((*z.tilt_offset - *x.tilt_offset - d.segment<2>(x.tiltOffsetOffset())).norm(), 1e-15);
+  EXPECT_LT((*z.tilt_offset - *x.tilt_offset - d.segment<2>(x.offset(kTiltOffset))).norm(), 1e-15);
   EXPECT_LT((boxminus(z, x) - d).norm(), 1e-12);
   x.camera_alignment = expQuat(Eigen::Vector3d(0.01, 0.02, -0.03));
   d = Eigen::VectorXd::Random(x.errorDim()) * 0.3;
   const FullState w = boxplus(x, d);
-  EXPECT_LT(
-      (logQuat(x.camera_alignment->conjugate() * *w.camera_alignment) - d.segment<3>(x.cameraAlignmentOffset())).norm(),
-      1e-12);
+  EXPECT_LT((logQuat(x.camera_alignment->conjugate() * *w.camera_alignment) - d.segment<3>(x.offset(kCameraAlignment)))
+                .norm(),
+            1e-12);
   EXPECT_LT((boxminus(w, x) - d).norm(), 1e-12);
 }
 

@@ -338,6 +338,23 @@ TEST(HostileInput, FilterStateWithNonFiniteCovarianceOrBiasIsRejected) {
   ips::filter_state_t nan_up = m;
   nan_up.up[1] = std::nan("");
   EXPECT_EQ(ips::fw::validate(nan_up).reason, "bad_value");
+  // The calibration estimates: named, as many values and sigmas as dimensions, finite.
+  ips::filter_state_t with_estimate = m;
+  with_estimate.calibration.push_back({"tilt_offset", "rad", 2, {0.001, -0.002}, {1e-4, 1e-4}});
+  with_estimate.num_calibration = 1;
+  EXPECT_TRUE(ips::fw::validate(with_estimate).ok());
+  ips::filter_state_t short_sigma = with_estimate;
+  short_sigma.calibration[0].sigma.resize(1);
+  EXPECT_EQ(ips::fw::validate(short_sigma).reason, "bad_size");
+  ips::filter_state_t unnamed = with_estimate;
+  unnamed.calibration[0].name.clear();
+  EXPECT_EQ(ips::fw::validate(unnamed).reason, "bad_size");
+  ips::filter_state_t miscounted = with_estimate;
+  miscounted.num_calibration = 2;
+  EXPECT_EQ(ips::fw::validate(miscounted).reason, "bad_size");
+  ips::filter_state_t nan_estimate = with_estimate;
+  nan_estimate.calibration[0].sigma[1] = std::nan("");
+  EXPECT_EQ(ips::fw::validate(nan_estimate).reason, "nan");
 }
 
 // A log of three IMU samples (LogWriter is LCM's own writer); returns its bytes.

@@ -117,10 +117,16 @@ TEST(Messages, FilterStateRoundTrip) {
   s.accepted = {10, 2, 1};
   s.rejected = {0, 1, 0};
   s.too_late = {0, 0, 3};
+  s.calibration = {{"delta_scale", "", 1, {0.004}, {0.001}}, {"lever_arm", "m", 3, {0.1, 0.2, 0.3}, {0.01, 0.01, 0.02}}};
+  s.num_calibration = 2;
   expectSameBytes(s);
   ips::filter_state_t r = roundTrip(s);
   EXPECT_EQ(r.covariance[20][20], 21.0);
   EXPECT_EQ(r.sensor_names[2], "tracker");
+  ASSERT_EQ(r.calibration.size(), 2u);
+  EXPECT_EQ(r.calibration[1].name, "lever_arm");
+  EXPECT_EQ(r.calibration[1].unit, "m");
+  EXPECT_EQ(r.calibration[1].sigma[2], 0.02);
   EXPECT_TRUE(ips::fw::validate(r).ok());
 }
 

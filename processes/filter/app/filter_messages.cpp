@@ -10,10 +10,10 @@ namespace ips::filter_app {
 
 namespace {
 
-// An estimated block of the filter's output (an Eigen vector) into the message's fixed array of the same size.
+// A vector into the message's fixed array of the same size.
 template <class Vector, int N>
 void copyBlock(const Vector& from, double (&to)[N]) {
-  static_assert(Vector::SizeAtCompileTime == N, "the message's array and the filter's block differ in size");
+  static_assert(Vector::SizeAtCompileTime == N, "the message's array and the vector differ in size");
   for (int i = 0; i < N; ++i) to[i] = from[i];
 }
 
@@ -45,24 +45,18 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   m.covariance.assign(layout::kDim, std::vector<double>(layout::kDim));
   for (int r = 0; r < layout::kDim; ++r)
     for (int c = 0; c < layout::kDim; ++c) m.covariance[r][c] = out.covariance(r, c);
-  m.lever_arm_estimated = out.lever_arm_estimated;
-  copyBlock(out.lever_arm, m.lever_arm);
-  for (int i = 0; i < 3; ++i) m.lever_arm_sigma[i] = std::sqrt(std::max(0.0, out.lever_arm_covariance(i, i)));
-  m.delta_scale_estimated = out.delta_scale_estimated;
-  m.delta_scale = out.delta_scale;
-  m.delta_scale_sigma = out.delta_scale_sigma;
-  m.delta_direction_estimated = out.delta_direction_estimated;
-  copyBlock(out.delta_direction, m.delta_direction);
-  copyBlock(out.delta_direction_sigma, m.delta_direction_sigma);
-  m.delta_rotation_drift_estimated = out.delta_rotation_drift_estimated;
-  copyBlock(out.delta_rotation_drift, m.delta_rotation_drift);
-  copyBlock(out.delta_rotation_drift_sigma, m.delta_rotation_drift_sigma);
-  m.tilt_offset_estimated = out.tilt_offset_estimated;
-  copyBlock(out.tilt_offset, m.tilt_offset);
-  copyBlock(out.tilt_offset_sigma, m.tilt_offset_sigma);
-  m.camera_alignment_estimated = out.camera_alignment_estimated;
-  copyBlock(out.camera_alignment, m.camera_alignment);
-  copyBlock(out.camera_alignment_sigma, m.camera_alignment_sigma);
+  for (const auto& estimate : out.calibration) {
+    if (!estimate) continue;
+    ips::calibration_estimate_t c;
+    c.name = estimate->name;
+    c.unit = estimate->unit;
+    c.dim = static_cast<int32_t>(estimate->value.size());
+    const Eigen::VectorXd sigma = estimate->sigma();
+    c.value.assign(estimate->value.data(), estimate->value.data() + c.dim);
+    c.sigma.assign(sigma.data(), sigma.data() + c.dim);
+    m.calibration.push_back(std::move(c));
+  }
+  m.num_calibration = static_cast<int32_t>(m.calibration.size());
   for (const auto& sensor : out.sensors) {
     if (!sensor.name || !*sensor.name) continue;
     m.sensor_names.push_back(sensor.name);

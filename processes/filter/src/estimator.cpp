@@ -5,8 +5,10 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <type_traits>
 
 #include "ips/filter/motion_start.hpp"
+#include "ips/filter/optional_states.hpp"
 #include "ips/log.hpp"
 
 namespace ips::filter {
@@ -70,23 +72,11 @@ void Estimator::initialize(const NavState& state, const Matrix21d& covariance) {
                                         : Eigen::MatrixXd(Eigen::MatrixXd::Identity(dim, dim) * sigma * sigma);
   };
   const FullState& was = kf.state();
-  if (params_.estimate_lever_arm)
-    keep(x.lever_arm, was.lever_arm, Eigen::Vector3d(T_imu_cam0_.translation()), was.leverArmOffset(),
-         kLeverArmErrorDim, params_.lever_arm_sigma);
-  if (params_.estimate_delta_scale)
-    keep(x.delta_scale, was.delta_scale, 0.0, was.deltaScaleOffset(), kDeltaScaleErrorDim, params_.delta_scale_sigma);
-  if (params_.estimate_delta_direction)
-    keep(x.delta_direction, was.delta_direction, Eigen::Vector3d::Zero().eval(), was.deltaDirectionOffset(),
-         kDeltaDirectionErrorDim, params_.delta_direction_sigma);
-  if (params_.estimate_delta_rotation_drift)
-    keep(x.delta_rotation_drift, was.delta_rotation_drift, Eigen::Vector3d::Zero().eval(),
-         was.deltaRotationDriftOffset(), kDeltaRotationDriftErrorDim, params_.delta_rotation_drift_sigma);
-  if (params_.estimate_tilt_offset)
-    keep(x.tilt_offset, was.tilt_offset, Eigen::Vector2d::Zero().eval(), was.tiltOffsetOffset(), kTiltOffsetErrorDim,
-         params_.tilt_sigma);
-  if (params_.estimate_camera_alignment)
-    keep(x.camera_alignment, was.camera_alignment, Eigen::Quaterniond::Identity(), was.cameraAlignmentOffset(),
-         kCameraAlignmentErrorDim, params_.camera_alignment_sigma);
+  forEachOptionalState([&](const auto& spec) {
+    if (params_.*spec.estimate)
+      keep(x.*spec.value, was.*spec.value, spec.start(T_imu_cam0_), was.offset(spec.id), spec.kDim,
+           params_.*spec.prior_sigma);
+  });
   run_.kf->reset(x, P);
   anchor_utime_ = INT64_MIN;  // a new start: its first image anchors the start frame again
   run_.last_imu_time = state.utime;
@@ -682,43 +672,14 @@ FilterOutput Estimator::makeOutput(const KalmanFilter& kf, bool a_priori) const 
     const Eigen::MatrixXd j = startFrameJacobian(kf.state(), anchor, start_pose_);
     o.covariance = j * kf.covariance() * j.transpose();
   }
-  o.lever_arm_estimated = kf.state().lever_arm.has_value();
-  o.lever_arm = T_imu_cam0_.translation();
-  if (o.lever_arm_estimated) {
-    const int l = kf.state().leverArmOffset();
-    o.lever_arm = *kf.state().lever_arm;
-    o.lever_arm_covariance = kf.covariance().block<kLeverArmErrorDim, kLeverArmErrorDim>(l, l);
-  }
-  // The standard deviations of one estimated block of the error state.
-  const auto sigmas = [&](int offset, int dim) {
-    return Eigen::VectorXd(kf.covariance().diagonal().segment(offset, dim).cwiseSqrt());
-  };
   const FullState& x = kf.state();
-  o.delta_scale_estimated = x.delta_scale.has_value();
-  if (o.delta_scale_estimated) {
-    o.delta_scale = *x.delta_scale;
-    o.delta_scale_sigma = sigmas(x.deltaScaleOffset(), kDeltaScaleErrorDim)(0);
-  }
-  o.delta_direction_estimated = x.delta_direction.has_value();
-  if (o.delta_direction_estimated) {
-    o.delta_direction = *x.delta_direction;
-    o.delta_direction_sigma = sigmas(x.deltaDirectionOffset(), kDeltaDirectionErrorDim);
-  }
-  o.delta_rotation_drift_estimated = x.delta_rotation_drift.has_value();
-  if (o.delta_rotation_drift_estimated) {
-    o.delta_rotation_drift = *x.delta_rotation_drift;
-    o.delta_rotation_drift_sigma = sigmas(x.deltaRotationDriftOffset(), kDeltaRotationDriftErrorDim);
-  }
-  o.tilt_offset_estimated = x.tilt_offset.has_value();
-  if (o.tilt_offset_estimated) {
-    o.tilt_offset = *x.tilt_offset;
-    o.tilt_offset_sigma = sigmas(x.tiltOffsetOffset(), kTiltOffsetErrorDim);
-  }
-  o.camera_alignment_estimated = x.camera_alignment.has_value();
-  if (o.camera_alignment_estimated) {
-    o.camera_alignment = logQuat(*x.camera_alignment);
-    o.camera_alignment_sigma = sigmas(x.cameraAlignmentOffset(), kCameraAlignmentErrorDim);
-  }
+  forEachOptionalState([&](const auto& spec) {
+    using Value = typename std::decay_t<decltype(spec)>::Value;
+    if (!(x.*spec.value)) return;
+    const int offset = x.offset(spec.id);
+    o.calibration[spec.id] = CalibrationEstimate{spec.name, spec.unit, Value::value(*(x.*spec.value)),
+                                                 kf.covariance().block(offset, offset, spec.kDim, spec.kDim)};
+  });
   o.type = kf.type();
   o.a_priori = a_priori;
   o.sensors = counters_;

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "ips/filter/optional_states.hpp"
+
 namespace ips::filter {
 
 // ---------------------------------------------------------------------------------------------- common
@@ -80,12 +82,10 @@ void KalmanFilter::resetErrorBlock(int offset, int size, double variance) {
 }
 
 void KalmanFilter::addRandomWalks(double dt, const ProcessNoise& q) {
-  if (x_.delta_scale) P_(x_.deltaScaleOffset(), x_.deltaScaleOffset()) += q.delta_scale_psd * dt;
-  if (x_.delta_direction)
-    P_.diagonal().segment<kDeltaDirectionErrorDim>(x_.deltaDirectionOffset()).array() += q.delta_direction_psd * dt;
-  if (x_.delta_rotation_drift)
-    P_.diagonal().segment<kDeltaRotationDriftErrorDim>(x_.deltaRotationDriftOffset()).array() +=
-        q.delta_rotation_drift_psd * dt;
+  forEachOptionalState([&](const auto& spec) {
+    if (spec.random_walk_psd && x_.*spec.value)
+      P_.diagonal().segment(x_.offset(spec.id), spec.kDim).array() += q.*spec.random_walk_psd * dt;
+  });
 }
 
 // ---------------------------------------------------------------------------------------------- EKF

@@ -136,7 +136,7 @@ MeasVector TiltMeasurement::residual(const FullState& x) const {
 
 Eigen::MatrixXd TiltMeasurement::jacobian(const FullState& x) const {
   Eigen::MatrixXd H = Eigen::MatrixXd::Zero(2, x.errorDim());
-  if (offset_state_ && x.tilt_offset) H.block<2, 2>(0, x.tiltOffsetOffset()).setIdentity();
+  if (offset_state_ && x.tilt_offset) H.block<2, 2>(0, x.offset(kTiltOffset)).setIdentity();
   const Eigen::Vector3d u = sensed(x.nav);
   const Eigen::Matrix3d A = R_body_tilt_.transpose() * x.nav.orientation.toRotationMatrix().transpose();
   const Eigen::Vector3d f = A * u;
@@ -188,7 +188,7 @@ void setRotationRows(const FullState& x, int i0, int i1, const Eigen::Isometry3d
   H.block<3, 3>(row, x.cloneOffset(i0) + 3) = -A;
   if (x.camera_alignment) {
     const Eigen::Matrix3d R_pred = A * x.clones.at(i1).orientation.toRotationMatrix() * T_imu_cam0.linear();
-    H.block<3, 3>(row, x.cameraAlignmentOffset()) = R_pred - Eigen::Matrix3d::Identity();
+    H.block<3, 3>(row, x.offset(kCameraAlignment)) = R_pred - Eigen::Matrix3d::Identity();
   }
 }
 
@@ -245,22 +245,22 @@ Eigen::MatrixXd DeltaMeasurement::jacobian(const FullState& x) const {
   H.block<3, 3>(0, o1 + 3) = -A * skew(R1 * t_ic);
   H.block<3, 3>(0, o0 + 3) = A * skew(d);
   // The lever arm shows only where the head turns between the two images: d t_pred / d t_ic = R_ci (R0^T R1 - I).
-  if (x.lever_arm) H.block<3, 3>(0, x.leverArmOffset()) = A * R1 - R_ci;
+  if (x.lever_arm) H.block<3, 3>(0, x.offset(kLeverArm)) = A * R1 - R_ci;
   // The camera alignment's error turns R_ci into Exp(-dphi) R_ci: t_pred into t_pred + [t_pred]x dphi.
-  if (x.camera_alignment) H.block<3, 3>(0, x.cameraAlignmentOffset()) = skew(A * d - R_ci * t_ic);
+  if (x.camera_alignment) H.block<3, 3>(0, x.offset(kCameraAlignment)) = skew(A * d - R_ci * t_ic);
   // Measured: (1 + s) (I + [b]x) t_pred.
   const Eigen::Vector3d t_pred = A * d - R_ci * t_ic;
   const Eigen::Matrix3d turn = turnOf(x);
   H.topRows<3>() = (scaleOf(x) * turn * H.topRows<3>()).eval();
-  if (from_tracker_ && x.delta_scale) H.block<3, 1>(0, x.deltaScaleOffset()) = turn * t_pred;
-  if (from_tracker_ && x.delta_direction) H.block<3, 3>(0, x.deltaDirectionOffset()) = -scaleOf(x) * skew(t_pred);
+  if (from_tracker_ && x.delta_scale) H.block<3, 1>(0, x.offset(kDeltaScale)) = turn * t_pred;
+  if (from_tracker_ && x.delta_direction) H.block<3, 3>(0, x.offset(kDeltaDirection)) = -scaleOf(x) * skew(t_pred);
   setRotationRows(x, i0_, i1_, T_imu_cam0_, 3, H);
   // Measured: Exp(c r) R_pred with c = |t_meas|: a perturbation Exp(e) of R_pred shows as Exp(Exp(c r) e), and one of r
   // as Exp(c J_l(c r) dr), J_l(phi) = J_r(-phi).
   if (from_tracker_ && x.delta_rotation_drift) {
     const Eigen::Vector3d drift = rotationDriftOf(x);
     H.middleRows<3>(3) = (expSO3(drift) * H.middleRows<3>(3)).eval();
-    H.block<3, 3>(3, x.deltaRotationDriftOffset()) = z_.translation().norm() * rightJacobianSO3(-drift);
+    H.block<3, 3>(3, x.offset(kDeltaRotationDrift)) = z_.translation().norm() * rightJacobianSO3(-drift);
   }
   return H;
 }

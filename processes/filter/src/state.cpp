@@ -2,6 +2,9 @@
 
 #include <cmath>
 #include <stdexcept>
+#include <type_traits>
+
+#include "ips/filter/optional_states.hpp"
 
 namespace ips::filter {
 
@@ -29,6 +32,30 @@ int FullState::findClone(int64_t t) const {
   for (size_t i = 0; i < clones.size(); ++i)
     if (clones[i].utime == t) return static_cast<int>(i);
   return -1;
+}
+
+bool FullState::has(OptionalState id) const {
+  bool present = false;
+  forEachOptionalState([&](const auto& spec) { present = present || (spec.id == id && (this->*spec.value)); });
+  return present;
+}
+
+int FullState::dim(OptionalState id) const { return has(id) ? optionalStateDim(id) : 0; }
+
+int FullState::offset(OptionalState id) const {
+  int o = kCoreErrorDim;
+  forEachOptionalState([&](const auto& spec) {
+    if (spec.id < id && (this->*spec.value)) o += spec.kDim;
+  });
+  return o;
+}
+
+int FullState::optionalDim() const {
+  int n = 0;
+  forEachOptionalState([&](const auto& spec) {
+    if (this->*spec.value) n += spec.kDim;
+  });
+  return n;
 }
 
 NavState toStartFrame(const NavState& nav, const PoseClone& anchor, const PoseClone& start) {
@@ -89,21 +116,12 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
   if (dx.size() != x.errorDim() || out.clones.size() != x.clones.size())
     throw std::invalid_argument("boxplus: error vector size does not match the state");
   out.nav = boxplus(x.nav, dx.head<kCoreErrorDim>());
-  out.lever_arm = x.lever_arm;
-  if (x.lever_arm) *out.lever_arm += dx.segment<kLeverArmErrorDim>(x.leverArmOffset());
-  out.delta_scale = x.delta_scale;
-  if (x.delta_scale) *out.delta_scale += dx(x.deltaScaleOffset());
-  out.delta_direction = x.delta_direction;
-  if (x.delta_direction) *out.delta_direction += dx.segment<kDeltaDirectionErrorDim>(x.deltaDirectionOffset());
-  out.delta_rotation_drift = x.delta_rotation_drift;
-  if (x.delta_rotation_drift)
-    *out.delta_rotation_drift += dx.segment<kDeltaRotationDriftErrorDim>(x.deltaRotationDriftOffset());
-  out.tilt_offset = x.tilt_offset;
-  if (x.tilt_offset) *out.tilt_offset += dx.segment<kTiltOffsetErrorDim>(x.tiltOffsetOffset());
-  out.camera_alignment = x.camera_alignment;
-  if (x.camera_alignment)
-    *out.camera_alignment =
-        (*x.camera_alignment * expQuat(dx.segment<kCameraAlignmentErrorDim>(x.cameraAlignmentOffset()))).normalized();
+  forEachOptionalState([&](const auto& spec) {
+    using Value = typename std::decay_t<decltype(spec)>::Value;
+    auto& value = out.*spec.value;
+    value = x.*spec.value;
+    if (value) Value::add(*value, dx.segment(x.offset(spec.id), spec.kDim));
+  });
   for (size_t i = 0; i < x.clones.size(); ++i) {
     const int o = x.cloneOffset(static_cast<int>(i));
     out.clones[i].utime = x.clones[i].utime;
@@ -119,26 +137,17 @@ FullState boxplus(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& d
 }
 
 Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
-  if (a.clones.size() != b.clones.size() || a.lever_arm.has_value() != b.lever_arm.has_value() ||
-      a.delta_scale.has_value() != b.delta_scale.has_value() ||
-      a.delta_direction.has_value() != b.delta_direction.has_value() ||
-      a.delta_rotation_drift.has_value() != b.delta_rotation_drift.has_value() ||
-      a.tilt_offset.has_value() != b.tilt_offset.has_value() ||
-      a.camera_alignment.has_value() != b.camera_alignment.has_value())
-    throw std::invalid_argument("boxminus: state layouts differ");
+  bool same_layout = a.clones.size() == b.clones.size();
+  forEachOptionalState([&](const auto& spec) {
+    same_layout = same_layout && (a.*spec.value).has_value() == (b.*spec.value).has_value();
+  });
+  if (!same_layout) throw std::invalid_argument("boxminus: state layouts differ");
   Eigen::VectorXd d(a.errorDim());
   d.head<kCoreErrorDim>() = boxminus(a.nav, b.nav);
-  if (a.lever_arm) d.segment<kLeverArmErrorDim>(a.leverArmOffset()) = *a.lever_arm - *b.lever_arm;
-  if (a.delta_scale) d(a.deltaScaleOffset()) = *a.delta_scale - *b.delta_scale;
-  if (a.delta_direction)
-    d.segment<kDeltaDirectionErrorDim>(a.deltaDirectionOffset()) = *a.delta_direction - *b.delta_direction;
-  if (a.delta_rotation_drift)
-    d.segment<kDeltaRotationDriftErrorDim>(a.deltaRotationDriftOffset()) =
-        *a.delta_rotation_drift - *b.delta_rotation_drift;
-  if (a.tilt_offset) d.segment<kTiltOffsetErrorDim>(a.tiltOffsetOffset()) = *a.tilt_offset - *b.tilt_offset;
-  if (a.camera_alignment)
-    d.segment<kCameraAlignmentErrorDim>(a.cameraAlignmentOffset()) =
-        logQuat(b.camera_alignment->conjugate() * *a.camera_alignment);
+  forEachOptionalState([&](const auto& spec) {
+    using Value = typename std::decay_t<decltype(spec)>::Value;
+    if (a.*spec.value) d.segment(a.offset(spec.id), spec.kDim) = Value::minus(*(a.*spec.value), *(b.*spec.value));
+  });
   for (size_t i = 0; i < a.clones.size(); ++i) {
     const int o = a.cloneOffset(static_cast<int>(i));
     d.segment<3>(o) = a.clones[i].position - b.clones[i].position;

@@ -100,8 +100,16 @@ Verdict validate(const ips::filter_state_t& m) {
     return bad("nan", "filter state with NaN or inf");
   if (!finite(m.acceleration, 3) || !finite(m.accel_bias, 3) || !finite(m.gyro_bias, 3))
     return bad("nan", "filter state with a NaN or inf bias or acceleration");
-  if (!finite(m.lever_arm, 3) || !finite(m.lever_arm_sigma, 3))
-    return bad("nan", "filter state lever arm with NaN or inf");
+  if (m.num_calibration < 0 || m.num_calibration > 64 || static_cast<int>(m.calibration.size()) != m.num_calibration)
+    return bad("bad_size", "filter state with " + std::to_string(m.num_calibration) + " calibration estimates");
+  for (const ips::calibration_estimate_t& c : m.calibration) {
+    if (c.name.empty() || c.dim < 1 || c.dim > 16 || static_cast<int>(c.value.size()) != c.dim ||
+        static_cast<int>(c.sigma.size()) != c.dim)
+      return bad("bad_size", "filter state calibration estimate '" + c.name + "' of " + std::to_string(c.dim) +
+                                 " dimensions, or without a name");
+    if (!finite(c.value.data(), c.dim) || !finite(c.sigma.data(), c.dim))
+      return bad("nan", "filter state calibration estimate '" + c.name + "' with NaN or inf");
+  }
   // A state a navigation filter can have: a unit quaternion, and position, speed, acceleration and turn rate no
   // vehicle exceeds (10 000 km from the origin, 10 km/s, 1000 m/s^2, 100 rad/s).
   const double* q = m.orientation;

@@ -76,6 +76,16 @@ struct SensorCounters {
   int64_t too_late = 0;  // older than what the reordering window still allows (or clone gone)
 };
 
+// One optional state as the filter estimates it (ips::calibration_estimate_t): the registry's name and unit
+// (ips/filter/optional_states.hpp), the value (a rotation as its rotation vector) and its covariance block.
+struct CalibrationEstimate {
+  const char* name = "";
+  const char* unit = "";
+  Eigen::VectorXd value;
+  Eigen::MatrixXd covariance;
+  Eigen::VectorXd sigma() const { return covariance.diagonal().cwiseMax(0.0).cwiseSqrt(); }
+};
+
 // One to one ips::filter_state_t.
 struct FilterOutput {
   NavState state;
@@ -84,32 +94,9 @@ struct FilterOutput {
   // covariance is that of the motion since the first image.
   OutputFrame frame = OutputFrame::World;
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-  // Camera 0's origin in the IMU frame [m]: the filter's estimate and its covariance when it estimates the lever arm
-  // (FilterParams::estimate_lever_arm), the calibration's with covariance zero otherwise.
-  bool lever_arm_estimated = false;
-  Eigen::Vector3d lever_arm = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d lever_arm_covariance = Eigen::Matrix3d::Zero();
-  // The tracker's scale error (its translations are 1 + delta_scale times the true ones) and its sigma, when the
-  // filter estimates it (FilterParams::estimate_delta_scale); zero otherwise.
-  bool delta_scale_estimated = false;
-  double delta_scale = 0, delta_scale_sigma = 0;
-  // The turn of the tracker's steps (rotation vector in camera 0 [rad]) and its sigmas, when the filter estimates it
-  // (FilterParams::estimate_delta_direction); zero otherwise.
-  bool delta_direction_estimated = false;
-  Eigen::Vector3d delta_direction = Eigen::Vector3d::Zero(), delta_direction_sigma = Eigen::Vector3d::Zero();
-  // The tracker's rotation drift (rotation vector per metre of its steps, camera 0 [rad/m]) and its sigmas, when the
-  // filter estimates it (FilterParams::estimate_delta_rotation_drift); zero otherwise.
-  bool delta_rotation_drift_estimated = false;
-  Eigen::Vector3d delta_rotation_drift = Eigen::Vector3d::Zero(), delta_rotation_drift_sigma = Eigen::Vector3d::Zero();
-  // The tilt sensor's constant offsets [rad] and their sigmas, when the filter estimates them
-  // (FilterParams::estimate_tilt_offset); zero otherwise.
-  bool tilt_offset_estimated = false;
-  Eigen::Vector2d tilt_offset = Eigen::Vector2d::Zero(), tilt_offset_sigma = Eigen::Vector2d::Zero();
-  // The camera's rotation against the calibration's (rotation vector in camera 0 [rad]: T_imu_cam0's rotation is the
-  // calibration's times Exp(camera_alignment)) and its sigmas, when the filter estimates it
-  // (FilterParams::estimate_camera_alignment); zero otherwise.
-  bool camera_alignment_estimated = false;
-  Eigen::Vector3d camera_alignment = Eigen::Vector3d::Zero(), camera_alignment_sigma = Eigen::Vector3d::Zero();
+  // The optional states the filter estimates (the head's calibration as it learns it), by id; empty where a state is
+  // not estimated.
+  std::array<std::optional<CalibrationEstimate>, kOptionalStateCount> calibration;
   FilterType type = FilterType::Ekf;
   bool a_priori = false;
   std::array<SensorCounters, kNumSensors> sensors;

@@ -2,9 +2,8 @@
 // The navigation state of the IPS filter (paper section 4.2): position, velocity, acceleration, accelerometer
 // bias, angular rate, gyro bias (three each) and the attitude quaternion = 22 elements. The covariance is kept
 // over a 21-dimensional error state in which the attitude error is a 3-vector (rotation vector in world).
-// The lever arm (camera 0's origin in the IMU frame), when estimated online, extends it by 3, the tracker's scale
-// error by 1, the tilt sensor's constant offsets by 2 and the camera's alignment against the IMU by 3 (each when
-// estimated), and stochastic clones of the body pose at image times by 6 each (see FullState).
+// The optional states (parts of the head's calibration, when estimated online; their registry is
+// ips/filter/optional_states.hpp) extend it, and so do stochastic clones of the body pose at image times, 6 each.
 //
 // Frames: world = local level, z up, gravity (0, 0, -g). Body = the IMU frame. The quaternion maps body to
 // world. This is one to one the content of lcmtypes/ips_filter_state_t.lcm.
@@ -29,15 +28,21 @@ enum ErrorIndex : int {
   kErrBg = 15,  // gyro bias [rad/s], body
   kErrTh = 18,  // attitude error, rotation vector in world: R_true = Exp(dtheta) * R_est
   kCoreErrorDim = 21,
-  kCloneErrorDim = 6,               // per clone: position, attitude error (same conventions)
-  kLeverArmErrorDim = 3,            // the lever arm, when estimated: camera 0's origin in the IMU frame [m]
-  kDeltaScaleErrorDim = 1,          // the tracker's scale error, when estimated [1]
-  kDeltaDirectionErrorDim = 3,      // the turn of the tracker's steps, when estimated [rad]
-  kDeltaRotationDriftErrorDim = 3,  // the tracker's rotation error per metre of its steps, when estimated [rad/m]
-  kTiltOffsetErrorDim = 2,          // the tilt sensor's constant offsets of its two angles, when estimated [rad]
-  kCameraAlignmentErrorDim = 3,     // the camera's rotation against the calibration's, when estimated [rad]
+  kCloneErrorDim = 6,  // per clone: position, attitude error (same conventions)
 };
 constexpr int kStateElements = 22;
+
+// The optional states (the head's calibration, estimated when the configuration says so), in the error state's order
+// after the core. What each is, its dimension and prior: the registry, ips/filter/optional_states.hpp.
+enum OptionalState : int {
+  kLeverArm,
+  kDeltaScale,
+  kDeltaDirection,
+  kDeltaRotationDrift,
+  kTiltOffset,
+  kCameraAlignment,
+  kOptionalStateCount
+};
 
 using Vector21d = Eigen::Matrix<double, 21, 1>;
 using Matrix21d = Eigen::Matrix<double, 21, 21>;
@@ -59,10 +64,8 @@ struct PoseClone {
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
 };
 
-// Mean of the estimator: the navigation state, the lever arm, the tracker's scale error and the turn of its steps, the
-// tilt sensor's offsets and the camera's alignment when they are estimated, then the clones (oldest first). Error-state
-// layout: [21 core | 3 lever arm | 1 scale | 3 step direction | 3 rotation drift | 2 tilt offset | 3 camera alignment
-// (each if estimated) | 6 per clone].
+// Mean of the estimator: the navigation state, the optional states that are estimated, then the clones (oldest
+// first). Error-state layout: [21 core | each present optional state, in the registry's order | 6 per clone].
 struct FullState {
   NavState nav;
   // Camera 0's origin in the IMU frame (T_imu_cam0's translation) [m], when the filter estimates it; otherwise the
@@ -87,21 +90,13 @@ struct FullState {
   std::optional<Eigen::Quaterniond> camera_alignment;
   std::vector<PoseClone> clones;
 
-  int leverArmDim() const { return lever_arm ? kLeverArmErrorDim : 0; }
-  int deltaScaleDim() const { return delta_scale ? kDeltaScaleErrorDim : 0; }
-  int deltaDirectionDim() const { return delta_direction ? kDeltaDirectionErrorDim : 0; }
-  int deltaRotationDriftDim() const { return delta_rotation_drift ? kDeltaRotationDriftErrorDim : 0; }
-  int tiltOffsetDim() const { return tilt_offset ? kTiltOffsetErrorDim : 0; }
-  int cameraAlignmentDim() const { return camera_alignment ? kCameraAlignmentErrorDim : 0; }
-  // Offsets of the lever arm's error, the scale's, the step direction's, the rotation drift's, the tilt offset's and
-  // the camera alignment's (each valid only when it is estimated) and of clone i's.
-  int leverArmOffset() const { return kCoreErrorDim; }
-  int deltaScaleOffset() const { return kCoreErrorDim + leverArmDim(); }
-  int deltaDirectionOffset() const { return deltaScaleOffset() + deltaScaleDim(); }
-  int deltaRotationDriftOffset() const { return deltaDirectionOffset() + deltaDirectionDim(); }
-  int tiltOffsetOffset() const { return deltaRotationDriftOffset() + deltaRotationDriftDim(); }
-  int cameraAlignmentOffset() const { return tiltOffsetOffset() + tiltOffsetDim(); }
-  int cloneOffset(int i) const { return cameraAlignmentOffset() + cameraAlignmentDim() + kCloneErrorDim * i; }
+  bool has(OptionalState id) const;
+  // The error dimensions of optional state id when it is present (else 0), its offset in the error state (valid only
+  // when present), the dimensions of all present ones, and the offset of clone i.
+  int dim(OptionalState id) const;
+  int offset(OptionalState id) const;
+  int optionalDim() const;
+  int cloneOffset(int i) const { return kCoreErrorDim + optionalDim() + kCloneErrorDim * i; }
   int errorDim() const { return cloneOffset(static_cast<int>(clones.size())); }
   // Index of the clone taken at utime, or -1.
   int findClone(int64_t utime) const;
