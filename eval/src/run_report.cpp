@@ -89,8 +89,8 @@ ErrorSeries errorSeries(const FilterRun& run, const Trajectory& est, const Traje
   };
   const std::vector<size_t> shown = subsample(n, max_samples);
   size_t next_shown = 0;
-  double nees_sum = 0;
-  int64_t nees_n = 0, nees_in = 0;
+  double nees_sum = 0, heading_max = 0;
+  int64_t nees_n = 0, nees_in = 0, heading_n = 0, heading_in = 0;
   for (size_t i = 0; i < n; ++i) {
     const ips::filter_state_t& s = run.states[i];
     const TrajPoint& p = aligned[i];
@@ -107,13 +107,19 @@ ErrorSeries errorSeries(const FilterRun& run, const Trajectory& est, const Traje
         nees_in += nees >= kChi2Dof3Lo && nees <= kChi2Dof3Hi ? 1 : 0;
       }
     }
-    if (next_shown >= shown.size() || shown[next_shown] != i) continue;
-    ++next_shown;
     if (has_att) Pa = R * block(s, kCovAttitude) * R.transpose();
     // q_true = exp(dtheta) * q_est: the attitude error as a rotation vector in world, as the covariance has it.
     // (Eigen's angle-axis of a quaternion has its angle in [0, pi]: the shortest rotation.)
     const Eigen::AngleAxisd d(truthAttitudeAt(gt, p.t) * p.q.inverse());
     const Eigen::Vector3d dtheta_w = d.angle() * d.axis();
+    if (has_att && std::isfinite(Pa(2, 2))) {
+      const double heading = std::abs(dtheta_w.z());
+      heading_max = std::max(heading_max, heading);
+      heading_in += heading <= 3 * std::sqrt(std::max(0.0, Pa(2, 2))) ? 1 : 0;
+      ++heading_n;
+    }
+    if (next_shown >= shown.size() || shown[next_shown] != i) continue;
+    ++next_shown;
     out.t.push_back(p.t - t0);
     out.nees.push_back(nees);
     for (int a = 0; a < 3; ++a) {
@@ -124,6 +130,9 @@ ErrorSeries errorSeries(const FilterRun& run, const Trajectory& est, const Traje
     }
   }
   if (nees_n) out.nees_mean = nees_sum / nees_n, out.nees_in_band_pct = 100.0 * nees_in / nees_n;
+  if (heading_n)
+    out.heading_error_max_deg = heading_max * 180 / M_PI,
+    out.heading_within_3sigma_pct = 100.0 * heading_in / heading_n;
   return out;
 }
 
@@ -491,6 +500,8 @@ FiltersSection filtersSection(const RunLog& log, const std::optional<ips::Stereo
     f["ate_rmse_m"] = figure(ate);
     f["nees_position_mean"] = figure(result.errors.nees_mean);
     f["nees_position_in_95_band_pct"] = figure(result.errors.nees_in_band_pct);
+    f["heading_error_max_deg"] = figure(result.errors.heading_error_max_deg);
+    f["heading_within_3sigma_pct"] = figure(result.errors.heading_within_3sigma_pct);
     // Roll and pitch against the truth at the first and the last state: the angle between the body's up as the
     // filter and as the truth have it (both worlds are level; heading does not enter). A start that takes the
     // accelerometer's bias for gravity shows here, and how far the run learnt it.

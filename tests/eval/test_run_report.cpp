@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <ips/ground_truth_t.hpp>
 
@@ -145,6 +146,27 @@ TEST(RunReport, AFilterOnePercentLongIsOnePercentOff) {
   ASSERT_EQ(s.results.size(), 1u);
   EXPECT_EQ(s.results[0].errors.t.size(), ev::subsample(101, 50).size());  // the page's samples
   EXPECT_NEAR(s.results[0].aligned.back().p.x(), 10.1, 1e-9);
+}
+
+// A filter whose heading drifts 0.5 mrad per state from the truth's while it claims 10 mrad (1 sigma) about the
+// vertical (3 sigma 30.25 mrad): the error is inside it for states 0..60 of 0..100, and 50 mrad at the end.
+TEST(RunReport, HeadingErrorIsJudgedAgainstItsOwnThreeSigma) {
+  ev::RunLog log;
+  log.gt = walk();
+  log.runs.push_back({"FILTER_STATE", ips::filter_state_t::FILTER_EKF, {}});
+  for (int i = 0; i <= 100; ++i) {
+    ips::filter_state_t s = state(1'000'000 + 100'000 * i, 0.1 * i, 0.1);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(0.0005 * i, Eigen::Vector3d::UnitZ()));
+    s.orientation[0] = q.w(), s.orientation[3] = q.z();
+    s.cov_dim = 21;
+    s.covariance.assign(21, std::vector<double>(21, 0.0));
+    for (int k = 0; k < 21; ++k) s.covariance[k][k] = k == 20 ? std::pow(0.03025 / 3, 2) : 0.01;
+    log.runs[0].states.push_back(s);
+  }
+  const ev::FiltersSection s = ev::filtersSection(log, std::nullopt, std::nullopt, 1.0, 50);
+  const ev::Json& f = s.json["filters"][0];
+  EXPECT_NEAR(f["heading_error_max_deg"].get<double>(), 0.05 * 180 / M_PI, 1e-4);
+  EXPECT_NEAR(f["heading_within_3sigma_pct"].get<double>(), 100.0 * 61 / 101, 1e-3);
 }
 
 // The filter's calibration estimates at its last state, each as "<name>_<unit>" and "<name>_sigma_<unit>": one

@@ -134,6 +134,10 @@ struct ErrorSeries {
   std::array<std::vector<double>, 3> pos, pos3s, att, att3s;
   double nees_mean = NAN;
   double nees_in_band_pct = NAN;
+  // The heading error (the attitude error about the world's vertical) over every state with an attitude covariance:
+  // its largest magnitude and the share of states where it lies inside the filter's own 3-sigma bound.
+  double heading_error_max_deg = NAN;
+  double heading_within_3sigma_pct = NAN;
 };
 // The two-sided 95 % band of a chi-square variable with 3 degrees of freedom (a consistent filter's position NEES,
 // one sample): its 2.5 % and 97.5 % quantiles.
