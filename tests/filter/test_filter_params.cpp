@@ -107,4 +107,20 @@ TEST(FilterParams, FromTheHeadsDescription) {
   EXPECT_DOUBLE_EQ(t.tilt_offset_noise_sigma, 0.002);
 }
 
+// The tracker's rotation floor in pixels becomes radians with camera 0's focal length, and never lowers the floor in
+// radians; 0 px leaves it.
+TEST(FilterParams, TrackerRotationFloorInPixelsTakesTheHeadsFocalLength) {
+  ips::StereoCalibration calib;
+  calib.cam0.K(0, 0) = 460, calib.cam0.K(1, 1) = 456;  // EuRoC's cam0: mean 458 px
+  ips::filter::FilterParams in;
+  EXPECT_DOUBLE_EQ(ips::filter::withHeadSensors(in, calib).tracker_min_sigma_r, in.tracker_min_sigma_r);
+  in.tracker_min_sigma_r_px = 0.1;
+  EXPECT_DOUBLE_EQ(ips::filter::withHeadSensors(in, calib).tracker_min_sigma_r, 0.1 / 458);
+  in.tracker_min_sigma_r = 1e-3;
+  EXPECT_DOUBLE_EQ(ips::filter::withHeadSensors(in, calib).tracker_min_sigma_r, 1e-3);
+  EXPECT_THROW(
+      ips::filter::loadFilterParams(ips::Config(writeTempYaml("floor_px.yaml", "tracker:\n  min_sigma_r_px: -1\n"))),
+      ips::ConfigError);
+}
+
 }  // namespace

@@ -74,6 +74,8 @@ FilterParams loadFilterParams(const Config& c) {
   p.tracker_min_sigma_r = c.getDouble("tracker/min_sigma_r", p.tracker_min_sigma_r);
   nonNegative(c, "tracker/min_sigma_t", p.tracker_min_sigma_t);
   nonNegative(c, "tracker/min_sigma_r", p.tracker_min_sigma_r);
+  p.tracker_min_sigma_r_px = c.getDouble("tracker/min_sigma_r_px", p.tracker_min_sigma_r_px);
+  nonNegative(c, "tracker/min_sigma_r_px", p.tracker_min_sigma_r_px);
   p.far_rotation = c.getBool("tracker/far_rotation", p.far_rotation);
   p.far_rotation_min_sigma = c.getDouble("tracker/far_rotation_min_sigma", p.far_rotation_min_sigma);
   nonNegative(c, "tracker/far_rotation_min_sigma", p.far_rotation_min_sigma);
@@ -197,6 +199,9 @@ FilterParams loadFilterParams(const Config& c) {
 }
 
 FilterParams withHeadSensors(FilterParams p, const StereoCalibration& calib) {
+  const double focal_px = 0.5 * (calib.cam0.K(0, 0) + calib.cam0.K(1, 1));
+  if (p.tracker_min_sigma_r_px > 0 && focal_px > 0)
+    p.tracker_min_sigma_r = std::max(p.tracker_min_sigma_r, p.tracker_min_sigma_r_px / focal_px);
   if (!calib.imu) return p;
   const ImuDescription& imu = *calib.imu;
   p.imu.rate_hz = imu.rate_hz;

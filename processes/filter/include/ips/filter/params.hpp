@@ -122,6 +122,10 @@ struct FilterParams {
   bool tilt_specific_force = true;     // the inclinometer senses specific force (accelerometer type), not gravity alone
   double tracker_min_sigma_t = 1e-4;   // [m] floor on the tracker's translation sigma
   double tracker_min_sigma_r = 1e-5;   // [rad] floor on the tracker's rotation sigma
+  // [px] the same floor in pixels of camera 0 (0: none): a calibration's residual that every feature of a pair shares
+  // (the lens model's error at the same image places), which the tracker's covariance, built from independent
+  // per-feature noise, leaves out. withHeadSensors turns it into radians with the head's focal length.
+  double tracker_min_sigma_r_px = 0.0;
   // The tracker's rotation from far points (paper section 6) as a rotation-only measurement between the clones.
   bool far_rotation = true;
   double far_rotation_min_sigma = 1e-5;  // [rad] floor on its sigma
@@ -261,6 +265,7 @@ FilterParams loadFilterParams(const Config& cfg);
 // of the bias states: density squared) and turn-on sigmas (their prior at a start); the tilt sensor's accuracy and
 // resolution, or no tilt sensor (use_tilt false) where the calibration describes an IMU but no tilt sensor. A
 // calibration without `imu` leaves the parameters as they are (their defaults: the paper's MMQ-50 and PEI Z260).
+// The tracker's rotation floor in pixels (tracker_min_sigma_r_px) becomes radians with camera 0's focal length.
 FilterParams withHeadSensors(FilterParams params, const StereoCalibration& calib);
 std::string toString(FilterType type);
 // "ekf" or "ukf" (as toString gives them); nothing for any other name.
