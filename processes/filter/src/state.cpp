@@ -34,14 +34,6 @@ int FullState::findClone(int64_t t) const {
   return -1;
 }
 
-bool FullState::has(OptionalState id) const {
-  bool present = false;
-  forEachOptionalState([&](const auto& spec) { present = present || (spec.id == id && (this->*spec.value)); });
-  return present;
-}
-
-int FullState::dim(OptionalState id) const { return has(id) ? optionalStateDim(id) : 0; }
-
 int FullState::offset(OptionalState id) const {
   int o = kCoreErrorDim;
   forEachOptionalState([&](const auto& spec) {
@@ -50,13 +42,7 @@ int FullState::offset(OptionalState id) const {
   return o;
 }
 
-int FullState::optionalDim() const {
-  int n = 0;
-  forEachOptionalState([&](const auto& spec) {
-    if (this->*spec.value) n += spec.kDim;
-  });
-  return n;
-}
+int FullState::optionalDim() const { return offset(kOptionalStateCount) - kCoreErrorDim; }
 
 NavState toStartFrame(const NavState& nav, const PoseClone& anchor, const PoseClone& start) {
   const Eigen::Quaterniond c = start.orientation * anchor.orientation.conjugate();
@@ -116,11 +102,14 @@ void boxplusInto(const FullState& x, const Eigen::Ref<const Eigen::VectorXd>& dx
   if (dx.size() != x.errorDim() || out.clones.size() != x.clones.size())
     throw std::invalid_argument("boxplus: error vector size does not match the state");
   out.nav = boxplus(x.nav, dx.head<kCoreErrorDim>());
+  int o = kCoreErrorDim;  // the next present state's offset
   forEachOptionalState([&](const auto& spec) {
     using Value = typename std::decay_t<decltype(spec)>::Value;
     auto& value = out.*spec.value;
     value = x.*spec.value;
-    if (value) Value::add(*value, dx.segment(x.offset(spec.id), spec.kDim));
+    if (!value) return;
+    Value::add(*value, dx.segment(o, spec.kDim));
+    o += spec.kDim;
   });
   for (size_t i = 0; i < x.clones.size(); ++i) {
     const int o = x.cloneOffset(static_cast<int>(i));
@@ -144,9 +133,12 @@ Eigen::VectorXd boxminus(const FullState& a, const FullState& b) {
   if (!same_layout) throw std::invalid_argument("boxminus: state layouts differ");
   Eigen::VectorXd d(a.errorDim());
   d.head<kCoreErrorDim>() = boxminus(a.nav, b.nav);
+  int o = kCoreErrorDim;
   forEachOptionalState([&](const auto& spec) {
     using Value = typename std::decay_t<decltype(spec)>::Value;
-    if (a.*spec.value) d.segment(a.offset(spec.id), spec.kDim) = Value::minus(*(a.*spec.value), *(b.*spec.value));
+    if (!(a.*spec.value)) return;
+    d.segment(o, spec.kDim) = Value::minus(*(a.*spec.value), *(b.*spec.value));
+    o += spec.kDim;
   });
   for (size_t i = 0; i < a.clones.size(); ++i) {
     const int o = a.cloneOffset(static_cast<int>(i));

@@ -1,10 +1,10 @@
 #pragma once
 // The registry of the filter's optional states: the parts of the head's calibration the filter can estimate online.
-// One entry each: its name (FILTER_STATE's calibration[].name and the report's key), unit, how it enters the
-// measurements, its value in FullState, the configuration's switch, its prior sigma and random walk. The error
-// state holds the present ones in the registry's order after the core (FullState::offset); the estimator starts
-// them, the filters propagate, apply and difference them, and the output and the message carry them, all by this
-// table. Adding a state: a value in FullState, its entry here, its parameters and the term of its model.
+// One entry each, with a comment on how it enters the measurements: its name (FILTER_STATE's calibration[].name, the
+// report's key), unit, its value in FullState, the configuration's switch, its prior sigma, random walk and start.
+// The error state holds the present ones in the registry's order after the core (FullState::offset); the estimator
+// starts them, the filters propagate, apply and difference them, and the output and the message carry them, all by
+// this table. Adding a state: a value in FullState, its entry here, its parameters and the term of its model.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <optional>
@@ -52,8 +52,7 @@ struct OptionalStateSpec {
   using Value = OptionalValue<T>;
   OptionalState id;
   const char* name;
-  const char* unit;    // of the value and its sigma ("" for none)
-  const char* enters;  // how it enters the measurements
+  const char* unit;  // of the value and its sigma ("" for none)
   std::optional<T> FullState::*value;
   bool FilterParams::*estimate;                     // the configuration's switch
   double FilterParams::*prior_sigma;                // per dimension, of the start
@@ -63,35 +62,34 @@ struct OptionalStateSpec {
 };
 
 inline constexpr auto kOptionalStates = std::make_tuple(
-    OptionalStateSpec<Eigen::Vector3d>{
-        kLeverArm, "lever_arm", "m",
-        "camera 0's origin in the IMU frame (T_imu_cam0's translation): the deltas' and image models' lever arm",
-        &FullState::lever_arm, &FilterParams::estimate_lever_arm, &FilterParams::lever_arm_sigma, nullptr,
-        [](const Eigen::Isometry3d& T) { return Eigen::Vector3d(T.translation()); }},
-    OptionalStateSpec<double>{
-        kDeltaScale, "delta_scale", "", "the tracker's translations are (1 + delta_scale) times the true ones",
-        &FullState::delta_scale, &FilterParams::estimate_delta_scale, &FilterParams::delta_scale_sigma,
-        &ProcessNoise::delta_scale_psd, [](const Eigen::Isometry3d&) { return 0.0; }},
-    OptionalStateSpec<Eigen::Vector3d>{
-        kDeltaDirection, "delta_direction", "rad",
-        "the tracker's translations are turned by (I + [delta_direction]x) (camera 0 at the older image)",
-        &FullState::delta_direction, &FilterParams::estimate_delta_direction, &FilterParams::delta_direction_sigma,
-        &ProcessNoise::delta_direction_psd, [](const Eigen::Isometry3d&) { return Eigen::Vector3d::Zero().eval(); }},
-    OptionalStateSpec<Eigen::Vector3d>{
-        kDeltaRotationDrift, "delta_rotation_drift", "rad_per_m",
-        "the tracker's rotations err by Exp(|t| delta_rotation_drift) (|t| the step's length, camera 0)",
-        &FullState::delta_rotation_drift, &FilterParams::estimate_delta_rotation_drift,
-        &FilterParams::delta_rotation_drift_sigma, &ProcessNoise::delta_rotation_drift_psd,
-        [](const Eigen::Isometry3d&) { return Eigen::Vector3d::Zero().eval(); }},
-    OptionalStateSpec<Eigen::Vector2d>{
-        kTiltOffset, "tilt_offset", "rad", "the tilt sensor reads its two angles plus these constant offsets",
-        &FullState::tilt_offset, &FilterParams::estimate_tilt_offset, &FilterParams::tilt_sigma, nullptr,
-        [](const Eigen::Isometry3d&) { return Eigen::Vector2d::Zero().eval(); }},
-    OptionalStateSpec<Eigen::Quaterniond>{
-        kCameraAlignment, "camera_alignment", "rad",
-        "T_imu_cam0's rotation is the calibration's times this rotation (camera 0): the deltas' and image models'",
-        &FullState::camera_alignment, &FilterParams::estimate_camera_alignment, &FilterParams::camera_alignment_sigma,
-        nullptr, [](const Eigen::Isometry3d&) { return Eigen::Quaterniond::Identity(); }});
+    // camera 0's origin in the IMU frame (T_imu_cam0's translation): the deltas' and image models' lever arm
+    OptionalStateSpec<Eigen::Vector3d>{kLeverArm, "lever_arm", "m", &FullState::lever_arm,
+                                       &FilterParams::estimate_lever_arm, &FilterParams::lever_arm_sigma, nullptr,
+                                       [](const Eigen::Isometry3d& T) { return Eigen::Vector3d(T.translation()); }},
+    // the tracker's translations are (1 + delta_scale) times the true ones
+    OptionalStateSpec<double>{kDeltaScale, "delta_scale", "", &FullState::delta_scale,
+                              &FilterParams::estimate_delta_scale, &FilterParams::delta_scale_sigma,
+                              &ProcessNoise::delta_scale_psd, [](const Eigen::Isometry3d&) { return 0.0; }},
+    // the tracker's translations are turned by (I + [delta_direction]x) (camera 0 at the older image)
+    OptionalStateSpec<Eigen::Vector3d>{kDeltaDirection, "delta_direction", "rad", &FullState::delta_direction,
+                                       &FilterParams::estimate_delta_direction, &FilterParams::delta_direction_sigma,
+                                       &ProcessNoise::delta_direction_psd,
+                                       [](const Eigen::Isometry3d&) { return Eigen::Vector3d::Zero().eval(); }},
+    // the tracker's rotations err by Exp(|t| delta_rotation_drift) (|t| the step's length, camera 0)
+    OptionalStateSpec<Eigen::Vector3d>{kDeltaRotationDrift, "delta_rotation_drift", "rad_per_m",
+                                       &FullState::delta_rotation_drift, &FilterParams::estimate_delta_rotation_drift,
+                                       &FilterParams::delta_rotation_drift_sigma,
+                                       &ProcessNoise::delta_rotation_drift_psd,
+                                       [](const Eigen::Isometry3d&) { return Eigen::Vector3d::Zero().eval(); }},
+    // the tilt sensor reads its two angles plus these constant offsets
+    OptionalStateSpec<Eigen::Vector2d>{kTiltOffset, "tilt_offset", "rad", &FullState::tilt_offset,
+                                       &FilterParams::estimate_tilt_offset, &FilterParams::tilt_sigma, nullptr,
+                                       [](const Eigen::Isometry3d&) { return Eigen::Vector2d::Zero().eval(); }},
+    // T_imu_cam0's rotation is the calibration's times this rotation (camera 0): the deltas' and image models'
+    OptionalStateSpec<Eigen::Quaterniond>{kCameraAlignment, "camera_alignment", "rad", &FullState::camera_alignment,
+                                          &FilterParams::estimate_camera_alignment,
+                                          &FilterParams::camera_alignment_sigma, nullptr,
+                                          [](const Eigen::Isometry3d&) { return Eigen::Quaterniond::Identity(); }});
 
 static_assert(std::tuple_size_v<decltype(kOptionalStates)> == kOptionalStateCount,
               "every optional state has one registry entry");

@@ -90,10 +90,8 @@ struct FullState {
   std::optional<Eigen::Quaterniond> camera_alignment;
   std::vector<PoseClone> clones;
 
-  bool has(OptionalState id) const;
-  // The error dimensions of optional state id when it is present (else 0), its offset in the error state (valid only
-  // when present), the dimensions of all present ones, and the offset of clone i.
-  int dim(OptionalState id) const;
+  // The offset of optional state id in the error state (valid only when it is present; kOptionalStateCount: the end
+  // of the present ones), the dimensions of all present ones, and the offset of clone i.
   int offset(OptionalState id) const;
   int optionalDim() const;
   int cloneOffset(int i) const { return kCoreErrorDim + optionalDim() + kCloneErrorDim * i; }
