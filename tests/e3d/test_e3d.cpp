@@ -344,6 +344,9 @@ TEST(StereoMatcher, BadInputThrows) {
   EXPECT_THROW(parseRightMap("rows"), std::invalid_argument);
   EXPECT_THROW(parseCost("ssd"), std::invalid_argument);
   EXPECT_THROW(StereoMatcher(context(), cv::Size(5000, 10), p), std::invalid_argument);
+  bad = p;
+  bad.search = Search::narrowed;  // the CPU reference's only, so far
+  EXPECT_THROW(StereoMatcher(context(), cv::Size(64, 32), bad), std::invalid_argument);
 }
 
 TEST(SgmParams, MutualInformationTakesThePenaltiesOfItsWindow) {

@@ -3,7 +3,7 @@
 // the scenes of ../shared/data/stereo. Per scene: bad 0.5/1/2/4 px in the non-occluded region and in all
 // evaluated pixels (pixels without a disparity count as bad), mean absolute error of the valid disparities
 // (all region), density (all and nonocc); writes colour-mapped disparity PNGs.
-//   e3d_eval [--data DIR] [--scenes a,b,..] [--out-dir DIR] [--opencv] [--device D] [SGM options]
+//   e3d_eval [--data DIR] [--scenes a,b,..] [--out-dir DIR] [--opencv] [--device D | --reference] [SGM options]
 //   e3d_eval --radiometric [--costs census,ad,sad,mi] [...]: the right image changed before matching (gain 0.7,
 //       offset +30, gamma 1.5, vignetting 40 % at the corners); bad 2.0 (nonocc) of each cost and change, each cost
 //       with its own penalties (SgmParams::forCost) and the other options as given.
@@ -20,6 +20,7 @@
 #include <sstream>
 
 #include "ips/data_dir.hpp"
+#include "ips/e3d/matching_cost.hpp"
 #include "ips/e3d/sgm_options.hpp"
 #include "ips/e3d/stereo_matcher.hpp"
 #include "ips/eval/disparity.hpp"
@@ -225,6 +226,9 @@ int main(int argc, char** argv) {
         .option("--out-dir", "DIR", "write colour-mapped disparity PNGs here")
         .flag("--opencv", "also OpenCV StereoSGBM MODE_HH and MODE_SGBM_3WAY with fixed settings")
         .option("--device", "D", "Vulkan device (default: env IPS_VK_DEVICE, else the first)")
+        .flag("--reference",
+              "E3D by its plain C++ reference (sgmReference, slow) instead of the device; the narrowed\n"
+              "search (--search narrowed) runs only there so far, and prints the share of the volume searched")
         .option("--peer-cmd", "CMD",
                 "also an external matcher, run as CMD LEFT.png RIGHT.png NUM_DISPARITIES OUT.pfm\n"
                 "(PFM, inf = invalid)")
@@ -263,6 +267,7 @@ int main(int argc, char** argv) {
       double bad2_nonocc = 0, bad2_all = 0, density = 0, density_nonocc = 0, bad2_valid = 0;
     };
     std::map<std::string, Sums> sums;
+    double searched[2] = {0, 0};  // narrowed search: the share of the volume searched, without and with the coarse
     std::vector<std::string> order;
     int count = 0;
     for (const auto& name : names) {
@@ -271,8 +276,32 @@ int main(int argc, char** argv) {
       if (!args.has("--num-disparities")) p.num_disparities = s.num_disparities;
       const bool fill_requested = p.fill_invalid;
       p.fill_invalid = false;
-      StereoMatcher matcher(ctx, s.left.size(), p);
-      std::vector<std::pair<std::string, cv::Mat>> raw = {{"e3d", matcher.match(s.left, s.right).disparity}};
+      std::vector<std::pair<std::string, cv::Mat>> raw;
+      if (args.getFlag("--reference")) {
+        raw.emplace_back("e3d", sgmReference(s.left, s.right, p).left);
+        if (p.search == Search::narrowed) {
+          const cv::Mat coarse = sgmReference(halfSize(s.left), halfSize(s.right), coarseLevelParams(p)).left;
+          const DisparityBands bands = narrowedBands(coarse, s.left.size(), p);
+          size_t wide = 0, full = 0;
+          for (size_t i = 0; i < bands.lo.size(); ++i) {
+            wide += bands.width(i) > p.band_width;
+            full += bands.width(i) == p.num_disparities;
+          }
+          const double n = static_cast<double>(bands.lo.size());
+          const double share = bands.searchedShare();
+          // The coarse level: a quarter of the pixels over about half the range.
+          const double coarse_share = 0.25 * coarseLevelParams(p).num_disparities / p.num_disparities;
+          searched[0] += share;
+          searched[1] += share + coarse_share;
+          std::cout << std::left << std::setw(18) << name << "bands: searched " << std::fixed << std::setprecision(1)
+                    << 100.0 * share << " % of the volume (+ coarse " << 100.0 * coarse_share << " %), wider than "
+                    << p.band_width << ": " << 100.0 * wide / n << " % of the pixels, full range: " << 100.0 * full / n
+                    << " %\n";
+        }
+      } else {
+        StereoMatcher matcher(ctx, s.left.size(), p);
+        raw.emplace_back("e3d", matcher.match(s.left, s.right).disparity);
+      }
       if (args.getFlag("--opencv")) {
         raw.emplace_back("cv_hh", openCvSgbm(s, p.num_disparities, cv::StereoSGBM::MODE_HH));
         raw.emplace_back("cv_3way", openCvSgbm(s, p.num_disparities, cv::StereoSGBM::MODE_SGBM_3WAY));
@@ -314,6 +343,9 @@ int main(int argc, char** argv) {
                 << sum.density / count << std::setw(9) << sum.density_nonocc / count << std::setw(9)
                 << sum.bad2_valid / count << "\n";
     }
+    if (searched[1] > 0)
+      std::cout << "narrowed search: mean share of the full volume searched " << 100.0 * searched[0] / count
+                << " %, with the coarse level " << 100.0 * searched[1] / count << " %\n";
     return 0;
   } catch (const ips::ArgError& e) {
     std::cerr << e.what() << "\n";  // names the program and the option

@@ -61,7 +61,14 @@ void addSgmOptions(ips::Args& args) {
                   std::string(toString(d.right_map)) + ")")
       .option("--aggregation", "auto|rows|lines",
               "how the device walks the paths (same results; auto: rows on a CPU device)\n(default " +
-                  std::string(toString(d.aggregation)) + ")");
+                  std::string(toString(d.aggregation)) + ")")
+      .option("--search", "full|narrowed",
+              "full range at every pixel, or a band around the half-resolution match (default " +
+                  std::string(toString(d.search)) + ")")
+      .option("--band-width", "PX", "narrowed: the band's width (default " + std::to_string(d.band_width) + ")")
+      .option(
+          "--band-margin", "PX",
+          "narrowed: added on both sides of the coarse disparities (default " + std::to_string(d.band_margin) + ")");
 }
 
 SgmParams sgmParamsFromArgs(const ips::Args& a) {
@@ -103,6 +110,9 @@ SgmParams sgmParamsFromArgs(const ips::Args& a) {
   if (a.getFlag("--fill")) p.fill_invalid = true;
   if (a.has("--right-map")) p.right_map = parseRightMap(a.get("--right-map"));
   if (a.has("--aggregation")) p.aggregation = parseAggregation(a.get("--aggregation"));
+  if (a.has("--search")) p.search = parseSearch(a.get("--search"));
+  setIfGiven("--band-width", p.band_width);
+  setIfGiven("--band-margin", p.band_margin);
   p.validate();
   return p;
 }

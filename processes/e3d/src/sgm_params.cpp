@@ -15,6 +15,7 @@ namespace {
 constexpr const char* kCostNames[] = {"census", "ad", "sad", "mi"};
 constexpr const char* kRightMapNames[] = {"diagonal", "match"};
 constexpr const char* kAggregationNames[] = {"auto", "rows", "lines"};
+constexpr const char* kSearchNames[] = {"full", "narrowed"};
 
 template <typename Enum, size_t N>
 Enum parseName(const char* const (&names)[N], const std::string& text, const char* option) {
@@ -33,9 +34,11 @@ RightMap parseRightMap(const std::string& text) { return parseName<RightMap>(kRi
 Aggregation parseAggregation(const std::string& text) {
   return parseName<Aggregation>(kAggregationNames, text, "aggregation");
 }
+Search parseSearch(const std::string& text) { return parseName<Search>(kSearchNames, text, "search"); }
 const char* toString(Cost cost) { return kCostNames[static_cast<int>(cost)]; }
 const char* toString(RightMap right_map) { return kRightMapNames[static_cast<int>(right_map)]; }
 const char* toString(Aggregation aggregation) { return kAggregationNames[static_cast<int>(aggregation)]; }
+const char* toString(Search search) { return kSearchNames[static_cast<int>(search)]; }
 
 void SgmParams::validate() const {
   auto fail = [](const std::string& what) { throw std::invalid_argument("SgmParams: " + what); };
@@ -59,6 +62,12 @@ void SgmParams::validate() const {
   if (paths != 8 && paths != 4) fail("paths must be 4 or 8, got " + std::to_string(paths));
   if (uniqueness < 0 || uniqueness > 99) fail("uniqueness must be 0..99 percent");
   if (lr_max_diff > 256) fail("lr_max_diff must be <= 256 (negative disables the check)");
+  if (band_width < 3 || band_width > kMaxDisparities)
+    fail("band_width must be 3..256, got " + std::to_string(band_width));
+  if (band_margin < 0 || band_margin > 64) fail("band_margin must be 0..64, got " + std::to_string(band_margin));
+  if (search == Search::narrowed && cost == Cost::mi)
+    fail("search narrowed takes census, ad or sad (mi is hierarchical already)");
+  if (search == Search::narrowed && right_map != RightMap::diagonal) fail("search narrowed takes right_map diagonal");
 }
 
 SgmParams SgmParams::forCost(Cost cost, int mi_window) {
@@ -107,6 +116,7 @@ SgmParams SgmParams::fromConfig(const Config& c) {
     p = forCost(parseCost(c.getString("cost", toString(p.cost))), c.getInt("mi_window", p.mi_window));
     p.right_map = parseRightMap(c.getString("right_map", toString(p.right_map)));
     p.aggregation = parseAggregation(c.getString("aggregation", toString(p.aggregation)));
+    p.search = parseSearch(c.getString("search", toString(p.search)));
   } catch (const std::invalid_argument& e) {
     throw ConfigError(c.path() + ": " + e.what());
   }
@@ -121,6 +131,8 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   p.median = c.getBool("median", p.median);
   p.lr_max_diff = c.getInt("lr_max_diff", p.lr_max_diff);
   p.fill_invalid = c.getBool("fill_invalid", p.fill_invalid);
+  p.band_width = c.getInt("band_width", p.band_width);
+  p.band_margin = c.getInt("band_margin", p.band_margin);
   p.mi_levels = c.getInt("mi_levels", p.mi_levels);
   p.mi_coarse_iterations = c.getInt("mi_coarse_iterations", p.mi_coarse_iterations);
   p.mi_region_columns = c.getInt("mi_region_columns", p.mi_region_columns);
@@ -152,7 +164,8 @@ std::string SgmParams::describe() const {
   s << " D=" << num_disparities << " dmin=" << min_disparity << " P1=" << p1 << " P2=" << p2 << " p2_slope=" << p2_slope
     << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel << " median=" << median
     << " lr=" << lr_max_diff << " right=" << toString(right_map) << " fill=" << fill_invalid
-    << " aggregation=" << toString(aggregation);
+    << " aggregation=" << toString(aggregation) << " search=" << toString(search);
+  if (search == Search::narrowed) s << " band=" << band_width << "+-" << band_margin;
   return s.str();
 }
 

@@ -28,6 +28,10 @@ struct StereoMatcher::Impl {
 
   Impl(const VulkanContext& c, cv::Size size, const SgmParams& p) : ctx(c), params(p), cmd(c) {
     params.validate();
+    if (params.search == Search::narrowed)
+      throw std::invalid_argument(
+          "StereoMatcher: search narrowed runs on the CPU reference only (sgmReference) so far; the device "
+          "matches the full range");
     // A range no pixel of this width can have matches nothing: said, not a map without a single disparity.
     if (params.min_disparity >= size.width || params.min_disparity + params.num_disparities <= -size.width)
       throw std::invalid_argument("the disparity range [" + std::to_string(params.min_disparity) + ", " +
