@@ -165,6 +165,37 @@ RelativeErrors relativeErrors(const Trajectory& est, const Trajectory& ref, cons
   return r;
 }
 
+std::vector<PositionStep> removePositionSteps(Trajectory& truth, double max_acceleration) {
+  // Residual i: increment i (sample i to i + 1) less the mean of increments i - 1 and i + 1 (scaled by the
+  // intervals). A step in increment i gives s there and -s/2 beside it, so a step is a residual above the threshold
+  // and above both of its neighbours'.
+  const size_t n = truth.size();
+  std::vector<Eigen::Vector3d> residual(n, Eigen::Vector3d::Zero());
+  std::vector<bool> judged(n, false);
+  for (size_t i = 1; i + 2 < n; ++i) {
+    const double dt_before = truth[i].t - truth[i - 1].t, dt = truth[i + 1].t - truth[i].t,
+                 dt_after = truth[i + 2].t - truth[i + 1].t;
+    if (!(dt_before > 0 && dt > 0 && dt_after > 0) || dt > 2 * std::min(dt_before, dt_after) ||
+        dt < 0.5 * std::max(dt_before, dt_after))
+      continue;
+    const Eigen::Vector3d expected =
+        0.5 * ((truth[i].p - truth[i - 1].p) / dt_before + (truth[i + 2].p - truth[i + 1].p) / dt_after) * dt;
+    residual[i] = (truth[i + 1].p - truth[i].p) - expected;
+    judged[i] = residual[i].norm() > max_acceleration * dt * dt;
+  }
+  std::vector<PositionStep> steps;
+  for (size_t i = 1; i + 2 < n; ++i)
+    if (judged[i] && residual[i].norm() >= residual[i - 1].norm() && residual[i].norm() >= residual[i + 1].norm())
+      steps.push_back({truth[i + 1].t, residual[i]});
+  size_t next = 0;
+  Eigen::Vector3d removed = Eigen::Vector3d::Zero();
+  for (auto& point : truth) {
+    while (next < steps.size() && steps[next].t <= point.t) removed += steps[next++].step;
+    point.p -= removed;
+  }
+  return steps;
+}
+
 Trajectory alignFirstPose(const Trajectory& est, const Trajectory& ref) {
   if (est.empty() || ref.empty()) return est;
   const Eigen::Isometry3d T = toIso(ref.front()) * toIso(est.front()).inverse();

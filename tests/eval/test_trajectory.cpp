@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "ips/eval/trajectory.hpp"
+#include "ips/shared_data_test.hpp"
 
 using namespace ips::eval;
 using ips::filter::FilterOutput;
@@ -158,4 +159,60 @@ TEST(TrajEval, DeltaConsistencyOfKnownErrors) {
   EXPECT_NEAR(c.nees_translation, 4.0, 1e-6);
   EXPECT_NEAR(c.nees_rotation, 4.0, 1e-6);
   EXPECT_NEAR(c.lag1_correlation, -0.9, 1e-9);  // 9 neighbouring pairs over 10 squared errors
+}
+
+namespace {
+
+// A walk along a circle (radius 2 m, 1.5 m/s, 1.1 m/s^2 inwards) bobbing 5 cm at 2 Hz, sampled at `rate_hz`.
+Trajectory circleWalk(double rate_hz, double duration_s) {
+  Trajectory out;
+  for (int i = 0; i * (1.0 / rate_hz) <= duration_s; ++i) {
+    const double t = i / rate_hz, a = 0.75 * t;
+    TrajPoint p;
+    p.t = 100.0 + t;
+    p.p = Eigen::Vector3d(2 * std::cos(a), 2 * std::sin(a), 0.05 * std::sin(2 * M_PI * 2 * t));
+    p.q = Eigen::Quaterniond(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ()));
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(TrajEval, SmoothTruthsHaveNoPositionSteps) {
+  for (const double rate : {200.0, 100.0, 10.0}) {
+    Trajectory truth = circleWalk(rate, 20);
+    const Trajectory original = truth;
+    EXPECT_TRUE(removePositionSteps(truth).empty()) << rate << " Hz";
+    for (size_t i = 0; i < truth.size(); ++i) ASSERT_EQ(truth[i].p, original[i].p);
+  }
+}
+
+TEST(TrajEval, APositionStepIsRemovedFromTheLaterSamplesOnly) {
+  const Trajectory smooth = circleWalk(200, 5);
+  Trajectory truth = smooth;
+  const Eigen::Vector3d step(-0.002, 0.004, -0.0022);  // 5 mm between samples 300 and 301
+  for (size_t i = 301; i < truth.size(); ++i) truth[i].p += step;
+  const std::vector<PositionStep> steps = removePositionSteps(truth);
+  ASSERT_EQ(steps.size(), 1u);
+  EXPECT_DOUBLE_EQ(steps[0].t, smooth[301].t);
+  EXPECT_LT((steps[0].step - step).norm(), 1e-5);  // the walk's own second difference: 0.2 mm
+  for (size_t i = 0; i < truth.size(); ++i) ASSERT_LT((truth[i].p - smooth[i].p).norm(), 1e-5) << i;
+  // Below 5 g over one sample (1.25 mm at 200 Hz) a displacement is motion, and stays.
+  Trajectory small = smooth;
+  for (size_t i = 301; i < small.size(); ++i) small[i].p += Eigen::Vector3d(0.001, 0, 0);
+  EXPECT_TRUE(removePositionSteps(small).empty());
+}
+
+TEST(TrajEval, TheSharedMh01TruthHoldsTwoSteps) {
+  IPS_REQUIRE_SHARED_DATA("euroc/MH_01_easy_first150");
+  Trajectory truth = readTum(ips::dataPath("euroc/MH_01_easy_first150/groundtruth/MH_01_easy_tum_window.txt"));
+  ASSERT_GT(truth.size(), 1800u);
+  const std::vector<PositionStep> steps = removePositionSteps(truth);
+  // 30 ms before the first image and 0.77 s after it (a 5 ms increment there is 2.7 mm long).
+  ASSERT_EQ(steps.size(), 2u);
+  EXPECT_NEAR(steps[0].t, 1403636584.73356, 1e-4);
+  EXPECT_NEAR(steps[0].step.norm(), 0.0086, 0.0002);
+  EXPECT_NEAR(steps[1].t, 1403636585.53356, 1e-4);
+  EXPECT_NEAR(steps[1].step.norm(), 0.0050, 0.0002);
 }

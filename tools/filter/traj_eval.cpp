@@ -1,6 +1,6 @@
 // traj_eval: evaluates filter trajectories against ground truth.
 //
-//   traj_eval --est est.tum --gt gt.tum [--segment 10] [--plot out.png]
+//   traj_eval --est est.tum --gt gt.tum [--segment 10] [--plot out.png] [--keep-truth-steps]
 //       ATE RMSE after SE(3) alignment, relative error per distance, end-point error (% of distance); with
 //       --lengths a second line: KITTI-devkit relative errors over sub-sequences of those lengths (every frame a
 //       start) and the end-point error with only the first pose aligned.
@@ -41,6 +41,7 @@ struct Options {
   unsigned seed = 0;
   double duration = 0, segment = 0;
   bool from_truth = false;
+  bool keep_truth_steps = false;
   double image_hz = 0, sigma_t = 0, sigma_r = 0;
 };
 
@@ -52,6 +53,9 @@ void declareOptions(ips::Args& args) {
               "also KITTI-devkit relative errors over sub-sequences of these lengths and the end-point error\n"
               "with only the first pose aligned")
       .option("--plot", "out.png", "top-down plot of the trajectories")
+      .flag("--keep-truth-steps",
+            "judge against the ground truth's positions as recorded (default: its steps beyond 5 g over one\n"
+            "sample are taken off the later positions, as ips_report does)")
       .flag("--simulate", "Monte Carlo runs of the fused filter on the analytic walk instead")
       .option("--filter", "ekf|ukf|both", "--simulate: the filters", "both")
       .option("--runs", "N", "--simulate: runs", "10")
@@ -80,6 +84,7 @@ Options readOptions(const ips::Args& args) {
   a.tracker = !args.getFlag("--no-tracker");
   a.tilt = !args.getFlag("--no-tilt");
   a.from_truth = args.getFlag("--init-from-truth");
+  a.keep_truth_steps = args.getFlag("--keep-truth-steps");
   a.filter = args.get("--filter");
   a.runs = static_cast<int>(args.getInt("--runs"));
   a.seed = static_cast<unsigned>(args.getInt("--seed"));
@@ -106,7 +111,15 @@ void printErrors(const std::string& name, const TrajectoryErrors& e) {
 }
 
 int evaluateFiles(const Options& a) {
-  const Trajectory est = readTum(a.est), gt = readTum(a.gt);
+  const Trajectory est = readTum(a.est);
+  Trajectory gt = readTum(a.gt);
+  // The same truth as ips_report's: without the position steps no head makes between two samples.
+  if (!a.keep_truth_steps) {
+    const std::vector<PositionStep> steps = removePositionSteps(gt);
+    double largest = 0;
+    for (const auto& step : steps) largest = std::max(largest, step.step.norm());
+    std::printf("ground_truth_steps_removed=%zu ground_truth_step_max_m=%.4f\n", steps.size(), largest);
+  }
   Trajectory e, r;
   associate(est, gt, 0.02, &e, &r);
   if (e.size() < 3) throw std::runtime_error("fewer than 3 estimate poses overlap the ground truth in time");

@@ -96,6 +96,9 @@ int main(int argc, char** argv) {
         .option("--js-dir", "DIR",
                 "where Debian's libjs-chart.js and libjs-three are (chart.js/, three/), inlined into the page",
                 IPS_JS_DIR)
+        .flag("--keep-truth-steps",
+              "judge against the ground truth's positions as recorded, steps included (default: a step no head\n"
+              "can make between two samples, 5 g, is taken off the later positions; ground_truth_steps_removed)")
         .required("--out", "DIR", "output folder (report.json and report.html)");
     if (!args.parse()) return 0;
     namespace ev = ips::eval;
@@ -137,6 +140,9 @@ int main(int argc, char** argv) {
                           splitList(args.get("--bulk-log"))};
     if (files.results.empty()) throw ips::ArgError("--log: no file given");
     ev::RunLog log = ev::readRunLog(files, splitList(args.get("--filters")));
+    // Every estimator is judged against the same truth, without the steps it holds (ev::removePositionSteps).
+    std::vector<ev::PositionStep> truth_steps;
+    if (!args.getFlag("--keep-truth-steps")) truth_steps = ev::removePositionSteps(log.gt);
     // What makes the run's figures untrustworthy: named in report.json ("failures") and on stderr, exit 4.
     std::vector<std::string> failures = log.failures;
     std::optional<int64_t> input_end;
@@ -147,6 +153,10 @@ int main(int argc, char** argv) {
 
     const double t0 = ev::pageStartTime(log);  // the page's time axis
     ev::Json report = ev::overviewSection(log);
+    report["ground_truth_steps_removed"] = truth_steps.size();
+    double largest_step = 0;
+    for (const auto& step : truth_steps) largest_step = std::max(largest_step, step.step.norm());
+    report["ground_truth_step_max_m"] = largest_step;
     const ev::FiltersSection filters =
         ev::filtersSection(log, truth_calib, ran_on, t0, ips::report::kMaxPageErrorSamples);
     report.update(filters.json);
