@@ -18,9 +18,12 @@
 #include "ips/eval/disparity.hpp"
 #include "ips/shared_data_test.hpp"
 #include "ips/test_support/temp_yaml.hpp"
+#include "stereo_scenes.hpp"
 
 using namespace ips;
 using namespace ips::e3d;
+using ips::e3d_test::differences;
+using ips::e3d_test::loadGrey;
 using ips::test_support::writeTempYaml;
 
 namespace {
@@ -28,21 +31,6 @@ namespace {
 VulkanContext& context() {
   static VulkanContext ctx;
   return ctx;
-}
-
-cv::Mat loadGrey(const std::string& scene, const std::string& file) {
-  cv::Mat img = cv::imread(ips::dataDir() + "/stereo/" + scene + "/" + file, cv::IMREAD_COLOR);
-  if (img.empty()) throw std::runtime_error("missing test image " + scene + "/" + file);
-  cv::Mat grey;
-  cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
-  return grey;
-}
-
-// Number of pixels where the two CV_16S maps differ.
-int differences(const cv::Mat& a, const cv::Mat& b) {
-  cv::Mat diff;
-  cv::compare(a, b, diff, cv::CMP_NE);
-  return cv::countNonZero(diff);
 }
 
 // Both aggregation layouts (row passes and lines) must give the reference's maps exactly.

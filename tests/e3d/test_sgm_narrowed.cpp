@@ -10,25 +10,14 @@
 #include "ips/e3d/sgm.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/shared_data_test.hpp"
+#include "stereo_scenes.hpp"
 
 using namespace ips;
 using namespace ips::e3d;
+using ips::e3d_test::differences;
+using ips::e3d_test::loadGrey;
 
 namespace {
-
-cv::Mat loadGrey(const std::string& scene, const std::string& file) {
-  cv::Mat img = cv::imread(ips::dataDir() + "/stereo/" + scene + "/" + file, cv::IMREAD_COLOR);
-  if (img.empty()) throw std::runtime_error("missing test image " + scene + "/" + file);
-  cv::Mat grey;
-  cv::cvtColor(img, grey, cv::COLOR_BGR2GRAY);
-  return grey;
-}
-
-int differences(const cv::Mat& a, const cv::Mat& b) {
-  cv::Mat diff;
-  cv::compare(a, b, diff, cv::CMP_NE);
-  return cv::countNonZero(diff);
-}
 
 SgmParams narrowed(int num_disparities) {
   SgmParams p;
