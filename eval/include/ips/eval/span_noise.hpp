@@ -1,0 +1,48 @@
+#pragma once
+// How large the errors of an estimate, its ground truth and the head's IMU each are over time spans from one frame
+// interval up, with none of the three taken as the reference: the three-cornered hat (Gray and Allan 1974) on
+// second differences of the body's position, p(t + T) - 2 p(t) + p(t - T), which all three measure (the IMU by
+// integrating its accelerations twice: the start's position and velocity drop out). Where the three errors are
+// independent, the variances of their pairwise differences give each one's variance. A filter can take from the IMU
+// what the estimate lacks only at the spans where the IMU's figure is below the estimate's; at longer ones the IMU's
+// bias and attitude errors grow as T^2.
+#include <Eigen/Geometry>
+#include <cmath>
+#include <vector>
+
+#include "ips/eval/trajectory.hpp"
+#include "ips/filter/estimator.hpp"
+
+namespace ips::eval {
+
+struct SpanNoiseInput {
+  // The body (IMU frame) in a z-up world, sampled at least as finely as the estimate, its steps removed
+  // (removePositionSteps). Its attitude also turns the IMU's specific force into the world, so the IMU's figure
+  // includes the truth's attitude error (mrad: g times it, times T^2).
+  Trajectory truth;
+  Trajectory estimate;  // camera 0 in any frame; aligned to the truth here by SE(3) after carrying it to the body
+  std::vector<filter::ImuSample> imu;
+  Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
+  double gravity = 9.81;  // [m/s^2]; its error is fitted with the accelerometer's bias
+};
+
+struct SpanNoise {
+  int span_frames = 0;  // T in the estimate's samples
+  double span_s = 0;    // T in seconds, the median over the centres
+  size_t centres = 0;   // centre samples used (each with both neighbours T away, within half an interval)
+  // RMS per axis [m] of the differences of the second differences, pairwise.
+  double truth_vs_estimate = 0, truth_vs_imu = 0, estimate_vs_imu = 0;
+  // Each one's RMS per axis [m] by the hat; NaN where its variance comes out negative (the errors are correlated,
+  // or one is far below the others and lost in their scatter).
+  double truth = NAN, estimate = NAN, imu = NAN;
+  // The accelerometer bias [m/s^2, body] and gravity's error [m/s^2] fitted at this span: least squares of the IMU's
+  // second differences against the mean of the truth's and the estimate's.
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();
+  double gravity_error = 0;
+};
+
+// One entry per span (in the estimate's samples, each >= 1) that has at least 10 centres.
+// Throws std::invalid_argument when the truth, the estimate or the IMU has fewer than three samples.
+std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int>& spans_frames);
+
+}  // namespace ips::eval
