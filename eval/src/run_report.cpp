@@ -5,12 +5,15 @@
 #include <deque>
 #include <iomanip>
 #include <ips/ground_truth_t.hpp>
+#include <ips/imu_sample_t.hpp>
 #include <ips/point_cloud_t.hpp>
 #include <opencv2/core.hpp>
 #include <sstream>
 
 #include "ips/eval/disparity.hpp"
 #include "ips/eval/map_errors.hpp"
+#include "ips/eval/span_noise.hpp"
+#include "ips/framework/channels.hpp"
 #include "ips/framework/image.hpp"
 #include "ips/framework/log_reader.hpp"
 #include "ips/framework/message_arrays.hpp"
@@ -308,13 +311,54 @@ RunLog readRunLog(const RunLogFiles& files, const std::vector<std::string>& filt
   return log;
 }
 
-int64_t inputTruthEnd(const std::string& input_log, std::vector<std::string>& failures) {
-  int64_t end = 0;
+InputLog readInputLog(const std::string& input_log, std::vector<std::string>& failures) {
+  InputLog in;
   forEachMessage(input_log, failures, [&](const ips::fw::LogMessage& m) {
-    ips::ground_truth_t g{};
-    if (m.channel == "GT_POSE" && decode(m, &g)) end = std::max(end, g.utime);
+    if (m.channel == "GT_POSE") {
+      ips::ground_truth_t g{};
+      if (decode(m, &g)) in.truth_end_us = std::max(in.truth_end_us, g.utime);
+    } else if (m.channel == ips::channels::kImu) {
+      ips::imu_sample_t s{};
+      if (!decode(m, &s) || !ips::fw::validate(s).ok() || (!in.imu.empty() && s.utime <= in.imu.back().utime)) return;
+      in.imu.push_back({s.utime, Eigen::Vector3d(s.angular_rate), Eigen::Vector3d(s.specific_force)});
+    }
   });
-  return end;
+  return in;
+}
+
+Json spanNoiseSection(const RunLog& log, const std::vector<filter::ImuSample>& imu, const Trajectory& tracker_cam0,
+                      const std::optional<ips::StereoCalibration>& truth_calib) {
+  Json out = Json::object();
+  out["span_noise"] = nullptr;
+  if (imu.size() < 3 || log.gt.size() < 3 || tracker_cam0.size() < 3 || !truth_calib) return out;
+  SpanNoiseInput in;
+  in.truth = log.gt;
+  in.estimate = tracker_cam0;
+  in.imu = imu;
+  in.T_imu_cam0 = truth_calib->T_imu_cam0;
+  const double density = truth_calib->imu ? truth_calib->imu->accel_noise_density : 0.0;
+  std::vector<SpanNoise> result;
+  try {
+    result = spanNoise(in, {1, 2, 4, 8});
+  } catch (const std::invalid_argument&) {
+    return out;  // the tracker's poses and the truth overlap in fewer than three samples
+  }
+  Json spans = Json::array();
+  for (const SpanNoise& s : result) {
+    spans.push_back({{"frames", s.span_frames},
+                     {"span_s", figure(s.span_s)},
+                     {"centres", s.centres},
+                     {"tracker_mm", figure(s.estimate * 1e3)},
+                     {"imu_mm", figure(s.imu * 1e3)},
+                     {"truth_mm", figure(s.truth * 1e3)},
+                     {"tracker_vs_imu_mm", figure(s.estimate_vs_imu * 1e3)},
+                     {"truth_vs_tracker_mm", figure(s.truth_vs_estimate * 1e3)},
+                     {"truth_vs_imu_mm", figure(s.truth_vs_imu * 1e3)},
+                     {"imu_white_noise_mm",
+                      density > 0 ? figure(imuWhiteNoiseSecondDifference(density, s.span_s) * 1e3) : Json(nullptr)}});
+  }
+  out["span_noise"] = spans;
+  return out;
 }
 
 std::vector<std::string> completenessFailures(const RunLog& log, const std::string& label,

@@ -78,6 +78,10 @@ double rmsOrNan(double variance) { return variance >= 0 ? std::sqrt(variance) : 
 
 }  // namespace
 
+double imuWhiteNoiseSecondDifference(double density, double span_s) {
+  return density * std::sqrt(2.0 * span_s * span_s * span_s / 3.0);
+}
+
 std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int>& spans_frames) {
   if (in.truth.size() < 3 || in.estimate.size() < 3 || in.imu.size() < 3)
     throw std::invalid_argument("spanNoise: the truth, the estimate and the IMU need three samples each");

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <ips/ground_truth_t.hpp>
+#include <ips/imu_sample_t.hpp>
 
 #include "ips/eval/run_report.hpp"
 #include "ips/framework/log_writer.hpp"
@@ -243,4 +244,54 @@ TEST(RunReport, DisturbancesNameUnfusedDeltasStalePairsMissingStatesAndJumps) {
       "FILTER_STATE_UKF: position sigma rose from 0.017 to 0.087 m within a second, at t=1.0 s of its states"};
   EXPECT_EQ(d, expected);
   EXPECT_EQ(ev::runStatus({}, d), "disturbed");
+}
+
+// The input log gives its truth's end and its valid IMU samples in time order; on the walk at constant speed the
+// tracker's, the IMU's and the truth's second differences are all zero, and without an IMU the section is null.
+TEST(RunReport, InputLogsImuGivesTheSpanNoise) {
+  const std::string input = tempLog("input.lcmlog");
+  {
+    ips::fw::LogWriter log(input);
+    for (int64_t t = 1'000'000; t <= 11'000'000; t += 5'000) {
+      ips::imu_sample_t s{};
+      s.utime = t;
+      s.seq = t / 5'000;
+      s.specific_force[2] = 9.81;  // level, no acceleration
+      log.write("IMU", t, s);
+      if (t == 2'000'000) log.write("IMU", t, s);  // a repeat: left out
+      if ((t - 1'000'000) % 100'000 == 0) {
+        ips::ground_truth_t g{};
+        g.utime = t;
+        g.orientation[0] = 1;
+        log.write("GT_POSE", t, g);
+      }
+    }
+    ips::imu_sample_t bad{};
+    bad.utime = 11'005'000;
+    bad.specific_force[0] = NAN;
+    log.write("IMU", bad.utime, bad);
+  }
+  std::vector<std::string> failures;
+  const ev::InputLog in = ev::readInputLog(input, failures);
+  EXPECT_TRUE(failures.empty());
+  EXPECT_EQ(in.truth_end_us, 11'000'000);
+  ASSERT_EQ(in.imu.size(), 2001u);
+  EXPECT_EQ(in.imu.back().utime, 11'000'000);
+
+  ev::RunLog log;
+  log.gt = walk();
+  ips::StereoCalibration calib;
+  calib.imu = ips::ImuDescription{};
+  calib.imu->accel_noise_density = 2e-3;
+  const ev::Json with_imu = ev::spanNoiseSection(log, in.imu, walk(), calib)["span_noise"];
+  ASSERT_EQ(with_imu.size(), 4u);
+  EXPECT_EQ(with_imu[0]["frames"], 1);
+  EXPECT_EQ(with_imu[0]["centres"], 99);
+  for (const auto& s : with_imu) {
+    EXPECT_LT(s["tracker_vs_imu_mm"].get<double>(), 1e-6) << s.dump();
+    EXPECT_LT(s["truth_vs_imu_mm"].get<double>(), 1e-6);
+  }
+  EXPECT_NEAR(with_imu[0]["imu_white_noise_mm"].get<double>(), 2e-3 * std::sqrt(2 * 0.1 * 0.1 * 0.1 / 3) * 1e3, 1e-6);
+  EXPECT_TRUE(ev::spanNoiseSection(log, {}, walk(), calib)["span_noise"].is_null());
+  std::filesystem::remove(input);
 }

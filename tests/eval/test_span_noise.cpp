@@ -119,7 +119,7 @@ TEST(SpanNoise, TheHatGivesEachOnesWhiteNoise) {
     const double T = s.span_s;
     EXPECT_NEAR(s.truth, std::sqrt(6.0) * noise.truth_m, 0.15 * std::sqrt(6.0) * noise.truth_m) << "span " << T;
     EXPECT_NEAR(s.estimate, std::sqrt(6.0) * noise.estimate_m, 0.15 * std::sqrt(6.0) * noise.estimate_m);
-    const double imu = noise.accel * std::sqrt(0.005 * 2 * T * T * T / 3);
+    const double imu = imuWhiteNoiseSecondDifference(noise.accel * std::sqrt(0.005), T);
     EXPECT_NEAR(s.imu, imu, 0.2 * imu) << "span " << T;
     // Body z stays within 0.11 rad of the world's up: its bias and gravity's error are told apart only by that tilt,
     // their sum is what the data fix.

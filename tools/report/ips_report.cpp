@@ -146,7 +146,11 @@ int main(int argc, char** argv) {
     // What makes the run's figures untrustworthy: named in report.json ("failures") and on stderr, exit 4.
     std::vector<std::string> failures = log.failures;
     std::optional<int64_t> input_end;
-    if (args.has("--images") && !log.gt.empty()) input_end = ev::inputTruthEnd(args.get("--images"), failures);
+    ev::InputLog input;
+    if (args.has("--images")) {
+      input = ev::readInputLog(args.get("--images"), failures);
+      if (!log.gt.empty()) input_end = input.truth_end_us;
+    }
     for (auto& f : ev::completenessFailures(log, args.get("--log"), input_end)) failures.push_back(std::move(f));
     // What disturbed a run that is complete: named with the time, and the run's status says so.
     std::vector<std::string> warnings = ev::disturbances(log);
@@ -171,6 +175,7 @@ int main(int argc, char** argv) {
         ev::estimatorsSection(log, truth_calib ? truth_calib->T_imu_cam0 : Eigen::Isometry3d::Identity(),
                               lengths.empty() ? ev::defaultRpeLengths(ev::distanceTravelled(log.gt)) : lengths);
     report.update(estimators.json);
+    report.update(ev::spanNoiseSection(log, input.imu, estimators.tracker, truth_calib));
     warnings.insert(warnings.end(), estimators.warnings.begin(), estimators.warnings.end());
     if (!log.delta_msgs.empty()) {
       if (!estimators.truth_cam0.empty())

@@ -104,9 +104,14 @@ struct RunLogFiles {
 };
 RunLog readRunLog(const RunLogFiles& files, const std::vector<std::string>& filter_channels);
 
-// The last ground-truth stamp [us] of an input log (the log the player played), 0 when it has none; a damaged log
-// is named in `failures`.
-int64_t inputTruthEnd(const std::string& input_log, std::vector<std::string>& failures);
+// What the report takes from the input log (the log the player played), in one pass: its last ground-truth stamp
+// [us] (0 when it has none) and the IMU's samples (those that pass the framework's checks, in time order; an
+// IMU-less head has none). A damaged log is named in `failures`.
+struct InputLog {
+  int64_t truth_end_us = 0;
+  std::vector<filter::ImuSample> imu;
+};
+InputLog readInputLog(const std::string& input_log, std::vector<std::string>& failures);
 
 // Completeness: the recording holds a run's results, every state stream runs to the end of the input without a pause,
 // every process kept reporting, the player played its log to the end (by its own account and, where the input log's
@@ -179,6 +184,13 @@ struct EstimatorsSection {
 };
 EstimatorsSection estimatorsSection(const RunLog& log, const Eigen::Isometry3d& T_imu_cam0,
                                     const std::vector<double>& lengths);
+
+// The tracker's, the IMU's and the truth's errors over spans of 1, 2, 4 and 8 frames (span_noise.hpp), none taken as
+// the reference: at which spans the IMU can correct the tracker. "span_noise": null without an IMU, a truth or the
+// tracker's increments, or where the tracker's poses and the truth do not overlap. `imu_white_noise_mm` is what the
+// calibration's accelerometer noise density alone gives.
+Json spanNoiseSection(const RunLog& log, const std::vector<filter::ImuSample>& imu, const Trajectory& tracker_cam0,
+                      const std::optional<ips::StereoCalibration>& truth_calib);
 
 // E3D's maps against the simulator's truth, at E3D's scale, for every map that has one.
 struct DisparityScore {

@@ -41,6 +41,11 @@ struct SpanNoise {
   double gravity_error = 0;
 };
 
+// What white accelerometer noise of `density` [m/s^2/sqrt(Hz)] alone gives the IMU's second difference over +-T, per
+// axis [m]: density sqrt(2 T^3 / 3), from the double integral's triangle kernel T - |s|. The data sheet's figure
+// beside the measured one.
+double imuWhiteNoiseSecondDifference(double density, double span_s);
+
 // One entry per span (in the estimate's samples, each >= 1) that has at least 10 centres.
 // Throws std::invalid_argument when the truth, the estimate or the IMU has fewer than three samples.
 std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int>& spans_frames);
