@@ -27,7 +27,8 @@ run_once() {
   else
     "$BIN/tracker" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/tracker.yaml" --log-level warn & pids+=($!)
     "$BIN/filter" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/filter_sim.yaml" --log-level warn & pids+=($!)
-    "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 4 --queue --log-level warn & pids+=($!)
+    "$BIN/e3d" --lcm-url "$U" --calib "$CALIB" --config "$SRC/tests/system/e3d_small.yaml" --every-nth 4 --queue --log-level warn &
+    local e3d=$!
     "$BIN/mapper" --lcm-url "$U" --calib "$CALIB" --config "$SRC/config/mapper.yaml" --log-level warn &
     local mapper=$!
   fi
@@ -49,8 +50,12 @@ run_once() {
     sleep 1
     kill -INT "${pids[@]}"; wait "${pids[@]}" || true
   else
+    # Tracker and filter first: the filter applies what its reorder window still holds as it stops and publishes
+    # those states, and e3d's last map from one camera waits for them (stopped together, e3d got them or not).
     kill -INT "${pids[@]}"
     wait "${pids[@]}" || true
+    sleep 1
+    kill -INT $e3d; wait $e3d || true
     # The mapper last: e3d publishes what it still holds while it stops, and the mapper places it.
     sleep 1
     kill -INT $mapper; wait $mapper || true

@@ -86,10 +86,7 @@ void E3dProcess::onStereo(const stereo_pair_t& m) {
   const bool for_mono = pairing_ && pairing_->wants(m.seq);
   if (!for_stereo && !for_mono) return;  // not selected: neither work nor loss
   cv::Mat left = fw::mono8Copy(fw::leftImage(m));
-  if (for_mono) {
-    const int64_t dropped = pairing_->addPair(m.seq, m.utime, left);
-    if (dropped) node_.health().dropped("mono_no_filter_state", dropped);
-  }
+  if (for_mono) queueMono(pairing_->addPair(m.seq, m.utime, left));
   if (!for_stereo) return;
   node_.health().accepted();
   e3d::StereoJob job{m.utime, m.seq, prev_utime, std::move(left), fw::mono8Copy(fw::rightImage(m))};
@@ -112,7 +109,11 @@ void E3dProcess::onStereo(const stereo_pair_t& m) {
 void E3dProcess::onFilterState(const filter_state_t& m) {
   const fw::Verdict v = fw::validate(m);
   if (!v.ok()) return node_.health().bad(v.reason, "filter state: " + v.detail);
-  e3d::MonoPairing::Released released = pairing_->addPose(fw::stampedPose(m.utime, fw::bodyPose(m)));
+  queueMono(pairing_->addPose(fw::stampedPose(m.utime, fw::bodyPose(m))));
+}
+
+void E3dProcess::queueMono(e3d::MonoPairing::Released released) {
+  if (released.dropped) node_.health().dropped("mono_no_filter_state", released.dropped);
   if (released.without_pose) node_.health().dropped("mono_no_pose", released.without_pose);
   if (released.ready.empty()) return;
   {

@@ -35,6 +35,8 @@ class E3dProcess {
   void onStereo(const stereo_pair_t& m);
   // LCM thread: the maps whose later exposure the filter has passed go to the worker with both poses.
   void onFilterState(const filter_state_t& m);
+  // Maps from one camera that the pairing released: onto the worker's queue; its losses into the health.
+  void queueMono(e3d::MonoPairing::Released released);
   void onIntegrity(const integrity_t& m);
   // Before matching a pair: the rectification of the newest correction decided before it.
   void rectifyFor(int64_t utime);

@@ -11,7 +11,7 @@ MonoPairing::MonoPairing(int gap_pairs, int every_nth)
 
 bool MonoPairing::wants(int64_t seq) const { return seq % every_nth_ == 0 || (seq + gap_pairs_) % every_nth_ == 0; }
 
-int64_t MonoPairing::addPair(int64_t seq, int64_t utime, const cv::Mat& left) {
+MonoPairing::Released MonoPairing::addPair(int64_t seq, int64_t utime, const cv::Mat& left) {
   int64_t dropped = 0;
   if (seq % every_nth_ == 0) {
     const auto it = earlier_.find(seq);
@@ -33,12 +33,18 @@ int64_t MonoPairing::addPair(int64_t seq, int64_t utime, const cv::Mat& left) {
   for (auto it = earlier_.begin(); it != earlier_.end();)
     it = (it->first <= seq || it->first > seq + gap_pairs_) ? earlier_.erase(it) : std::next(it);
   if ((seq + gap_pairs_) % every_nth_ == 0) earlier_[seq + gap_pairs_] = {utime, left};
-  return dropped;
+  Released out = release();
+  out.dropped = dropped;
+  return out;
 }
 
 MonoPairing::Released MonoPairing::addPose(const Pose& pose) {
-  Released out;
   poses_.add(pose);
+  return release();
+}
+
+MonoPairing::Released MonoPairing::release() {
+  Released out;
   while (!pending_.empty() && poses_.newestUtime() >= pending_.front().utime_b) {
     MonoJob job = std::move(pending_.front());
     pending_.pop_front();

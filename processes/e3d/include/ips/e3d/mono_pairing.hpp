@@ -35,13 +35,15 @@ class MonoPairing {
 
   // Whether a pair's left image is needed, as the earlier or the later exposure of a map.
   bool wants(int64_t seq) const;
-  // A pair's left image (the caller's copy is kept). Returns how many waiting maps were dropped to make room.
-  int64_t addPair(int64_t seq, int64_t utime, const cv::Mat& left);
-
   struct Released {
     std::vector<MonoJob> ready;  // with both poses
     int64_t without_pose = 0;    // the filter has passed them, but has no state at one of the two stamps
+    int64_t dropped = 0;         // waiting maps dropped to make room (kMaxPending)
   };
+  // A pair's left image (the caller's copy is kept). A map whose later exposure the states have already passed
+  // leaves at once: the pair and the state that passes it may come in either order (a small state overtakes a large
+  // pair on the network), and the map must not depend on which came first.
+  Released addPair(int64_t seq, int64_t utime, const cv::Mat& left);
   // A navigation state (in time order). Releases the maps whose later exposure it has reached.
   Released addPose(const Pose& pose);
 
@@ -49,6 +51,8 @@ class MonoPairing {
   size_t pending() const { return pending_.size(); }
 
  private:
+  // The waiting maps whose later exposure the newest state has reached, with their poses.
+  Released release();
   int gap_pairs_, every_nth_;
   std::map<int64_t, std::pair<int64_t, cv::Mat>> earlier_;  // by the seq of the pair it is for: stamp, left image
   std::deque<MonoJob> pending_;
