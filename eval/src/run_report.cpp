@@ -10,6 +10,7 @@
 #include <opencv2/core.hpp>
 #include <sstream>
 
+#include "app/filter_messages.hpp"
 #include "ips/eval/disparity.hpp"
 #include "ips/eval/map_errors.hpp"
 #include "ips/eval/span_noise.hpp"
@@ -320,7 +321,7 @@ InputLog readInputLog(const std::string& input_log, std::vector<std::string>& fa
     } else if (m.channel == ips::channels::kImu) {
       ips::imu_sample_t s{};
       if (!decode(m, &s) || !ips::fw::validate(s).ok() || (!in.imu.empty() && s.utime <= in.imu.back().utime)) return;
-      in.imu.push_back({s.utime, Eigen::Vector3d(s.angular_rate), Eigen::Vector3d(s.specific_force)});
+      in.imu.push_back(ips::filter_app::toImuSample(s));
     }
   });
   return in;

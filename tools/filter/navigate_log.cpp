@@ -123,8 +123,7 @@ int main(int argc, char** argv) {
         ips::imu_sample_t m;
         if (!decode(e, &m) || !ips::fw::validate(m).ok()) continue;
         now = m.utime;
-        ips::filter::ImuSample s{m.utime, ips::fw::vectorFromArray(m.angular_rate),
-                                 ips::fw::vectorFromArray(m.specific_force)};
+        const ips::filter::ImuSample s = ips::filter_app::toImuSample(m);
         ekf.addImu(s);
         ukf.addImu(s);
         priors.addGyro(m.utime, s.angular_rate);

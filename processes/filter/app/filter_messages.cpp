@@ -68,6 +68,10 @@ ips::filter_state_t toMessage(const ips::filter::FilterOutput& out) {
   return m;
 }
 
+ips::filter::ImuSample toImuSample(const ips::imu_sample_t& m) {
+  return {m.utime, ips::fw::vectorFromArray(m.angular_rate), ips::fw::vectorFromArray(m.specific_force)};
+}
+
 ips::filter::TrackerDelta toDelta(const ips::tracker_delta_t& m) {
   ips::filter::TrackerDelta d;
   d.utime = m.utime;

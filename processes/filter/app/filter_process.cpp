@@ -69,10 +69,7 @@ bool FilterProcess::check(const Msg& m, ips::fw::StreamOrder& order, const char*
 
 void FilterProcess::onImu(const ips::imu_sample_t& m) {
   if (!check(m, imu_order_, "imu")) return;
-  ips::filter::ImuSample s;
-  s.utime = m.utime;
-  s.angular_rate = ips::fw::vectorFromArray(m.angular_rate);
-  s.specific_force = ips::fw::vectorFromArray(m.specific_force);
+  const ips::filter::ImuSample s = toImuSample(m);
   est_.addImu(s);
   publishOutputs();
 }
