@@ -634,17 +634,7 @@ EstimatorsSection estimatorsSection(const RunLog& log, const Eigen::Isometry3d& 
       q.q = Eigen::Quaterniond(p.T_world_cam0.linear());
       t.est.push_back(q);
     }
-    for (const auto& g : log.gt) {
-      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-      T.linear() = g.q.toRotationMatrix();
-      T.translation() = g.p;
-      T = T * T_imu_cam0;
-      TrajPoint q;
-      q.t = g.t;
-      q.p = T.translation();
-      q.q = Eigen::Quaterniond(T.linear());
-      t.ref.push_back(q);
-    }
+    t.ref = rigidlyAttached(log.gt, T_imu_cam0);
     std::vector<RelativePoseMeasurement> steps;
     for (const auto& d : deltas) {
       if (!d.valid) continue;

@@ -43,13 +43,16 @@ class DoubleIntegral {
   }
   double first() const { return t_.front(); }
   double last() const { return t_.back(); }
-  // The position of basis b at time t (first() <= t <= last()).
-  Eigen::Vector3d at(double t, int b) const {
+  // The position of every basis at time t (first() <= t <= last()).
+  std::array<Eigen::Vector3d, kBasis> at(double t) const {
     size_t i = std::upper_bound(t_.begin(), t_.end(), t) - t_.begin();
     i = i == 0 ? 0 : std::min(i - 1, t_.size() - 2);
     const double dt = t_[i + 1] - t_[i], tau = t - t_[i];
-    return p_[i][b] + v_[i][b] * tau + a_[i][b] * tau * tau / 2 +
-           (a_[i + 1][b] - a_[i][b]) * tau * tau * tau / (6 * dt);
+    std::array<Eigen::Vector3d, kBasis> p;
+    for (int b = 0; b < kBasis; ++b)
+      p[b] =
+          p_[i][b] + v_[i][b] * tau + a_[i][b] * tau * tau / 2 + (a_[i + 1][b] - a_[i][b]) * tau * tau * tau / (6 * dt);
+    return p;
   }
 
  private:
@@ -86,19 +89,8 @@ std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int
   if (in.truth.size() < 3 || in.estimate.size() < 3 || in.imu.size() < 3)
     throw std::invalid_argument("spanNoise: the truth, the estimate and the IMU need three samples each");
   // Camera 0 carried to the body with the estimate's own attitude, then put into the truth's world.
-  const Eigen::Matrix3d R_bc = in.T_imu_cam0.linear();
-  const Eigen::Vector3d t_bc = in.T_imu_cam0.translation();
-  Trajectory body;
-  body.reserve(in.estimate.size());
-  for (const TrajPoint& c : in.estimate) {
-    TrajPoint b = c;
-    const Eigen::Matrix3d R_wb = c.q.toRotationMatrix() * R_bc.transpose();
-    b.q = Eigen::Quaterniond(R_wb).normalized();
-    b.p = c.p - R_wb * t_bc;
-    body.push_back(b);
-  }
   Trajectory est, ref;
-  associate(body, in.truth, 0.1, &est, &ref);
+  associate(rigidlyAttached(in.estimate, in.T_imu_cam0.inverse()), in.truth, 0.1, &est, &ref);
   if (est.size() < 3)
     throw std::invalid_argument("spanNoise: the estimate and the truth overlap in fewer than 3 samples");
   const Eigen::Isometry3d T = alignSE3(est, ref);
@@ -124,9 +116,9 @@ std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int
       a.push_back(secondDifference(t1, t2, t3, interpolate(in.truth, t1).p, interpolate(in.truth, t2).p,
                                    interpolate(in.truth, t3).p));
       b.push_back(secondDifference(t1, t2, t3, est[k - m].p, est[k].p, est[k + m].p));
+      const auto p1 = imu.at(t1), p2 = imu.at(t2), p3 = imu.at(t3);
       std::array<Eigen::Vector3d, kBasis> ci;
-      for (int j = 0; j < kBasis; ++j)
-        ci[j] = secondDifference(t1, t2, t3, imu.at(t1, j), imu.at(t2, j), imu.at(t3, j));
+      for (int j = 0; j < kBasis; ++j) ci[j] = secondDifference(t1, t2, t3, p1[j], p2[j], p3[j]);
       c.push_back(ci);
       spans.push_back((t3 - t1) / 2);
     }

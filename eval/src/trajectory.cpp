@@ -288,6 +288,23 @@ TrajPoint interpolate(const Trajectory& traj, double t) {
   return p;
 }
 
+Trajectory rigidlyAttached(const Trajectory& traj, const Eigen::Isometry3d& T_a_b) {
+  Trajectory out;
+  out.reserve(traj.size());
+  for (const TrajPoint& a : traj) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = a.q.toRotationMatrix();
+    T.translation() = a.p;
+    T = T * T_a_b;
+    TrajPoint b;
+    b.t = a.t;
+    b.p = T.translation();
+    b.q = Eigen::Quaterniond(T.linear());
+    out.push_back(b);
+  }
+  return out;
+}
+
 DeltaConsistency deltaConsistency(const std::vector<RelativePoseMeasurement>& deltas, const Trajectory& truth) {
   DeltaConsistency c;
   if (truth.size() < 2) return c;

@@ -146,10 +146,10 @@ int main(int argc, char** argv) {
     // What makes the run's figures untrustworthy: named in report.json ("failures") and on stderr, exit 4.
     std::vector<std::string> failures = log.failures;
     std::optional<int64_t> input_end;
-    ev::InputLog input;
-    if (args.has("--images")) {
+    ev::InputLog input;  // its truth's end and its IMU: both judged against the run's truth alone
+    if (args.has("--images") && !log.gt.empty()) {
       input = ev::readInputLog(args.get("--images"), failures);
-      if (!log.gt.empty()) input_end = input.truth_end_us;
+      input_end = input.truth_end_us;
     }
     for (auto& f : ev::completenessFailures(log, args.get("--log"), input_end)) failures.push_back(std::move(f));
     // What disturbed a run that is complete: named with the time, and the run's status says so.

@@ -91,6 +91,10 @@ Trajectory toTrajectory(const std::vector<filter::FilterOutput>& outputs);
 // The pose at time t: position linear, attitude slerp between the neighbouring poses; the end poses outside.
 TrajPoint interpolate(const Trajectory& traj, double t);
 
+// Each pose of `traj` (frame a in the world) times T_a_b: the trajectory of frame b, rigidly attached to a (the truth
+// of the body carried to camera 0 with T_imu_cam0; camera 0 carried to the body with its inverse).
+Trajectory rigidlyAttached(const Trajectory& traj, const Eigen::Isometry3d& T_a_b);
+
 // A measured relative pose between times t0 and t1 (X_t0 = T X_t1, as the tracker's deltas) with its covariance
 // (translation, then rotation vector).
 struct RelativePoseMeasurement {
