@@ -4,8 +4,9 @@
 //
 // Workgroup 0 (the forward pass) walks the rows top to bottom and each row left to right: paths (1,0), (0,1),
 // (1,1), (-1,1). Workgroup 1 (the backward pass) walks bottom to top, right to left: (-1,0), (0,-1), (-1,-1),
-// (1,-1). With 4 paths each pass computes its first two. Each pass is one subgroup; lane l owns the disparities
-// l*K .. l*K+K-1 (the libSGM layout), neighbours d+-1 across lanes come from shuffles.
+// (1,-1). With 4 paths each pass computes its first two. Each pass is one subgroup, working on G pixels at once (G
+// rows, see G below), each on a group of LPP lanes; lane l of a group owns the disparities l*K .. l*K+K-1 (the libSGM
+// layout), neighbours d+-1 across lanes come from shuffles.
 //  - Census matching costs are computed on the fly: C = popcount(census_left(x) ^ census_right(x - d_min - d));
 //    along a row the right census values slide by one disparity per pixel (one load and one shuffle per pixel).
 //    The other costs (COST_VOLUME) are read from the cost volume their cost stage wrote (one texel per pixel).
@@ -48,6 +49,14 @@ layout(constant_id = E3D_SPEC_RIGHT_MAP) const bool RIGHT_MAP = true;
 // COST_VOLUME: the matching costs (ad, sad, mi) come from the cost volume the cost stage wrote ([y][x][lane][K
 // bytes], in walk coordinates), not from the census codes.
 layout(constant_id = E3D_SPEC_COST_VOLUME) const bool COST_VOLUME = false;
+// G: the pixels one subgroup works on at once, each on LPP = SG / G lanes (G = 1: all lanes one pixel). G rows are
+// walked together, row i0 + g by lane group g, two columns behind group g - 1, so that the three pixels of row
+// i0 + g - 1 it needs are done (their path costs reach it through the scratch rows). Why: on lavapipe a shuffle or a
+// memory access costs a loop over all lanes whatever the data, so these loops, not the disparities, set the cost of
+// a pixel (640x480, 8 paths: 32 disparities took 80 ms, 128 took 104); G pixels share each loop.
+layout(constant_id = E3D_SPEC_ROW_PIXELS) const int G = 1;
+const uint LPP = SG / uint(G);
+const int LOG2_LPP = LOG2_SG - (G == 8 ? 3 : (G == 4 ? 2 : (G == 2 ? 1 : 0)));
 // Walk rows begin .. end - 1 of each pass (x: forward, y: backward; walk row i is image row i forward,
 // height - 1 - i backward).
 #define E3D_ROW_PASS_PARAMS
@@ -77,20 +86,21 @@ const bool WIDE = (K % 16) == 0;              // 16-byte scratch accesses, 32-by
 const int ROW_DIRS = NUM_PATHS == 8 ? 3 : 1;  // paths that come from the previous row
 const uint NONE = 0xFFFFFFFFu;
 // Whether the lanes hold disparities beyond the range (padding to whole lanes); when not, the tests are constants.
-const bool PADDED = D < int(SG) * K;
+const bool PADDED = D < int(LPP) * K;
 bool real(int d) { return !PADDED || d < D; }
 
-uint lane;
+uint lane;  // within the lane group of this pixel (0 .. LPP - 1)
+uint grp;   // the lane group (0 .. G - 1)
 
 int column(int x) { return MIRROR ? pc.width - 1 - x : x; }  // image column of walk column x
 
 uint butterflyMin(uint v) {
-  [[unroll]] for (int i = 0; i < LOG2_SG; ++i) v = min(v, subgroupShuffleXor(v, 1u << i));
+  [[unroll]] for (int i = 0; i < LOG2_LPP; ++i) v = min(v, subgroupShuffleXor(v, 1u << i));
   return v;
 }
 
 uint butterflyOr(uint v) {
-  [[unroll]] for (int i = 0; i < LOG2_SG; ++i) v |= subgroupShuffleXor(v, 1u << i);
+  [[unroll]] for (int i = 0; i < LOG2_LPP; ++i) v |= subgroupShuffleXor(v, 1u << i);
   return v;
 }
 
@@ -105,7 +115,7 @@ void pathStep(uint prev[K], uint cost[K], uint prev_min, uint p2, out uint cur[K
   uint below = subgroupShuffleUp(prev[K - 1], 1u);
   uint above = subgroupShuffleDown(prev[0], 1u);
   below = lane == 0u ? E3D_BIG : below;
-  above = lane == SG - 1u ? E3D_BIG : above;
+  above = lane == LPP - 1u ? E3D_BIG : above;
   const uint jump = prev_min + p2;
   const uint P1 = uint(pc.p1);
   [[unroll]] for (int k = 0; k < K; ++k) {
@@ -123,8 +133,8 @@ uint adaptiveP2(uint a, uint b) {
 // Index of this lane's first 8-byte word of path dir in the scratch row (pass, half) at column x. Layout: paths 0 and
 // 1 as [pass][half][x][lane][path 0, path 1][K bytes], then path 2 as [pass][half][x][lane][K bytes].
 int scratchIndex(int pass, int half_row, int dir, int x) {
-  const int lane_row = ((pass * 2 + half_row) * pc.width + x) * int(SG) + int(lane);
-  const int pair_words = 4 * pc.width * int(SG) * 2 * (K / 8);
+  const int lane_row = ((pass * 2 + half_row) * pc.width + x) * int(LPP) + int(lane);
+  const int pair_words = 4 * pc.width * int(LPP) * 2 * (K / 8);
   return dir < 2 ? (lane_row * 2 + dir) * (K / 8) : pair_words + lane_row * (K / 8);
 }
 
@@ -180,7 +190,7 @@ void storeScratchPair(int index8, uint v0[K], uint v1[K]) {
 }
 
 int sumIndex(int y, int x) {  // this lane's first 16-byte texel of the sums of pixel (x, y)
-  return ((y * pc.width + x) * int(SG) + int(lane)) * (K / 8);
+  return ((y * pc.width + x) * int(LPP) + int(lane)) * (K / 8);
 }
 
 // Stores this lane's K sums (16 bits each) of pixel (x, y).
@@ -214,11 +224,11 @@ void addStoredSums(int y, int x, inout uint s[K]) {
 
 int rightDisparity(uint key) { return key == NONE ? E3D_INVALID : (MIN_DISP + int(key & 0xFFu)) * 16; }
 
-// Results of a row, one per lane: lane (x mod SG) keeps the value of pixel x. The walk goes up (forward) or down
+// Results of a row, one per lane of the group: lane (x mod LPP) keeps the value of pixel x. The walk goes up (forward) or down
 // (backward) one pixel at a time; a group is stored when the walk leaves it and, at the end of the row, by
 // storeGathered.
 void storeGathered(int gathered, int x, bool forward, int row_base, bool is_left) {
-  const int slot = x & int(SG - 1u);
+  const int slot = x & int(LPP - 1u);
   const int first = x - slot;
   const bool mine = forward ? int(lane) <= slot : int(lane) >= slot;
   const int at = first + int(lane);
@@ -227,89 +237,100 @@ void storeGathered(int gathered, int x, bool forward, int row_base, bool is_left
     else disp_right[row_base + at] = gathered;
   }
 }
-void gather(inout int gathered, int x, int v, bool forward, int row_base, bool is_left) {
-  const int slot = x & int(SG - 1u);
-  gathered = int(lane) == slot ? v : gathered;
-  if (slot == (forward ? int(SG) - 1 : 0)) storeGathered(gathered, x, forward, row_base, is_left);
+void gather(inout int gathered, int x, int v, bool forward, int row_base, bool is_left, bool on_row) {
+  const int slot = x & int(LPP - 1u);
+  gathered = on_row && int(lane) == slot ? v : gathered;
+  if (on_row && slot == (forward ? int(LPP) - 1 : 0)) storeGathered(gathered, x, forward, row_base, is_left);
 }
 
 uint censusRight(int y, int x) { return imageLoad(census_right, y * pc.width + column(clamp(x, 0, pc.width - 1))).x; }
 uint intensity(int y, int x) { return imageLoad(image_left, y * pc.width + column(clamp(x, 0, pc.width - 1))).x; }
 
 void main() {
-  lane = gl_SubgroupInvocationID;
+  lane = gl_SubgroupInvocationID % LPP;
+  grp = gl_SubgroupInvocationID / LPP;
   const int pass = int(gl_WorkGroupID.x);
   const bool forward = pass == 0;
   const int W = pc.width, H = pc.height;
   const int step = forward ? 1 : -1;  // along the row and from row to row
   const int k0 = int(lane) * K;
-  const uint last_lane = SG - 1u;
+  const uint last_lane = LPP - 1u;
+  const uint group_lane0 = grp * LPP;  // the subgroup lane of this group's lane 0
   // The slot of the diagonal search that is complete after each pixel: D - 1 forward, 0 backward.
   const int done_d = forward ? D - 1 : 0;
   const int begin = forward ? pc.begin.x : pc.begin.y, end = forward ? pc.end.x : pc.end.y;
-  for (int i = begin; i < end; ++i) {
-    const int y = forward ? i : H - 1 - i;
+  const int x_first = forward ? 0 : W - 1, x_last = forward ? W - 1 : 0;
+  for (int i0 = begin; i0 < end; i0 += G) {
+    const int i = i0 + int(grp);                // this group's walk row
+    const bool row_active = i < end;            // (the last rows of a part may leave groups without a row)
+    const int y = forward ? min(i, end - 1) : H - 1 - min(i, end - 1);
     const int y_prev = clamp(y - step, 0, H - 1);  // the previous row of the walk (unused in its first row)
     const int read_half = i & 1, write_half = read_half ^ 1;
     const int row_base = y * W;
-    int x = forward ? 0 : W - 1;
     // window[k] = census_right(x - d_min - (k0 + k)), x - d clamped into the row as in the reference
     uint window[K];
-    [[unroll]] for (int k = 0; k < K; ++k) window[k] = COST_VOLUME ? 0u : censusRight(y, x - MIN_DISP - k0 - k);
+    [[unroll]] for (int k = 0; k < K; ++k) window[k] = COST_VOLUME ? 0u : censusRight(y, x_first - MIN_DISP - k0 - k);
     uint h_prev[K];
     [[unroll]] for (int k = 0; k < K; ++k) h_prev[k] = 0u;
     uint pixel_prev = 0u;
     // Intensities of the previous row at x - step, x, x + step (for the adaptive P2 of the row paths).
-    uint row_behind = 0u, row_here = intensity(y_prev, x), row_ahead = intensity(y_prev, x + step);
+    uint row_behind = 0u, row_here = intensity(y_prev, x_first), row_ahead = intensity(y_prev, x_first + step);
     // Selection: the diagonal search, slot d holding the best (S << 8 | d) so far for xr = x - d_min - d.
     uint shift[K];
     [[unroll]] for (int k = 0; k < K; ++k) shift[k] = NONE;
     int left = E3D_INVALID, right = E3D_INVALID;
-    if (PHASE == 1 && RIGHT_MAP) {
+    if (PHASE == 1 && RIGHT_MAP && row_active) {
       // Right-image pixels that no left pixel reaches: [0, -d_min - D + 1) and (W - 1 - d_min, W - 1].
-      for (int xr = int(lane); xr < min(W, -MIN_DISP - D + 1); xr += int(SG)) disp_right[row_base + xr] = E3D_INVALID;
-      for (int xr = max(0, W - MIN_DISP) + int(lane); xr < W; xr += int(SG)) disp_right[row_base + xr] = E3D_INVALID;
+      for (int xr = int(lane); xr < min(W, -MIN_DISP - D + 1); xr += int(LPP)) disp_right[row_base + xr] = E3D_INVALID;
+      for (int xr = max(0, W - MIN_DISP) + int(lane); xr < W; xr += int(LPP)) disp_right[row_base + xr] = E3D_INVALID;
     }
-    for (int j = 0; j < W; ++j, x += step) {
-      if (j > 0 && !COST_VOLUME) {
+    // Group g is at walk column j - 2 g: it starts 2 g steps after group 0.
+    int x = x_first - step * 2 * int(grp);
+    for (int j = 0; j < W + 2 * (G - 1); ++j, x += step) {
+      const int jl = j - 2 * int(grp);  // this group's walk column
+      const bool on_row = row_active && jl >= 0 && jl < W;
+      const bool moves = on_row && jl > 0;  // the state of the previous pixel slides to this one
+      const int xc = clamp(x, 0, W - 1);
+      if (!COST_VOLUME) {
         // The window slides by one disparity: forward (x grew by one) every disparity takes the value of the one
         // below it, backward that of the one above it.
         const uint from_below = subgroupShuffleUp(window[K - 1], 1u);
         const uint from_above = subgroupShuffleDown(window[0], 1u);
-        const uint fresh = censusRight(y, x - MIN_DISP - (forward ? 0 : int(SG) * K - 1));
+        const uint fresh = censusRight(y, xc - MIN_DISP - (forward ? 0 : int(LPP) * K - 1));
         uint slid[K];
         [[unroll]] for (int k = 0; k < K; ++k) {
           const uint lower = k == 0 ? (lane == 0u ? fresh : from_below) : window[k - 1];
           const uint upper = k == K - 1 ? (lane == last_lane ? fresh : from_above) : window[k + 1];
           slid[k] = forward ? lower : upper;
         }
-        [[unroll]] for (int k = 0; k < K; ++k) window[k] = slid[k];
+        [[unroll]] for (int k = 0; k < K; ++k) window[k] = moves ? slid[k] : window[k];
       }
-      if (j > 0) {
+      const uint ahead = intensity(y_prev, xc + step);
+      if (moves) {
         row_behind = row_here;
         row_here = row_ahead;
-        row_ahead = intensity(y_prev, x + step);
+        row_ahead = ahead;
       }
       uint cost[K];
       if (COST_VOLUME) {
-        loadLaneBytes(true, ((y * W + x) * int(SG) + int(lane)) * (K / 8), cost);
+        loadLaneBytes(true, ((y * W + xc) * int(LPP) + int(lane)) * (K / 8), cost);
         // Disparities beyond the range (padding to whole lanes) cost 255: their path costs stay >= 255 and never
         // win a minimum against real ones (<= maxCost + P2).
         [[unroll]] for (int k = 0; k < K; ++k) cost[k] = real(k0 + k) ? cost[k] : 255u;
       } else {
-        const uint centre = imageLoad(census_left, y * W + column(x)).x;
+        const uint centre = imageLoad(census_left, y * W + column(xc)).x;
         [[unroll]] for (int k = 0; k < K; ++k) cost[k] = real(k0 + k) ? uint(bitCount(centre ^ window[k])) : 255u;
       }
-      const uint pixel = intensity(y, x);
+      const uint pixel = intensity(y, xc);
 
       uint cur[K], sum[K];
       const uint h_min = butterflyMin(laneMinimum(h_prev));
-      pathStep(h_prev, cost, h_min, j > 0 ? adaptiveP2(pixel, pixel_prev) : uint(pc.p2), cur);
+      pathStep(h_prev, cost, h_min, jl > 0 ? adaptiveP2(pixel, pixel_prev) : uint(pc.p2), cur);
       [[unroll]] for (int k = 0; k < K; ++k) {
         sum[k] = cur[k];
-        h_prev[k] = cur[k];
+        h_prev[k] = on_row ? cur[k] : h_prev[k];
       }
-      pixel_prev = pixel;
+      pixel_prev = on_row ? pixel : pixel_prev;
 
       uint path0[K];  // this row's costs of path 0, stored with path 1's
       // dir 0 comes from (x, y_prev), dir 1 from (x - step, y_prev), dir 2 from (x + step, y_prev).
@@ -324,20 +345,20 @@ void main() {
         pathStep(prev, cost, prev_min, adaptiveP2(pixel, above), cur);
         [[unroll]] for (int k = 0; k < K; ++k) sum[k] += cur[k];
         if (dir == 0 && ROW_DIRS == 1) {  // 4 paths: path 0 alone
-          storeScratch(scratchIndex(pass, write_half, 0, x), cur);
+          if (on_row) storeScratch(scratchIndex(pass, write_half, 0, xc), cur);
         } else if (dir == 0) {
           [[unroll]] for (int k = 0; k < K; ++k) path0[k] = cur[k];
         } else if (dir == 1) {
-          storeScratchPair(scratchIndex(pass, write_half, 0, x), path0, cur);
+          if (on_row) storeScratchPair(scratchIndex(pass, write_half, 0, xc), path0, cur);
         } else {
-          storeScratch(scratchIndex(pass, write_half, dir, x), cur);
+          if (on_row) storeScratch(scratchIndex(pass, write_half, dir, xc), cur);
         }
       }
 
       if (PHASE == 0) {
-        storeSums(y, x, sum);
+        if (on_row) storeSums(y, xc, sum);
       } else {
-        addStoredSums(y, x, sum);
+        addStoredSums(y, xc, sum);
         // Left image: winner-takes-all, uniqueness, subpixel.
         uint local_key = NONE;
         [[unroll]] for (int k = 0; k < K; ++k)
@@ -364,7 +385,7 @@ void main() {
           const int mag = (2 * abs(num) + den) / (2 * den);
           d16 += num < 0 ? -mag : mag;
         }
-        gather(left, x, valid ? d16 : E3D_INVALID, forward, row_base, true);
+        gather(left, x, valid ? d16 : E3D_INVALID, forward, row_base, true, on_row);
 
         // Right image: the slots move by one disparity (forward up, backward down), this pixel's costs enter,
         // and slot done_d is complete.
@@ -378,19 +399,20 @@ void main() {
           moved[k] = forward ? lower : upper;
           if (real(k0 + k)) moved[k] = min(moved[k], (sum[k] << 8) | uint(k0 + k));
         }
-        [[unroll]] for (int k = 0; k < K; ++k) shift[k] = moved[k];
-        const uint done_forward = subgroupShuffle(shift[(D - 1) % K], uint((D - 1) / K));
-        const uint done_backward = subgroupShuffle(shift[0], 0u);
+        [[unroll]] for (int k = 0; k < K; ++k) shift[k] = on_row ? moved[k] : shift[k];
+        const uint done_forward = subgroupShuffle(shift[(D - 1) % K], group_lane0 + uint((D - 1) / K));
+        const uint done_backward = subgroupShuffle(shift[0], group_lane0);
         const int xr = x - MIN_DISP - done_d;
         // (xr outside the row: garbage that no store picks up)
-        gather(right, xr, rightDisparity(forward ? done_forward : done_backward), forward, row_base, false);
+        gather(right, xr, rightDisparity(forward ? done_forward : done_backward), forward, row_base, false, on_row);
         }
       }
+      // The next group reads this step's path costs from the scratch rows two steps later.
+      if (G > 1) subgroupMemoryBarrier();
     }
-    if (PHASE == 1) {
+    if (PHASE == 1 && row_active) {
       // The row ends: store the groups not yet stored, and the slots other than done_d (complete: no pixel of the
       // row is left to contribute).
-      const int x_last = x - step;
       storeGathered(left, x_last, forward, row_base, true);
       if (RIGHT_MAP) {
         storeGathered(right, x_last - MIN_DISP - done_d, forward, row_base, false);

@@ -134,12 +134,9 @@ class Volume {
   int rows_per_chunk_;
 };
 
-// The byte of disparity index k of pixel x in a volume row: lane l = k / K owns disparities l*K .. l*K+K-1, at
-// bytes (x * subgroup + l) * K onwards.
-size_t laneByte(int x, int k, int lane_disps) {
-  const int sg = static_cast<int>(context().subgroupSize());
-  return (static_cast<size_t>(x) * sg + k / lane_disps) * lane_disps + k % lane_disps;
-}
+// The byte of disparity index k of pixel x in a volume row: each lane owns K consecutive disparities, the lanes of a
+// pixel one after the other, so pixel x's padded range lies at bytes x * padded_disps onwards, in order.
+size_t laneByte(int x, int k, const LanePlan& lanes) { return static_cast<size_t>(x) * lanes.padded_disps + k; }
 
 // Slice rows base_row .. base_row + H - 1 of a volume as [y][x][k] (k < num_disparities), the layout of
 // costVolume and aggregateCosts; `padding` counts the padded disparities' bytes that are not 255.
@@ -150,7 +147,7 @@ std::vector<uint8_t> readSlice(const Volume& v, int base_row, cv::Size size, int
   for (int y = 0; y < size.height; ++y)
     for (int x = 0; x < size.width; ++x)
       for (int k = 0; k < lanes.padded_disps; ++k) {
-        const uint8_t value = v.row(base_row + y)[laneByte(x, k, lanes.lane_disps)];
+        const uint8_t value = v.row(base_row + y)[laneByte(x, k, lanes)];
         if (k < num_disparities)
           out[(static_cast<size_t>(y) * size.width + x) * num_disparities + k] = value;
         else if (padding)
@@ -165,7 +162,7 @@ void writeSlice(const Volume& v, int base_row, cv::Size size, int num_disparitie
   for (int y = 0; y < size.height; ++y)
     for (int x = 0; x < size.width; ++x)
       for (int k = 0; k < lanes.padded_disps; ++k)
-        v.row(base_row + y)[laneByte(x, k, lanes.lane_disps)] =
+        v.row(base_row + y)[laneByte(x, k, lanes)] =
             k < num_disparities ? costs[(static_cast<size_t>(y) * size.width + x) * num_disparities + k] : 255;
 }
 
@@ -727,11 +724,14 @@ TEST(WtaStage, TiesTakeTheSmallestDisparity) {
 // The two phases of the row passes (aggregation and selection fused; census costs computed on the fly from the
 // census codes, the other costs read from the cost volume) against winnerTakesAll(aggregateCosts(costVolume)): one
 // stage, though it does the work of two.
-void expectRowPassesEqualReference(const cv::Mat& left, const cv::Mat& right, SgmParams params) {
+// rows_per_dispatch > 0: each walk split into dispatches of that many rows (the state carried over in the scratch).
+void expectRowPassesEqualReference(const cv::Mat& left, const cv::Mat& right, SgmParams params,
+                                   int rows_per_dispatch = 0) {
   VulkanContext& ctx = context();
   const cv::Size size = left.size();
   params.aggregation = Aggregation::rows;
-  const RowsPlan plan = planLayout(size, params, DeviceLimits::of(ctx)).row_passes;
+  RowsPlan plan = planLayout(size, params, DeviceLimits::of(ctx)).row_passes;
+  if (rows_per_dispatch > 0) plan.rows_per_dispatch = rows_per_dispatch;
   const VkDevice dev = ctx.device();
   const std::vector<uint8_t> costs = costVolume(left, right, params);
   vk::Buffer image = imageBuffer(left), census[2] = {hostBuffer(size.area() * 4), hostBuffer(size.area() * 4)};
@@ -763,8 +763,10 @@ void expectRowPassesEqualReference(const cv::Mat& left, const cv::Mat& right, Sg
   });
   cv::Mat left16, right16;
   winnerTakesAll(aggregateCosts(left, costs, params), size, params, left16, right16);
-  EXPECT_EQ(differences(readMap(disp[0], size), left16), 0) << params.describe();
-  EXPECT_EQ(differences(readMap(disp[1], size), right16), 0) << params.describe();
+  const std::string layout = " pixels per subgroup " + std::to_string(plan.pixels_per_subgroup) + ", " +
+                             std::to_string(plan.rows_per_dispatch) + " rows per dispatch";
+  EXPECT_EQ(differences(readMap(disp[0], size), left16), 0) << params.describe() << layout;
+  EXPECT_EQ(differences(readMap(disp[1], size), right16), 0) << params.describe() << layout;
 }
 
 TEST(RowPassStage, EqualsReference) {
@@ -784,6 +786,67 @@ TEST(RowPassStage, EqualsReference) {
   expectRowPassesEqualReference(left, right, sad);
   const cv::Mat flat(left.size(), CV_8UC1, cv::Scalar(100));
   expectRowPassesEqualReference(flat, flat, p);
+}
+
+// Several pixels per subgroup (rows walked together by lane groups, each two columns behind the one before): the
+// same maps for every count the subgroup allows, also where a dispatch's rows leave the last groups without a row
+// (5 rows per dispatch) and where each dispatch is one row (the lag starts again in every one).
+TEST(RowPassStage, EveryPixelsPerSubgroupEqualsReference) {
+  if (!context().supportsRowLayout()) GTEST_SKIP() << "the device cannot run the row passes";
+  cv::Mat left, right;
+  shiftedPair(93, 9, left, right);
+  const int sg = static_cast<int>(context().subgroupSize());
+  for (int pixels = 1; pixels <= sg; pixels *= 2) {
+    SgmParams p;
+    p.num_disparities = 21;
+    p.min_disparity = -2;
+    p.uniqueness = 5;
+    p.row_pixels = pixels;
+    expectRowPassesEqualReference(left, right, p);
+    expectRowPassesEqualReference(left, right, p, 5);
+    expectRowPassesEqualReference(left, right, p, 1);
+    p.paths = 4;
+    p.num_disparities = 70;
+    p.min_disparity = 3;
+    expectRowPassesEqualReference(left, right, p, 7);
+    SgmParams sad = SgmParams::forCost(Cost::sad);  // the cost volume, written with the subgroup's lanes
+    sad.num_disparities = 30;
+    sad.row_pixels = pixels;
+    expectRowPassesEqualReference(left, right, sad, 5);
+  }
+}
+
+// How many pixels a subgroup of the row passes takes: the least padding of the range with at most 32 disparities per
+// lane, among equal paddings the most pixels with at most 16 (with a cost volume the cost stage's lanes need 4-byte
+// words); a given count as given, none beyond the subgroup.
+TEST(LayoutPlan, RowPassesTakeTheLeastPaddingThenTheMostPixelsWithSixteenDisparitiesPerLane) {
+  DeviceLimits limits;  // a CPU device with subgroups of 8
+  const cv::Size size(640, 480);
+  const auto plan = [&](Cost cost, int num_disparities, int row_pixels = 0) {
+    SgmParams p = SgmParams::forCost(cost);
+    p.num_disparities = num_disparities;
+    p.row_pixels = row_pixels;
+    return planLayout(size, p, limits).row_passes;
+  };
+  // {range, pixels per subgroup, disparities per lane}
+  const int expected[][3] = {{8, 8, 8},   {16, 8, 16}, {17, 8, 24},  {32, 4, 16}, {48, 4, 24},
+                             {64, 2, 16}, {80, 2, 24}, {128, 1, 16}, {256, 1, 32}};
+  for (const auto& e : expected) {
+    const RowsPlan r = plan(Cost::census, e[0]);
+    EXPECT_EQ(r.pixels_per_subgroup, e[1]) << "census D=" << e[0];
+    EXPECT_EQ(r.lanes.lane_disps, e[2]) << "census D=" << e[0];
+    EXPECT_EQ(r.lanes.padded_disps, e[2] * 8 / e[1]) << "census D=" << e[0];
+  }
+  const RowsPlan sad16 = plan(Cost::sad, 16);  // 8 pixels would need 32 per lane (4-byte words on 8 lanes)
+  EXPECT_EQ(sad16.pixels_per_subgroup, 4);
+  EXPECT_EQ(sad16.lanes.lane_disps, 16);
+  EXPECT_EQ(sad16.lanes.padded_disps % (4 * 8), 0);  // the cost stage's 8 lanes hold 4-byte words
+  EXPECT_EQ(plan(Cost::census, 128, 2).pixels_per_subgroup, 2);
+  EXPECT_EQ(plan(Cost::census, 128, 2).lanes.lane_disps, 32);
+  EXPECT_THROW(plan(Cost::census, 128, 16), std::invalid_argument);
+  SgmParams odd;
+  odd.row_pixels = 3;
+  EXPECT_THROW(odd.validate(), std::invalid_argument);
 }
 
 // ---- mi_histogram, mi_table ----

@@ -62,6 +62,10 @@ void addSgmOptions(ips::Args& args) {
       .option("--aggregation", "auto|rows|lines",
               "how the device walks the paths (same results; auto: rows on a CPU device)\n(default " +
                   std::string(toString(d.aggregation)) + ")")
+      .option("--row-pixels", "N",
+              "row passes: pixels per subgroup, a power of two up to the subgroup size (same results; 0 = chosen\n"
+              "from the range, default " +
+                  std::to_string(d.row_pixels) + ")")
       .option("--search", "full|narrowed",
               "full range at every pixel, or a band around the half-resolution match (default " +
                   std::string(toString(d.search)) + ")")
@@ -111,6 +115,7 @@ SgmParams sgmParamsFromArgs(const ips::Args& a) {
   if (a.has("--right-map")) p.right_map = parseRightMap(a.get("--right-map"));
   if (a.has("--aggregation")) p.aggregation = parseAggregation(a.get("--aggregation"));
   if (a.has("--search")) p.search = parseSearch(a.get("--search"));
+  setIfGiven("--row-pixels", p.row_pixels);
   setIfGiven("--band-width", p.band_width);
   setIfGiven("--band-margin", p.band_margin);
   p.validate();

@@ -68,6 +68,8 @@ void SgmParams::validate() const {
   if (search == Search::narrowed && cost == Cost::mi)
     fail("search narrowed takes census, ad or sad (mi is hierarchical already)");
   if (search == Search::narrowed && right_map != RightMap::diagonal) fail("search narrowed takes right_map diagonal");
+  if (row_pixels < 0 || row_pixels > 64 || (row_pixels & (row_pixels - 1)) != 0)
+    fail("row_pixels must be 0 (auto) or a power of two up to the subgroup size, got " + std::to_string(row_pixels));
 }
 
 SgmParams SgmParams::forCost(Cost cost, int mi_window) {
@@ -133,6 +135,7 @@ SgmParams SgmParams::fromConfig(const Config& c) {
   p.fill_invalid = c.getBool("fill_invalid", p.fill_invalid);
   p.band_width = c.getInt("band_width", p.band_width);
   p.band_margin = c.getInt("band_margin", p.band_margin);
+  p.row_pixels = c.getInt("row_pixels", p.row_pixels);
   p.mi_levels = c.getInt("mi_levels", p.mi_levels);
   p.mi_coarse_iterations = c.getInt("mi_coarse_iterations", p.mi_coarse_iterations);
   p.mi_region_columns = c.getInt("mi_region_columns", p.mi_region_columns);
@@ -165,6 +168,7 @@ std::string SgmParams::describe() const {
     << " paths=" << paths << " uniq=" << uniqueness << " subpix=" << subpixel << " median=" << median
     << " lr=" << lr_max_diff << " right=" << toString(right_map) << " fill=" << fill_invalid
     << " aggregation=" << toString(aggregation) << " search=" << toString(search);
+  if (row_pixels > 0) s << " row_pixels=" << row_pixels;
   if (search == Search::narrowed) s << " band=" << band_width << "+-" << band_margin;
   return s.str();
 }

@@ -39,7 +39,39 @@ LinesPlan planLines(cv::Size size, const SgmParams& params, const DeviceLimits& 
 RowsPlan planRows(cv::Size size, const SgmParams& params, const DeviceLimits& limits) {
   const int W = size.width, H = size.height;
   RowsPlan plan;
-  plan.lanes = planLanes(params.num_disparities, limits.subgroup_size, 8);
+  plan.cost_volume = params.cost != Cost::census;
+  const int sg = static_cast<int>(limits.subgroup_size);
+  // K: a multiple of 8 (8-byte scratch accesses); with a cost volume, whose cost stage puts K * lanes_per_pixel /
+  // subgroup_size disparities on each of its lanes in 4-byte words, also of 4 x pixels_per_subgroup.
+  const auto lanesFor = [&](int pixels) {
+    return planLanes(params.num_disparities, static_cast<uint32_t>(sg / pixels),
+                     plan.cost_volume ? std::max(8, 4 * pixels) : 8);
+  };
+  if (params.row_pixels > 0) {
+    if (params.row_pixels > sg)
+      throw std::invalid_argument("StereoMatcher: row_pixels " + std::to_string(params.row_pixels) +
+                                  " exceeds the subgroup size " + std::to_string(sg));
+    plan.pixels_per_subgroup = params.row_pixels;
+  } else {
+    // The least padding of the range with at most 32 disparities per lane (more spill registers); among equal
+    // paddings the most pixels whose lanes hold at most 16, else the fewest pixels. Measured on lavapipe (640x480, 8
+    // paths, processes/e3d/README.md "Speed"): a pixel costs mostly loops over all lanes, so more pixels per subgroup
+    // are faster while the lanes hold up to 16-24 disparities; at 32 they were as fast as half as many pixels with 16,
+    // at 40 no faster, at 64 slower.
+    int best = 1, best_padded = lanesFor(1).padded_disps;
+    for (int pixels = 2; pixels <= sg; pixels *= 2) {
+      const LanePlan lanes = lanesFor(pixels);
+      if (lanes.lane_disps > 32) continue;
+      const bool small = lanes.lane_disps <= 16;
+      if (lanes.padded_disps < best_padded || (lanes.padded_disps == best_padded && small)) {
+        best = pixels;
+        best_padded = lanes.padded_disps;
+      }
+    }
+    plan.pixels_per_subgroup = best;
+  }
+  const int lanes_per_pixel = sg / plan.pixels_per_subgroup;
+  plan.lanes = lanesFor(plan.pixels_per_subgroup);
   const int padded = plan.lanes.padded_disps;
   plan.sum_row_bytes = static_cast<uint64_t>(W) * padded * 2;
   plan.sum_bytes = plan.sum_row_bytes * H;
@@ -53,15 +85,16 @@ RowsPlan planRows(cv::Size size, const SgmParams& params, const DeviceLimits& li
     throw std::invalid_argument("StereoMatcher: sums too large for " + std::to_string(kMaxChunks) +
                                 " storage buffer ranges (reduce size or num_disparities)");
   plan.scratch_bytes = static_cast<uint64_t>(2 * 2 * 3) * W * padded;  // 2 passes x 2 rows x 3 paths
-  plan.cost_volume = params.cost != Cost::census;
   if (plan.cost_volume) {
     plan.cost_row_bytes = static_cast<uint64_t>(W) * padded;
     plan.cost_rows_per_chunk = static_cast<int>(max_range / plan.cost_row_bytes);
     plan.cost_row_words = static_cast<int>(plan.cost_row_bytes / 4);
   }
-  const int sg = static_cast<int>(limits.subgroup_size);
-  const int row_cost = W + 4 + (std::abs(params.min_disparity) + params.num_disparities) / sg;  // loop iterations
-  plan.rows_per_dispatch = std::max(1, kMaxLoopIterations / row_cost);
+  // Loop iterations per walk of pixels_per_subgroup rows: the columns, the group's lag, the right map's borders.
+  const int G = plan.pixels_per_subgroup;
+  const int walk_cost =
+      W + 2 * (G - 1) + 4 + (std::abs(params.min_disparity) + params.num_disparities) / lanes_per_pixel;
+  plan.rows_per_dispatch = G * std::max(1, kMaxLoopIterations / walk_cost);
   return plan;
 }
 

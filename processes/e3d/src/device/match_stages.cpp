@@ -21,7 +21,8 @@ vk::Specialisation matchSpecialisation(uint32_t subgroup_size, int lane_disps, c
           {E3D_SPEC_MIRROR, variant.mirror ? 1 : 0},
           {E3D_SPEC_RIGHT_MAP, variant.right_map ? 1 : 0},
           {E3D_SPEC_COST_VOLUME, variant.cost_volume ? 1 : 0},
-          {E3D_SPEC_MI_WINDOW, params.mi_window}};
+          {E3D_SPEC_MI_WINDOW, params.mi_window},
+          {E3D_SPEC_ROW_PIXELS, variant.row_pixels}};
 }
 
 CostStage CostStage::census(const vk::DescriptorPool& pool, const vk::Specialisation& spec, cv::Size size,
@@ -147,6 +148,7 @@ RowPassStage::RowPassStage(const vk::DescriptorPool& pool, uint32_t subgroup_siz
   const std::vector<vk::Binding> bindings = {
       {0, b.image_left}, {1, b.census_left}, {2, b.census_right}, {3, b.scratch16},  {4, b.scratch8}, {5, b.scratch},
       {6, b.sum_chunks}, {7, b.sums},        {8, b.disp_left},    {9, b.disp_right}, {10, b.costs16}, {11, b.costs8}};
+  variant.row_pixels = plan.pixels_per_subgroup;
   for (int phase = 0; phase < 2; ++phase) {
     variant.phase = phase;
     phases_[phase] = vk::Pipeline(pool, "sgm_aggregate_rowpass", bindings, sizeof(shader::RowPassParams),

@@ -21,6 +21,7 @@ struct MatchVariant {
   bool mirror = false;       // the second match (right to left)
   bool right_map = true;     // the diagonal search for the right map
   bool cost_volume = false;  // row passes: costs from the cost volume
+  int row_pixels = 1;        // row passes: pixels per subgroup (RowsPlan::pixels_per_subgroup)
 };
 vk::Specialisation matchSpecialisation(uint32_t subgroup_size, int lane_disps, const SgmParams& params,
                                        const MatchVariant& variant);

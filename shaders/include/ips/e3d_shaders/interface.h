@@ -17,6 +17,7 @@
 #define E3D_SPEC_COST_VOLUME 9         // row passes read the costs from the cost volume (not census on the fly)
 #define E3D_SPEC_MI_TABLE_STEP 10      // mi_table: which of its four dispatches (0..3)
 #define E3D_SPEC_MI_WINDOW 11          // cost_mi: 1 pixelwise, 3 the mean over 3x3 (SgmParams::mi_window)
+#define E3D_SPEC_ROW_PIXELS 12         // row passes: pixels per subgroup, each on subgroup size / this many lanes
 
 // Largest number of buffers (or storage-buffer ranges) a path-cost volume, the row passes' sums or a cost volume
 // is split into (each at most maxStorageBufferRange).

@@ -122,6 +122,12 @@ struct SgmParams {
   // devices: lavapipe), lines = one dispatch per path, one subgroup per image line (for GPUs), automatic ("auto")
   // = rows on a CPU device, lines otherwise. Not an algorithm parameter: sgmReference ignores it.
   Aggregation aggregation = Aggregation::automatic;
+  // Pixels one subgroup of the row passes works on at once, each on subgroup size / row_pixels lanes (a power of two
+  // up to the subgroup size), or 0: chosen from the range (the least padding with at most 32 disparities per lane,
+  // then the most pixels with at most 16). Not an algorithm parameter either: the maps are the same; on lavapipe a
+  // pixel's cost is mostly loops over all lanes, which the pixels of a subgroup share (processes/e3d/README.md,
+  // "Speed").
+  int row_pixels = 0;
 
   // The defaults with the penalties chosen for a cost function (census: the defaults above) and, for mi, for its
   // window (mi_window: the mean of nine table costs varies less than one, so its penalties are smaller).
