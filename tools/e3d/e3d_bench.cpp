@@ -107,7 +107,7 @@ int main(int argc, char** argv) {
     std::cout << std::fixed << std::setprecision(2);
     std::cout << "device: " << ctx.info().name << " (" << ctx.info().type << ")\n"
               << "pair: " << scene << " scaled to " << size.width << "x" << size.height << ", " << params.describe()
-              << "\n"
+              << "\nlayout: " << matcher.layoutDescription() << "\n"
               << "E3D           " << std::setw(7) << fps << " fps  " << std::setw(8) << evals * fps
               << " Mde/s  (device " << device_ms / frames << " ms/frame, memory "
               << matcher.deviceMemoryBytes() / 1048576.0 << " MiB)\n";

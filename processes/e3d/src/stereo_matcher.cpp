@@ -196,6 +196,7 @@ MatchOutput StereoMatcher::matchRaw(const cv::Mat& raw0, const cv::Mat& raw1, cv
 cv::Size StereoMatcher::size() const { return impl_->levels.front()->size(); }
 const SgmParams& StereoMatcher::params() const { return impl_->params; }
 bool StereoMatcher::appliesFlatField() const { return impl_->flat_field; }
+std::string StereoMatcher::layoutDescription() const { return impl_->levels.front()->layoutDescription(); }
 size_t StereoMatcher::deviceMemoryBytes() const {
   size_t bytes = impl_->rect_bytes;
   for (const auto& level : impl_->levels) bytes += level->memoryBytes();

@@ -50,6 +50,16 @@ MatchLevel::MatchLevel(const VulkanContext& ctx, cv::Size size, const SgmParams&
   fill_.emplace(pool_, size_, checkedLeft(), filled_disp_);
 }
 
+std::string MatchLevel::layoutDescription() const {
+  const int sg = static_cast<int>(ctx_.subgroupSize());
+  if (!plan_.rows)
+    return "lines, " + std::to_string(sg) + " lanes per line, " + std::to_string(plan_.lines.lanes.lane_disps) +
+           " disparities per lane";
+  const RowsPlan& rows = plan_.row_passes;
+  return "rows, " + std::to_string(rows.pixels_per_subgroup) + " pixel(s) per subgroup of " + std::to_string(sg) +
+         " lanes, " + std::to_string(rows.lanes.lane_disps) + " disparities per lane";
+}
+
 const vk::Buffer& MatchLevel::checkedLeft() const {
   return params_.lr_max_diff >= 0 ? final_disp_ : (params_.median ? median_[0] : disp_[0]);
 }

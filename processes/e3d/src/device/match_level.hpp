@@ -7,6 +7,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "device/layout_plan.hpp"
@@ -44,6 +45,8 @@ class MatchLevel {
   cv::Size size() const { return size_; }
   const SgmParams& params() const { return params_; }
   bool rowLayout() const { return plan_.rows; }
+  // How the paths are walked at this level, e.g. "rows, 4 pixels per subgroup of 8 lanes, 16 disparities per lane".
+  std::string layoutDescription() const;
   size_t memoryBytes() const { return memory_bytes_; }
   // The 8-bit images (host-visible, four pixels per word): the pair to match.
   const vk::Buffer (&images() const)[2] { return image_; }

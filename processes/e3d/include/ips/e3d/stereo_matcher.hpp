@@ -54,6 +54,9 @@ class StereoMatcher {
   const SgmParams& params() const;
   // Device memory allocated by this matcher, in bytes (the path-cost volume dominates: paths*W*H*D').
   size_t deviceMemoryBytes() const;
+  // How the device walks the paths at full resolution: the aggregation layout, pixels per subgroup, disparities per
+  // lane (for the benchmarks' output; the maps do not depend on it).
+  std::string layoutDescription() const;
 
  private:
   struct Impl;
