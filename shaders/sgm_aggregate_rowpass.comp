@@ -51,9 +51,9 @@ layout(constant_id = E3D_SPEC_RIGHT_MAP) const bool RIGHT_MAP = true;
 layout(constant_id = E3D_SPEC_COST_VOLUME) const bool COST_VOLUME = false;
 // G: the pixels one subgroup works on at once, each on LPP = SG / G lanes (G = 1: all lanes one pixel). G rows are
 // walked together, row i0 + g by lane group g, two columns behind group g - 1, so that the three pixels of row
-// i0 + g - 1 it needs are done (their path costs reach it through the scratch rows). Why: on lavapipe a shuffle or a
-// memory access costs a loop over all lanes whatever the data, so these loops, not the disparities, set the cost of
-// a pixel (640x480, 8 paths: 32 disparities took 80 ms, 128 took 104); G pixels share each loop.
+// i0 + g - 1 it needs are done (their path costs reach it through the scratch rows). Why: on lavapipe most of a
+// pixel's cost does not grow with its disparities (memory accesses with per-lane addresses are loops over all lanes
+// whatever their size; 640x480, 8 paths: 32 disparities took 80 ms, 128 took 104); G pixels share that work.
 layout(constant_id = E3D_SPEC_ROW_PIXELS) const int G = 1;
 const uint LPP = SG / uint(G);
 const int LOG2_LPP = LOG2_SG - (G == 8 ? 3 : (G == 4 ? 2 : (G == 2 ? 1 : 0)));

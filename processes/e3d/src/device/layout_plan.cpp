@@ -55,9 +55,9 @@ RowsPlan planRows(cv::Size size, const SgmParams& params, const DeviceLimits& li
   } else {
     // The least padding of the range with at most 32 disparities per lane (more spill registers); among equal
     // paddings the most pixels whose lanes hold at most 16, else the fewest pixels. Measured on lavapipe (640x480, 8
-    // paths, processes/e3d/README.md "Speed"): a pixel costs mostly loops over all lanes, so more pixels per subgroup
-    // are faster while the lanes hold up to 16-24 disparities; at 32 they were as fast as half as many pixels with 16,
-    // at 40 no faster, at 64 slower.
+    // paths, processes/e3d/README.md "Speed"): most of a pixel's cost does not grow with its disparities, so more
+    // pixels per subgroup are faster while the lanes hold up to 16-24 disparities; at 32 they were as fast as half as
+    // many pixels with 16, at 40 no faster, at 64 slower.
     int best = 1, best_padded = lanesFor(1).padded_disps;
     for (int pixels = 2; pixels <= sg; pixels *= 2) {
       const LanePlan lanes = lanesFor(pixels);

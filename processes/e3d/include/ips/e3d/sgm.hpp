@@ -124,9 +124,9 @@ struct SgmParams {
   Aggregation aggregation = Aggregation::automatic;
   // Pixels one subgroup of the row passes works on at once, each on subgroup size / row_pixels lanes (a power of two
   // up to the subgroup size), or 0: chosen from the range (the least padding with at most 32 disparities per lane,
-  // then the most pixels with at most 16). Not an algorithm parameter either: the maps are the same; on lavapipe a
-  // pixel's cost is mostly loops over all lanes, which the pixels of a subgroup share (processes/e3d/README.md,
-  // "Speed").
+  // then the most pixels with at most 16). Not an algorithm parameter either: the maps are the same; on lavapipe most
+  // of a pixel's cost does not grow with its disparities, and the pixels of a subgroup share it
+  // (processes/e3d/README.md, "Speed").
   int row_pixels = 0;
 
   // The defaults with the penalties chosen for a cost function (census: the defaults above) and, for mi, for its
