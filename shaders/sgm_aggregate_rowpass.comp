@@ -224,9 +224,9 @@ void addStoredSums(int y, int x, inout uint s[K]) {
 
 int rightDisparity(uint key) { return key == NONE ? E3D_INVALID : (MIN_DISP + int(key & 0xFFu)) * 16; }
 
-// Results of a row, one per lane of the group: lane (x mod LPP) keeps the value of pixel x. The walk goes up (forward) or down
-// (backward) one pixel at a time; a group is stored when the walk leaves it and, at the end of the row, by
-// storeGathered.
+// Results of a row, one per lane of the group: lane (x mod LPP) keeps the value of pixel x. The walk goes up
+// (forward) or down (backward) one pixel at a time; a group is stored when the walk leaves it and, at the end of the
+// row, by storeGathered.
 void storeGathered(int gathered, int x, bool forward, int row_base, bool is_left) {
   const int slot = x & int(LPP - 1u);
   const int first = x - slot;
