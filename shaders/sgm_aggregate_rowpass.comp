@@ -56,7 +56,8 @@ layout(constant_id = E3D_SPEC_COST_VOLUME) const bool COST_VOLUME = false;
 // whatever their size; 640x480, 8 paths: 32 disparities took 80 ms, 128 took 104); G pixels share that work.
 layout(constant_id = E3D_SPEC_ROW_PIXELS) const int G = 1;
 const uint LPP = SG / uint(G);
-const int LOG2_LPP = LOG2_SG - (G == 8 ? 3 : (G == 4 ? 2 : (G == 2 ? 1 : 0)));
+const int LOG2_G = G >= 64 ? 6 : (G >= 32 ? 5 : (G >= 16 ? 4 : (G >= 8 ? 3 : (G >= 4 ? 2 : (G >= 2 ? 1 : 0)))));
+const int LOG2_LPP = LOG2_SG - LOG2_G;
 // Walk rows begin .. end - 1 of each pass (x: forward, y: backward; walk row i is image row i forward,
 // height - 1 - i backward).
 #define E3D_ROW_PASS_PARAMS

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <functional>
 #include <iostream>
@@ -717,6 +718,14 @@ TEST(WtaStage, TiesTakeTheSmallestDisparity) {
   p.uniqueness = 10;
   expectWtaEqualsReference({37, 23}, p, 84, 1);  // costs 0 and 1: ties everywhere
   expectWtaEqualsReference({37, 23}, p, 85, 0);  // all equal: disparity 0 (and min_disparity on the right)
+}
+
+// The device's subgroups are those a run asks for (IPS_EXPECT_SUBGROUP_SIZE, set by the CTest entries that run these
+// tests on lavapipe with 512-bit vectors, subgroups of 16), so that those entries cannot pass on subgroups of 8.
+TEST(VulkanDevice, SubgroupSizeIsTheOneTheRunAsksFor) {
+  const char* expected = std::getenv("IPS_EXPECT_SUBGROUP_SIZE");
+  if (!expected) GTEST_SKIP() << "no subgroup size asked for (IPS_EXPECT_SUBGROUP_SIZE)";
+  EXPECT_EQ(context().subgroupSize(), static_cast<uint32_t>(std::atoi(expected)));
 }
 
 // ---- sgm_aggregate_rowpass (rows) ----
