@@ -725,7 +725,13 @@ TEST(WtaStage, TiesTakeTheSmallestDisparity) {
 TEST(VulkanDevice, SubgroupSizeIsTheOneTheRunAsksFor) {
   const char* expected = std::getenv("IPS_EXPECT_SUBGROUP_SIZE");
   if (!expected) GTEST_SKIP() << "no subgroup size asked for (IPS_EXPECT_SUBGROUP_SIZE)";
-  EXPECT_EQ(context().subgroupSize(), static_cast<uint32_t>(std::atoi(expected)));
+  const uint32_t size = static_cast<uint32_t>(std::atoi(expected));
+#if defined(__x86_64__)
+  // lavapipe's 512-bit vectors are certain only where the CPU has them; elsewhere this run repeats the 8-lane one.
+  if (size == 16 && context().subgroupSize() == 8 && !__builtin_cpu_supports("avx512f"))
+    GTEST_SKIP() << "this CPU has no AVX-512: lavapipe kept subgroups of 8";
+#endif
+  EXPECT_EQ(context().subgroupSize(), size);
 }
 
 // ---- sgm_aggregate_rowpass (rows) ----
