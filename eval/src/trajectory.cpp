@@ -292,10 +292,7 @@ Trajectory rigidlyAttached(const Trajectory& traj, const Eigen::Isometry3d& T_a_
   Trajectory out;
   out.reserve(traj.size());
   for (const TrajPoint& a : traj) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = a.q.toRotationMatrix();
-    T.translation() = a.p;
-    T = T * T_a_b;
+    const Eigen::Isometry3d T = toIso(a) * T_a_b;
     TrajPoint b;
     b.t = a.t;
     b.p = T.translation();
@@ -308,13 +305,7 @@ Trajectory rigidlyAttached(const Trajectory& traj, const Eigen::Isometry3d& T_a_
 DeltaConsistency deltaConsistency(const std::vector<RelativePoseMeasurement>& deltas, const Trajectory& truth) {
   DeltaConsistency c;
   if (truth.size() < 2) return c;
-  auto poseAt = [&truth](double t) {
-    const TrajPoint p = interpolate(truth, t);
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = p.q.toRotationMatrix();
-    T.translation() = p.p;
-    return T;
-  };
+  auto poseAt = [&truth](double t) { return toIso(interpolate(truth, t)); };
   std::vector<Eigen::Vector3d> errors;
   double sum_t = 0, sum_r = 0;
   for (const auto& d : deltas) {
