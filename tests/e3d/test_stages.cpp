@@ -771,7 +771,7 @@ void expectRowPassesEqualReference(const cv::Mat& left, const cv::Mat& right, Sg
   const RowPassStage::Buffers buffers{image_bytes, census_words[0], census_words[1], scratch16, scratch8, scratch,
                                       sum_chunks,  sums16,          disp[0],         disp[1],   costs16,  costs8};
   vk::DescriptorPool pool = makePool();
-  RowPassStage stage(pool, ctx.subgroupSize(), size, params, buffers, plan, {0, false, true, plan.cost_volume});
+  RowPassStage stage(pool, ctx.subgroupSize(), size, params, buffers, plan, {0, false, true});
   runOnDevice([&](VkCommandBuffer cmd) {
     stage.record(cmd, 0);
     stage.record(cmd, 1);
@@ -855,7 +855,9 @@ TEST(LayoutPlan, RowPassesTakeTheLeastPaddingThenTheMostPixelsWithSixteenDispari
   const RowsPlan sad16 = plan(Cost::sad, 16);  // 8 pixels would need 32 per lane (4-byte words on 8 lanes)
   EXPECT_EQ(sad16.pixels_per_subgroup, 4);
   EXPECT_EQ(sad16.lanes.lane_disps, 16);
-  EXPECT_EQ(sad16.lanes.padded_disps % (4 * 8), 0);  // the cost stage's 8 lanes hold 4-byte words
+  EXPECT_EQ(sad16.cost_lanes.padded_disps, sad16.lanes.padded_disps);  // the volume is [y][x][d] for both stages
+  EXPECT_EQ(sad16.cost_lanes.lane_disps * 8, sad16.cost_lanes.padded_disps);
+  EXPECT_EQ(sad16.cost_lanes.lane_disps % 4, 0);  // the cost stage's 8 lanes hold 4-byte words
   EXPECT_EQ(plan(Cost::census, 128, 2).pixels_per_subgroup, 2);
   EXPECT_EQ(plan(Cost::census, 128, 2).lanes.lane_disps, 32);
   EXPECT_THROW(plan(Cost::census, 128, 16), std::invalid_argument);

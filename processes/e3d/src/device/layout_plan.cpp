@@ -89,6 +89,7 @@ RowsPlan planRows(cv::Size size, const SgmParams& params, const DeviceLimits& li
     plan.cost_row_bytes = static_cast<uint64_t>(W) * padded;
     plan.cost_rows_per_chunk = static_cast<int>(max_range / plan.cost_row_bytes);
     plan.cost_row_words = static_cast<int>(plan.cost_row_bytes / 4);
+    plan.cost_lanes = {padded / sg, padded};
   }
   // Loop iterations per walk of pixels_per_subgroup rows: the columns, the group's lag, the right map's borders.
   const int G = plan.pixels_per_subgroup;

@@ -74,6 +74,9 @@ struct RowsPlan {
   uint64_t cost_row_bytes = 0;
   int cost_rows_per_chunk = 0;
   int cost_row_words = 0;
+  // The cost stage's lanes: the same padded range on all subgroup_size lanes, so that the volume is [y][x][d]
+  // whatever pixels_per_subgroup the row passes take.
+  LanePlan cost_lanes;
   // Pixels a subgroup works on at once (rows walked together), each on subgroup_size / pixels_per_subgroup lanes.
   int pixels_per_subgroup = 1;
   // Image rows one dispatch of a row pass walks (kMaxLoopIterations per invocation).

@@ -122,7 +122,7 @@ void MatchLevel::initRows() {
                                         plan.cost_volume ? costs16_ : scratch16_,
                                         plan.cost_volume ? costs8_ : scratch8_};
     row_passes_[m].emplace(pool_, ctx_.subgroupSize(), size_, params_, buffers, plan,
-                           MatchVariant{0, m == 1, !secondMatch(), plan.cost_volume});
+                           MatchVariant{0, m == 1, !secondMatch()});
   }
 }
 
@@ -130,10 +130,7 @@ void MatchLevel::initRows() {
 // volume of the row layout or the cost slice of the line layout.
 void MatchLevel::initCostStages(const std::vector<vk::Descriptor>& chunks, int base_row, int rows_per_chunk,
                                 int row_words) {
-  // The cost stages put the padded range on all the subgroup's lanes: the volume [y][x][d] is the same whatever
-  // pixels_per_subgroup the row passes take (multiples of 4 disparities per lane: RowsPlan).
-  const int lane_disps = plan_.rows ? plan_.row_passes.lanes.padded_disps / static_cast<int>(ctx_.subgroupSize())
-                                    : plan_.lines.lanes.lane_disps;
+  const int lane_disps = plan_.rows ? plan_.row_passes.cost_lanes.lane_disps : plan_.lines.lanes.lane_disps;
   for (int m = 0; m < (secondMatch() ? 2 : 1); ++m) {
     const vk::Specialisation spec =
         matchSpecialisation(ctx_.subgroupSize(), lane_disps, params_, {0, m == 1, !secondMatch()});

@@ -148,6 +148,7 @@ RowPassStage::RowPassStage(const vk::DescriptorPool& pool, uint32_t subgroup_siz
   const std::vector<vk::Binding> bindings = {
       {0, b.image_left}, {1, b.census_left}, {2, b.census_right}, {3, b.scratch16},  {4, b.scratch8}, {5, b.scratch},
       {6, b.sum_chunks}, {7, b.sums},        {8, b.disp_left},    {9, b.disp_right}, {10, b.costs16}, {11, b.costs8}};
+  variant.cost_volume = plan.cost_volume;
   variant.row_pixels = plan.pixels_per_subgroup;
   for (int phase = 0; phase < 2; ++phase) {
     variant.phase = phase;

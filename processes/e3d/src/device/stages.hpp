@@ -20,8 +20,8 @@ struct MatchVariant {
   int phase = 0;             // row passes: 0 store the sums, 1 add them and select
   bool mirror = false;       // the second match (right to left)
   bool right_map = true;     // the diagonal search for the right map
-  bool cost_volume = false;  // row passes: costs from the cost volume
-  int row_pixels = 1;        // row passes: pixels per subgroup (RowsPlan::pixels_per_subgroup)
+  bool cost_volume = false;  // row passes: costs from the cost volume (RowPassStage: from its plan)
+  int row_pixels = 1;        // row passes: pixels per subgroup (RowPassStage: RowsPlan::pixels_per_subgroup)
 };
 vk::Specialisation matchSpecialisation(uint32_t subgroup_size, int lane_disps, const SgmParams& params,
                                        const MatchVariant& variant);
@@ -209,7 +209,7 @@ class RowPassStage {
     const vk::BufferView& costs8;
   };
   RowPassStage(const vk::DescriptorPool& pool, uint32_t subgroup_size, cv::Size size, const SgmParams& params,
-               const Buffers& buffers, const RowsPlan& plan, MatchVariant variant);
+               const Buffers& buffers, const RowsPlan& plan, MatchVariant variant);  // cost_volume, row_pixels: plan's
   void record(VkCommandBuffer cmd, int phase) const;
 
  private:
