@@ -286,9 +286,9 @@ void main() {
       for (int xr = max(0, W - MIN_DISP) + int(lane); xr < W; xr += int(LPP)) disp_right[row_base + xr] = E3D_INVALID;
     }
     // Group g is at walk column j - 2 g: it starts 2 g steps after group 0.
-    int x = x_first - step * 2 * int(grp);
-    for (int j = 0; j < W + 2 * (G - 1); ++j, x += step) {
-      const int jl = j - 2 * int(grp);  // this group's walk column
+    for (int j = 0; j < W + 2 * (G - 1); ++j) {
+      const int jl = j - 2 * int(grp);     // this group's walk column
+      const int x = x_first + step * jl;  // and image column (outside the row while the group waits or is done)
       const bool on_row = row_active && jl >= 0 && jl < W;
       const bool moves = on_row && jl > 0;  // the state of the previous pixel slides to this one
       const int xc = clamp(x, 0, W - 1);
