@@ -261,7 +261,7 @@ Recording readEuroc(const std::string& dir, const ReadOptions& options) {
       }
       all.push_back(s);
     }
-    rec.imu = window(all, t0, t1);
+    rec.imu = options.whole_recording ? std::move(all) : window(all, t0, t1);
   }
 
   // Ground truth: --gt (TUM), else the ASL state estimate, else the best file in groundtruth/.
@@ -275,7 +275,7 @@ Recording readEuroc(const std::string& dir, const ReadOptions& options) {
   } else if (fs::is_directory(dir + "/groundtruth")) {
     gt = bestGroundTruthIn(dir + "/groundtruth", t0, t1, &rec.ground_truth_source, &rec.ground_truth_has_state);
   }
-  rec.ground_truth = window(gt, t0, t1);
+  rec.ground_truth = options.whole_recording ? std::move(gt) : window(gt, t0, t1);
   rec.ground_truth_has_state = rec.ground_truth_has_state && !rec.ground_truth.empty();
   return rec;
 }

@@ -57,6 +57,9 @@ struct ReadOptions {
   int64_t last = -1;     // last frame (inclusive); -1 = to the end
   std::string gt_path;   // EuRoC: a TUM file of the body's pose instead of the folder's ground truth
   bool imu = true;       // false: the recording's IMU is left out (the cameras alone)
+  // EuRoC: the IMU and the ground truth of the whole recording, not only of the frames' span (a flight's IMU and
+  // truth where only some of its frames are kept, as in the shared V1_01 excerpt).
+  bool whole_recording = false;
 };
 
 // KITTI's times.txt starts at 0 s; the head's clock never reads 0 (a zero stamp is "no stamp" on the bus), so
