@@ -587,3 +587,46 @@ TEST(FilterModels, RotationJacobianMatchesNumericAndEqualsTheDeltasRotationRows)
   const RotationMeasurement m2(0, 2, expSO3(off) * z.linear(), Eigen::Matrix3d::Identity() * 1e-8, T_imu_cam);
   EXPECT_LT((Eigen::Vector3d(m2.residual(x)) - off).norm(), 1e-9);
 }
+
+// The motion's process noise measured from the samples (ProcessNoise::from_imu) against the densities that made them:
+// an acceleration and an angular rate that are random walks of known density on one axis, the sensor's white noise of
+// its description on all. Above the configured floors the excess is the vibration; the sensor's noise alone (a head
+// at rest) adds none, and neither does a gap in the samples.
+TEST(FilterModels, MotionNoiseFindsTheDensitiesOfTheSamples) {
+  ProcessNoise floor;  // jerk 4, angular acceleration 20
+  ImuNoise imu;        // MMQ-50 at 200 Hz
+  const double jerk_psd = 500.0, angular_psd = 80.0, dt = 1.0 / imu.rate_hz;
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const double white_f = imu.accel_noise_density * std::sqrt(imu.rate_hz);
+  const double white_w = imu.gyro_noise_density * std::sqrt(imu.rate_hz);
+  MotionNoise moving(floor, imu), resting(floor, imu);
+  Eigen::Vector3d a = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+  int64_t t = 1'000'000;
+  for (int i = 0; i < 2000; ++i, t += 5000) {
+    a.y() += std::sqrt(jerk_psd * dt) * n(rng);
+    w.z() += std::sqrt(angular_psd * dt) * n(rng);
+    const Eigen::Vector3d noise_f(white_f * n(rng), white_f * n(rng), white_f * n(rng));
+    const Eigen::Vector3d noise_w(white_w * n(rng), white_w * n(rng), white_w * n(rng));
+    moving.add(t, w + noise_w, a + Eigen::Vector3d(0, 0, 9.81) + noise_f);
+    resting.add(t, noise_w, Eigen::Vector3d(0, 0, 9.81) + noise_f);
+  }
+  // One second of 200 samples: the mean square's own spread is 10 %.
+  EXPECT_NEAR(moving.current().vibration_jerk_psd, jerk_psd - floor.jerk_psd, 0.3 * jerk_psd);
+  EXPECT_NEAR(moving.current().vibration_angular_accel_psd, angular_psd - floor.angular_accel_psd, 0.3 * angular_psd);
+  EXPECT_EQ(moving.current().jerk_psd, floor.jerk_psd);
+  EXPECT_EQ(resting.current().vibration_jerk_psd, 0.0);
+  EXPECT_EQ(resting.current().vibration_angular_accel_psd, 0.0);
+  // A difference across a 1 s gap is not counted as one step.
+  MotionNoise gap(floor, imu);
+  gap.add(t, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  gap.add(t + 1'000'000, Eigen::Vector3d::Constant(1.0), Eigen::Vector3d::Constant(10.0));
+  EXPECT_EQ(gap.current().vibration_jerk_psd, 0.0);
+  // Off: the configured densities.
+  ProcessNoise off = floor;
+  off.from_imu = false;
+  MotionNoise unused(off, imu);
+  unused.add(t, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero());
+  unused.add(t + 5000, Eigen::Vector3d::Constant(1.0), Eigen::Vector3d::Constant(10.0));
+  EXPECT_EQ(unused.current().vibration_jerk_psd, 0.0);
+}

@@ -45,6 +45,7 @@ Estimator::Estimator(const FilterParams& params, const StereoCalibration& calib)
       R_body_tilt_(calib.T_imu_cam0.linear() * calib.R_tilt_cam0.transpose()) {
   run_.kf = makeKalmanFilter(params_);
   run_.counts = true;
+  run_.motion = MotionNoise(params_.process, params_.imu);
   gyro_sigma_ = params_.imu.gyro_noise_density * std::sqrt(params_.imu.rate_hz);
   accel_sigma_ = params_.imu.accel_noise_density * std::sqrt(params_.imu.rate_hz);
   gate2_ = chiSquareQuantile(params_.gate_probability, 2);
@@ -215,6 +216,7 @@ std::optional<FilterOutput> Estimator::addImageTime(int64_t utime) {
   ahead.last_imu_time = run_.last_imu_time;
   ahead.consecutive_rejects = run_.consecutive_rejects;
   ahead.in_gap = run_.in_gap;
+  ahead.motion = run_.motion;
   for (auto it = buffer_.begin(); it != buffer_.end() && it->first <= t; ++it)
     if (it->second.sensor == kSensorImu || it->second.sensor == kSensorTilt)
       applyMeasurement(ahead, it->second, nullptr);
@@ -329,7 +331,7 @@ void Estimator::predictTo(Runner& run, int64_t t) {
   if (run.in_gap)
     kf.predict(static_cast<double>(t - now) * 1e-6, params_.gap_process);
   else
-    kf.predict(static_cast<double>(t - now) * 1e-6);
+    kf.predict(static_cast<double>(t - now) * 1e-6, run.motion.current());
 }
 
 double Estimator::gateFor(Runner& run, Sensor s, int dof, bool enabled) const {
@@ -350,6 +352,7 @@ bool Estimator::applyMeasurement(Runner& run, const Event& e, std::array<SensorC
     const ImuMeasurement m(e.imu.angular_rate, e.imu.specific_force, params_.gravity, gyro_sigma_, accel_sigma_);
     r = kf.update(m, gateFor(run, kSensorImu, 6, params_.gate_imu));
     run.last_imu_time = e.time;
+    run.motion.add(e.time, e.imu.angular_rate, e.imu.specific_force);
   } else if (e.sensor == kSensorTilt) {
     predictTo(run, e.time);
     if (kf.state().nav.acceleration.norm() > params_.tilt_max_acceleration) {

@@ -41,20 +41,50 @@ Matrix21d processNoise(const NavState& x_end, double dt, const ProcessNoise& q) 
   Q.block<3, 3>(kErrP, kErrA) = j * dt3 / 6.0 * I;
   Q.block<3, 3>(kErrV, kErrV) = j * dt3 / 3.0 * I;
   Q.block<3, 3>(kErrV, kErrA) = j * dt2 / 2.0 * I;
-  Q.block<3, 3>(kErrA, kErrA) = j * dt * I;
+  Q.block<3, 3>(kErrA, kErrA) = (j + q.vibration_jerk_psd) * dt * I;
   Q.block<3, 3>(kErrV, kErrP) = Q.block<3, 3>(kErrP, kErrV);
   Q.block<3, 3>(kErrA, kErrP) = Q.block<3, 3>(kErrP, kErrA);
   Q.block<3, 3>(kErrA, kErrV) = Q.block<3, 3>(kErrV, kErrA);
   // (theta in world, w in body) driven by white angular acceleration: dth' = R dw.
   const double a = q.angular_accel_psd;
   const Eigen::Matrix3d R = x_end.orientation.toRotationMatrix();
-  Q.block<3, 3>(kErrW, kErrW) = a * dt * I;
+  Q.block<3, 3>(kErrW, kErrW) = (a + q.vibration_angular_accel_psd) * dt * I;
   Q.block<3, 3>(kErrTh, kErrTh) = a * dt3 / 3.0 * I;
   Q.block<3, 3>(kErrTh, kErrW) = a * dt2 / 2.0 * R;
   Q.block<3, 3>(kErrW, kErrTh) = a * dt2 / 2.0 * R.transpose();
   Q.block<3, 3>(kErrBa, kErrBa) = q.accel_bias_psd * dt * I;
   Q.block<3, 3>(kErrBg, kErrBg) = q.gyro_bias_psd * dt * I;
   return Q;
+}
+
+MotionNoise::MotionNoise(const ProcessNoise& floor, const ImuNoise& imu)
+    : floor_(floor),
+      current_(floor),
+      gyro_var_(imu.gyro_noise_density * imu.gyro_noise_density * imu.rate_hz),
+      accel_var_(imu.accel_noise_density * imu.accel_noise_density * imu.rate_hz),
+      max_dt_us_(static_cast<int64_t>(3e6 / imu.rate_hz)),
+      window_us_(static_cast<int64_t>(floor.from_imu_window_s * 1e6)) {}
+
+void MotionNoise::add(int64_t utime, const Eigen::Vector3d& angular_rate, const Eigen::Vector3d& specific_force) {
+  const int64_t prev = last_utime_;
+  const Eigen::Vector3d dw = angular_rate - last_w_, df = specific_force - last_f_;
+  last_utime_ = utime, last_w_ = angular_rate, last_f_ = specific_force;
+  // A difference across a gap (more than three nominal intervals) is not one step of the motion.
+  if (!floor_.from_imu || prev == INT64_MIN || utime <= prev || utime - prev > max_dt_us_) return;
+  const double dt = static_cast<double>(utime - prev) * 1e-6;
+  Difference d;
+  d.utime = utime;
+  d.gyro2 = (dw.cwiseAbs2() - Eigen::Vector3d::Constant(2 * gyro_var_)) / dt;
+  d.accel2 = (df.cwiseAbs2() - Eigen::Vector3d::Constant(2 * accel_var_)) / dt;
+  window_.push_back(d);
+  gyro_sum_ += d.gyro2, accel_sum_ += d.accel2;
+  while (window_.front().utime <= utime - window_us_) {
+    gyro_sum_ -= window_.front().gyro2, accel_sum_ -= window_.front().accel2;
+    window_.pop_front();
+  }
+  const double n = static_cast<double>(window_.size());
+  current_.vibration_jerk_psd = std::max(0.0, accel_sum_.maxCoeff() / n - floor_.jerk_psd);
+  current_.vibration_angular_accel_psd = std::max(0.0, gyro_sum_.maxCoeff() / n - floor_.angular_accel_psd);
 }
 
 // ---------------------------------------------------------------------------------------------- IMU

@@ -60,6 +60,9 @@ FilterParams loadFilterParams(const Config& c) {
   p.process.angular_accel_psd = c.getDouble("process_noise/angular_accel_psd", p.process.angular_accel_psd);
   positive(c, "process_noise/jerk_psd", p.process.jerk_psd);
   positive(c, "process_noise/angular_accel_psd", p.process.angular_accel_psd);
+  p.process.from_imu = c.getBool("process_noise/from_imu", p.process.from_imu);
+  p.process.from_imu_window_s = c.getDouble("process_noise/from_imu_window_s", p.process.from_imu_window_s);
+  positive(c, "process_noise/from_imu_window_s", p.process.from_imu_window_s);
   p.process.delta_scale_psd = c.getDouble("delta_scale/psd", p.process.delta_scale_psd);
   nonNegative(c, "delta_scale/psd", p.process.delta_scale_psd);
   p.process.delta_direction_psd = c.getDouble("delta_direction/psd", p.process.delta_direction_psd);

@@ -162,6 +162,7 @@ class Estimator {
     std::array<int, kNumSensors> consecutive_rejects{};
     bool in_gap = false;  // no IMU data for imu_gap_s: rates reset, milder process noise
     bool counts = false;  // the estimator's own runner (not a look-ahead copy): counts and logs
+    MotionNoise motion{ProcessNoise{}, ImuNoise{}};  // the process noise the IMU's samples call for
   };
 
   // A tracker or cloud delta, checked, latency-corrected, applied at once (its clones exist) or buffered.

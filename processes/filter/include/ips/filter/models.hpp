@@ -9,6 +9,8 @@
 // image times, a function of two pose clones).
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <deque>
 
 #include "ips/filter/params.hpp"
 #include "ips/filter/state.hpp"
@@ -22,6 +24,33 @@ Matrix21d processJacobian(const NavState& x, double dt);
 // Discrete process noise over dt (integrated white jerk, angular acceleration and bias random walks);
 // attitude-rate correlation uses the attitude at the end of the step.
 Matrix21d processNoise(const NavState& x_end, double dt, const ProcessNoise& q);
+
+// The head's motion as its IMU shows it, for the process noise (ProcessNoise::from_imu). Under the model, the
+// acceleration (and the angular rate) of two consecutive samples differ by the jerk's (angular acceleration's)
+// integral over dt, of variance psd dt, and by two draws of the sensor's white noise: psd = (E[df^2] - 2 sigma^2) / dt
+// per axis, the mean square of the differences taken over the last window_s. The largest axis is taken (the model's
+// noise is the same on every axis); what exceeds the configured densities is vibration (ProcessNoise::vibration_*).
+// Deterministic in the samples, so a replay gives the same states.
+class MotionNoise {
+ public:
+  MotionNoise(const ProcessNoise& floor, const ImuNoise& imu);
+  void add(int64_t utime, const Eigen::Vector3d& angular_rate, const Eigen::Vector3d& specific_force);
+  // The configured process noise with the vibration the samples show.
+  const ProcessNoise& current() const { return current_; }
+
+ private:
+  struct Difference {
+    int64_t utime = 0;
+    Eigen::Vector3d gyro2, accel2;  // squared differences per axis, over dt
+  };
+  ProcessNoise floor_, current_;
+  double gyro_var_ = 0, accel_var_ = 0;  // the sensor's white noise per sample
+  int64_t max_dt_us_ = 0, window_us_ = 0;
+  int64_t last_utime_ = INT64_MIN;
+  Eigen::Vector3d last_w_ = Eigen::Vector3d::Zero(), last_f_ = Eigen::Vector3d::Zero();
+  std::deque<Difference> window_;
+  Eigen::Vector3d gyro_sum_ = Eigen::Vector3d::Zero(), accel_sum_ = Eigen::Vector3d::Zero();
+};
 
 // Residual vector of a measurement: at most 6 elements, kept on the stack.
 using MeasVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;

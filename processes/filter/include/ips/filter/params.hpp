@@ -14,7 +14,8 @@ namespace ips::filter {
 enum class FilterType { Ekf = 1, Ukf = 2 };  // values as filter_state_t.FILTER_EKF / FILTER_UKF
 
 struct ProcessNoise {
-  // The kinematic model holds acceleration and angular rate as states driven by white noise.
+  // The kinematic model holds acceleration and angular rate as states driven by white noise. With from_imu these
+  // two are floors under what the IMU's own samples show of the head's motion (MotionNoise, models.hpp).
   double jerk_psd = 4.0;              // [m^2/s^5] spectral density of the jerk driving the acceleration
   double angular_accel_psd = 20.0;    // [rad^2/s^3] spectral density of the angular acceleration (head motion)
   double accel_bias_psd = 1e-8;       // [m^2/s^5] accelerometer bias random walk
@@ -27,6 +28,17 @@ struct ProcessNoise {
                                       // as the head walks on (1 mrad in two minutes)
   double delta_rotation_drift_psd = 1e-10;  // [(rad/m)^2/s] random walk of the tracker's rotation drift, when
                                             // estimated: it follows the scene too (0.1 mrad/m in two minutes)
+  // The jerk and angular acceleration densities measured from the IMU's sample-to-sample differences over the last
+  // from_imu_window_s, where they exceed the configured ones: a flying MAV's vibration moves the specific force by
+  // 1-2 m/s^2 from one 5 ms sample to the next (EuRoC V1_01: 130-800 m^2/s^5), a carried head's by 0.1 (MH_01's
+  // first 150 frames: 0.6-1.5); with a walker's density the filter's gate refused 70 % of such an IMU's samples.
+  // That excess is vibration: large accelerations of little velocity and displacement (2 m/s^2 at 100 Hz is 3 mm/s),
+  // so it enters the acceleration and angular rate states alone, not their integrals (vibration_*_psd, set by
+  // MotionNoise; zero in a configuration).
+  bool from_imu = true;
+  double from_imu_window_s = 1.0;
+  double vibration_jerk_psd = 0;           // [m^2/s^5] on the acceleration state only
+  double vibration_angular_accel_psd = 0;  // [rad^2/s^3] on the angular rate state only
 };
 
 struct ImuNoise {
