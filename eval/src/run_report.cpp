@@ -463,12 +463,6 @@ std::vector<std::string> disturbances(const RunLog& log) {
   return out;
 }
 
-double distanceTravelled(const Trajectory& gt) {
-  double distance = 0;
-  for (size_t i = 1; i < gt.size(); ++i) distance += (gt[i].p - gt[i - 1].p).norm();
-  return distance;
-}
-
 double pageStartTime(const RunLog& log) {
   double t0 = log.gt.empty() ? NAN : log.gt.front().t;
   for (const auto& run : log.runs)

@@ -92,6 +92,12 @@ Eigen::Isometry3d alignSE3(const Trajectory& est, const Trajectory& ref) {
   return T;
 }
 
+double distanceTravelled(const Trajectory& traj) {
+  double distance = 0;
+  for (size_t i = 1; i < traj.size(); ++i) distance += (traj[i].p - traj[i - 1].p).norm();
+  return distance;
+}
+
 double ateRmse(const Trajectory& est, const Trajectory& ref) {
   const Eigen::Isometry3d T = alignSE3(est, ref);
   double se = 0;

@@ -44,9 +44,6 @@ using namespace ips::eval;
 
 namespace {
 
-// 95 % band of a chi-square with 3 degrees of freedom.
-constexpr double kChi2Dof3Lo = 0.2158, kChi2Dof3Hi = 9.3484;
-
 struct DeltaNoise {
   double sigma_t = 2.6e-4;  // [m] per axis
   double sigma_r = 1.2e-4;  // [rad] per axis
@@ -57,11 +54,12 @@ struct DeltaNoise {
 // sigma), applied as T_measured = T_true * Exp(e).
 class TruthDeltas {
  public:
-  TruthDeltas(const Eigen::Isometry3d& T_imu_cam0, const DeltaNoise& noise, uint32_t seed)
-      : T_imu_cam0_(T_imu_cam0), noise_(noise), rng_(seed) {}
+  TruthDeltas(const ips::StereoCalibration& calib, const DeltaNoise& noise, uint32_t seed)
+      : calib_(calib), noise_(noise), rng_(seed) {}
 
   TrackerDelta delta(const ips::InertialState& a, const ips::InertialState& b) {
-    const Eigen::Isometry3d T_true = camera(a).inverse() * camera(b);
+    const Eigen::Isometry3d T_true =
+        ips::dataset::cameraPose(a, calib_).inverse() * ips::dataset::cameraPose(b, calib_);
     const double w = std::sqrt(std::max(0.0, 1.0 - noise_.lag1 * noise_.lag1));
     for (int i = 0; i < 3; ++i) {
       e_t_[i] = noise_.lag1 * e_t_[i] + w * noise_.sigma_t * n01_(rng_);
@@ -80,13 +78,7 @@ class TruthDeltas {
   }
 
  private:
-  Eigen::Isometry3d camera(const ips::InertialState& s) const {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = s.orientation.toRotationMatrix();
-    T.translation() = s.position;
-    return T * T_imu_cam0_;
-  }
-  Eigen::Isometry3d T_imu_cam0_;
+  const ips::StereoCalibration& calib_;
   DeltaNoise noise_;
   std::mt19937 rng_;
   std::normal_distribution<double> n01_{0.0, 1.0};
@@ -105,25 +97,15 @@ struct WindowFigures {
   Eigen::Vector3d accel_bias_error = Eigen::Vector3d::Constant(NAN), accel_bias_sigma = Eigen::Vector3d::Constant(NAN);
 };
 
-ips::eval::TrajPoint pointOf(int64_t utime, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
-  ips::eval::TrajPoint t;
-  t.t = static_cast<double>(utime) * 1e-6;
-  t.p = p;
-  t.q = q;
-  return t;
-}
-
-double distanceOf(const Trajectory& traj) {
-  double d = 0;
-  for (size_t i = 1; i < traj.size(); ++i) d += (traj[i].p - traj[i - 1].p).norm();
-  return d;
+TrajPoint pointOf(int64_t utime, const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  return TrajPoint{static_cast<double>(utime) * 1e-6, p, q};
 }
 
 // ATE and end error of `est` against `ref` (both at the same times, the first pose aligned for the end error).
 void trajectoryFigures(const Trajectory& est, const Trajectory& ref, WindowFigures* f) {
   if (est.size() < 3) return;
   f->ate_m = ateRmse(est, ref);
-  const double distance = distanceOf(ref);
+  const double distance = distanceTravelled(ref);
   f->end_pct = distance > 0 ? 100.0 * endErrorFirstPoseAligned(est, ref) / distance : NAN;
 }
 
@@ -207,7 +189,7 @@ int main(int argc, char** argv) {
         FilterParams params = base;
         params.type = f == 0 ? FilterType::Ekf : FilterType::Ukf;
         Estimator est(params, rec.calib);
-        TruthDeltas deltas(rec.calib.T_imu_cam0, noise, seed + static_cast<uint32_t>(windows));
+        TruthDeltas deltas(rec.calib, noise, seed + static_cast<uint32_t>(windows));
         std::vector<FilterOutput> outputs;
         std::vector<TrackerDelta> made;
         size_t k = 0;

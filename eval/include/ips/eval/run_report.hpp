@@ -123,9 +123,6 @@ std::vector<std::string> completenessFailures(const RunLog& log, const std::stri
 // bridged, deltas not fused, pairs dropped, states lost to the recorder, a covariance that jumped.
 std::vector<std::string> disturbances(const RunLog& log);
 
-// The truth's path length [m].
-double distanceTravelled(const Trajectory& gt);
-
 // The time the page's axes start at [s]: the first ground truth or filter state, else the first delta.
 double pageStartTime(const RunLog& log);
 
@@ -144,9 +141,6 @@ struct ErrorSeries {
   double heading_error_max_deg = NAN;
   double heading_within_3sigma_pct = NAN;
 };
-// The two-sided 95 % band of a chi-square variable with 3 degrees of freedom (a consistent filter's position NEES,
-// one sample): its 2.5 % and 97.5 % quantiles.
-constexpr double kChi2Dof3Lo = 0.2158, kChi2Dof3Hi = 9.3484;
 
 // One filter judged against the truth: its states put on the truth by its first pose, and its errors over time.
 struct FilterResult {

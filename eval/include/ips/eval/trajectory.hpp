@@ -56,6 +56,13 @@ struct TrajectoryErrors {
   double endpoint_error_m = 0;  // no alignment (both start in the same frame)
   double endpoint_percent = 0;  // endpoint_error_m / distance_m * 100
 };
+// The trajectory's path length [m].
+double distanceTravelled(const Trajectory& traj);
+
+// The two-sided 95 % band of a chi-square variable with 3 degrees of freedom (a consistent filter's position NEES,
+// one sample): its 2.5 % and 97.5 % quantiles.
+constexpr double kChi2Dof3Lo = 0.2158, kChi2Dof3Hi = 9.3484;
+
 // RMSE of the positions after alignSE3 (absolute trajectory error); both associated, >= 3 points.
 double ateRmse(const Trajectory& est, const Trajectory& ref);
 
