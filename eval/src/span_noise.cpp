@@ -68,14 +68,17 @@ Eigen::Vector3d secondDifference(double t1, double t2, double t3, const Eigen::V
   return ((p3 - p2) / h2 - (p2 - p1) / h1) * (h1 + h2) / 2;
 }
 
-// The variance per axis, averaged over the axes, of rows of 3-vectors (each axis's mean removed).
-double axisVariance(const std::vector<Eigen::Vector3d>& x) {
+// The variance of each axis of rows of 3-vectors (each axis's mean removed).
+Eigen::Vector3d axisVariances(const std::vector<Eigen::Vector3d>& x) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const auto& v : x) mean += v / static_cast<double>(x.size());
-  double sum = 0;
-  for (const auto& v : x) sum += (v - mean).squaredNorm();
-  return sum / (3.0 * static_cast<double>(x.size() - 1));
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (const auto& v : x) sum += (v - mean).cwiseAbs2();
+  return sum / static_cast<double>(x.size() - 1);
 }
+
+// The same averaged over the axes.
+double axisVariance(const std::vector<Eigen::Vector3d>& x) { return axisVariances(x).mean(); }
 
 double rmsOrNan(double variance) { return variance >= 0 ? std::sqrt(variance) : NAN; }
 
@@ -86,15 +89,20 @@ double imuWhiteNoiseSecondDifference(double density, double span_s) {
 }
 
 std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int>& spans_frames) {
-  if (in.truth.size() < 3 || in.estimate.size() < 3 || in.imu.size() < 3)
-    throw std::invalid_argument("spanNoise: the truth, the estimate and the IMU need three samples each");
-  // Camera 0 carried to the body with the estimate's own attitude, then put into the truth's world.
-  Trajectory est, ref;
-  associate(rigidlyAttached(in.estimate, in.T_imu_cam0.inverse()), in.truth, 0.1, &est, &ref);
-  if (est.size() < 3)
-    throw std::invalid_argument("spanNoise: the estimate and the truth overlap in fewer than 3 samples");
-  const Eigen::Isometry3d T = alignSE3(est, ref);
-  for (TrajPoint& p : est) p.p = T * p.p;
+  const bool with_estimate = !in.estimate.empty();
+  if (in.truth.size() < 3 || (with_estimate && in.estimate.size() < 3) || in.imu.size() < 3)
+    throw std::invalid_argument("spanNoise: the truth, the estimate (if any) and the IMU need three samples each");
+  // The samples the second differences are taken at: the estimate's, camera 0 carried to the body with its own
+  // attitude and put into the truth's world; without an estimate the truth's own.
+  Trajectory est = in.truth;
+  if (with_estimate) {
+    Trajectory ref;
+    associate(rigidlyAttached(in.estimate, in.T_imu_cam0.inverse()), in.truth, 0.1, &est, &ref);
+    if (est.size() < 3)
+      throw std::invalid_argument("spanNoise: the estimate and the truth overlap in fewer than 3 samples");
+    const Eigen::Isometry3d T = alignSE3(est, ref);
+    for (TrajPoint& p : est) p.p = T * p.p;
+  }
 
   std::vector<double> intervals;
   for (size_t k = 1; k < est.size(); ++k) intervals.push_back(est[k].t - est[k - 1].t);
@@ -145,12 +153,15 @@ std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int
     std::nth_element(spans.begin(), spans.begin() + spans.size() / 2, spans.end());
     s.span_s = spans[spans.size() / 2];
     s.centres = a.size();
-    s.truth_vs_estimate = std::sqrt(v_ab);
     s.truth_vs_imu = std::sqrt(v_ac);
-    s.estimate_vs_imu = std::sqrt(v_bc);
-    s.truth = rmsOrNan((v_ab + v_ac - v_bc) / 2);
-    s.estimate = rmsOrNan((v_ab + v_bc - v_ac) / 2);
-    s.imu = rmsOrNan((v_ac + v_bc - v_ab) / 2);
+    s.truth_vs_imu_axes = axisVariances(ac).cwiseSqrt();
+    if (with_estimate) {
+      s.truth_vs_estimate = std::sqrt(v_ab);
+      s.estimate_vs_imu = std::sqrt(v_bc);
+      s.truth = rmsOrNan((v_ab + v_ac - v_bc) / 2);
+      s.estimate = rmsOrNan((v_ab + v_bc - v_ac) / 2);
+      s.imu = rmsOrNan((v_ac + v_bc - v_ab) / 2);
+    }
     s.accel_bias = x.head<3>();
     s.gravity_error = x(3);
     out.push_back(s);

@@ -142,3 +142,30 @@ TEST(SpanNoise, SkipsGapsAndRefusesTooLittle) {
   EXPECT_THROW(spanNoise(few, {1}), std::invalid_argument);
   EXPECT_THROW(spanNoise(in, {0}), std::invalid_argument);
 }
+
+TEST(SpanNoise, WithoutAnEstimateTheImuIsJudgedAgainstTheTruthAtItsSamples) {
+  Noise noise;
+  noise.truth_m = 1e-4;
+  noise.accel = 0.3;
+  noise.accel_bias = Eigen::Vector3d(0.1, 0.05, -0.08);
+  SpanNoiseInput in = makeInput(noise);
+  in.estimate.clear();
+  const std::vector<SpanNoise> r = spanNoise(in, {10, 20});  // the truth's 200 Hz: 50 and 100 ms
+  ASSERT_EQ(r.size(), 2u);
+  for (const SpanNoise& s : r) {
+    EXPECT_NEAR(s.span_s, 0.005 * s.span_frames, 1e-6);
+    EXPECT_GT(s.centres, 11900u);
+    // Both errors together: the truth's sqrt(6) sigma and the IMU's double integral of its white noise.
+    const double imu = imuWhiteNoiseSecondDifference(noise.accel * std::sqrt(0.005), s.span_s);
+    const double both = std::hypot(std::sqrt(6.0) * noise.truth_m, imu);
+    EXPECT_NEAR(s.truth_vs_imu, both, 0.1 * both) << "span " << s.span_s;
+    for (int j = 0; j < 3; ++j) EXPECT_NEAR(s.truth_vs_imu_axes(j), both, 0.15 * both) << "axis " << j;
+    EXPECT_TRUE(std::isnan(s.truth_vs_estimate) && std::isnan(s.estimate_vs_imu));
+    EXPECT_TRUE(std::isnan(s.truth) && std::isnan(s.estimate) && std::isnan(s.imu));
+    EXPECT_LT((s.accel_bias - noise.accel_bias).head<2>().norm(), 0.02) << s.accel_bias.transpose();
+  }
+  // Without noise they agree.
+  SpanNoiseInput clean = makeInput({});
+  clean.estimate.clear();
+  for (const SpanNoise& s : spanNoise(clean, {1, 20})) EXPECT_LT(s.truth_vs_imu, 1e-6) << "span " << s.span_s;
+}

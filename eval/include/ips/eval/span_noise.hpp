@@ -20,7 +20,9 @@ struct SpanNoiseInput {
   // (removePositionSteps). Its attitude also turns the IMU's specific force into the world, so the IMU's figure
   // includes the truth's attitude error (mrad: g times it, times T^2).
   Trajectory truth;
-  Trajectory estimate;  // camera 0 in any frame; aligned to the truth here by SE(3) after carrying it to the body
+  // Camera 0 in any frame; aligned to the truth here by SE(3) after carrying it to the body. May be empty: then the
+  // second differences are taken at the truth's samples and only the truth's and the IMU's difference is found.
+  Trajectory estimate;
   std::vector<filter::ImuSample> imu;
   Eigen::Isometry3d T_imu_cam0 = Eigen::Isometry3d::Identity();
   double gravity = 9.81;  // [m/s^2]; its error is fitted with the accelerometer's bias
@@ -30,10 +32,13 @@ struct SpanNoise {
   int span_frames = 0;  // T in the estimate's samples
   double span_s = 0;    // T in seconds, the median over the centres
   size_t centres = 0;   // centre samples used (each with both neighbours T away, within half an interval)
-  // RMS per axis [m] of the differences of the second differences, pairwise.
-  double truth_vs_estimate = 0, truth_vs_imu = 0, estimate_vs_imu = 0;
+  // RMS per axis [m] of the differences of the second differences, pairwise; without an estimate only truth_vs_imu
+  // (the IMU's and the truth's errors together: an upper bound of each), the others NaN.
+  double truth_vs_estimate = NAN, truth_vs_imu = 0, estimate_vs_imu = NAN;
+  // truth_vs_imu per world axis [m]: an error of the truth's attitude turns gravity into x and y only.
+  Eigen::Vector3d truth_vs_imu_axes = Eigen::Vector3d::Zero();
   // Each one's RMS per axis [m] by the hat; NaN where its variance comes out negative (the errors are correlated,
-  // or one is far below the others and lost in their scatter).
+  // or one is far below the others and lost in their scatter), and without an estimate.
   double truth = NAN, estimate = NAN, imu = NAN;
   // The accelerometer bias [m/s^2, body] and gravity's error [m/s^2] fitted at this span: least squares of the IMU's
   // second differences against the mean of the truth's and the estimate's.
@@ -46,8 +51,8 @@ struct SpanNoise {
 // beside the measured one.
 double imuWhiteNoiseSecondDifference(double density, double span_s);
 
-// One entry per span (in the estimate's samples, each >= 1) that has at least 10 centres.
-// Throws std::invalid_argument when the truth, the estimate or the IMU has fewer than three samples.
+// One entry per span (in the estimate's samples, or the truth's without one; each >= 1) that has at least 10 centres.
+// Throws std::invalid_argument when the truth, a given estimate or the IMU has fewer than three samples.
 std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int>& spans_frames);
 
 }  // namespace ips::eval
