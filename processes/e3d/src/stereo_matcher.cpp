@@ -157,7 +157,7 @@ void StereoMatcher::setRectification(const StereoRectification& rect, cv::Size r
   if (raw_size.width < 1 || raw_size.height < 1) throw std::invalid_argument("setRectification: empty raw size");
   vkDeviceWaitIdle(m.ctx.device());
   m.rectify.reset();
-  m.rect_pool = vk::DescriptorPool(m.ctx.device(), 1, 5, 0, 0);
+  m.rect_pool = vk::DescriptorPool(m.ctx, 1, 5, 0, 0);
   m.rect_bytes = 0;
   const size_t raw_pixels = static_cast<size_t>(raw_size.area());
   const size_t n = static_cast<size_t>(rect_size.area());

@@ -4,6 +4,8 @@
 #include <cctype>
 #include <cstdlib>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "ips/log.hpp"
 
@@ -94,6 +96,16 @@ std::string unusable(VkPhysicalDevice pd, uint32_t* queue_family) {
       return "";
     }
   return "no compute queue";
+}
+
+bool hasDeviceExtension(VkPhysicalDevice pd, const char* name) {
+  uint32_t n = 0;
+  vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, nullptr);
+  std::vector<VkExtensionProperties> extensions(n);
+  vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, extensions.data());
+  for (const auto& e : extensions)
+    if (std::string(e.extensionName) == name) return true;
+  return false;
 }
 
 }  // namespace
@@ -190,14 +202,48 @@ VulkanContext::VulkanContext(const std::string& choice_arg) {
     vkGetPhysicalDeviceProperties2(physical_, &p3);
     max_allocation_bytes_ = m3.maxMemoryAllocationSize;
     max_texel_buffer_elements_ = p3.properties.limits.maxTexelBufferElements;
+    // The lane shaders' workgroups as one full subgroup of subgroup_size_ (SubgroupRequest).
+    VkPhysicalDeviceSubgroupSizeControlFeaturesEXT size_control{
+        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_SIZE_CONTROL_FEATURES_EXT};
+    std::vector<const char*> extensions;
+    if (hasDeviceExtension(physical_, VK_EXT_SUBGROUP_SIZE_CONTROL_EXTENSION_NAME)) {
+      VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+      f2.pNext = &size_control;
+      vkGetPhysicalDeviceFeatures2(physical_, &f2);
+      VkPhysicalDeviceSubgroupSizeControlPropertiesEXT sizes{
+          VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_SUBGROUP_SIZE_CONTROL_PROPERTIES_EXT};
+      VkPhysicalDeviceProperties2 p4{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_PROPERTIES_2};
+      p4.pNext = &sizes;
+      vkGetPhysicalDeviceProperties2(physical_, &p4);
+      // Full subgroups alone need the workgroup to be a multiple of the largest size; else the size is pinned.
+      const bool pin = sizes.maxSubgroupSize != subgroup_size_;
+      const bool can_pin = size_control.subgroupSizeControl &&
+                           (sizes.requiredSubgroupSizeStages & VK_SHADER_STAGE_COMPUTE_BIT) &&
+                           subgroup_size_ >= sizes.minSubgroupSize && subgroup_size_ <= sizes.maxSubgroupSize;
+      if (size_control.computeFullSubgroups && (!pin || can_pin)) {
+        subgroup_request_ = {true, pin};
+        size_control.subgroupSizeControl = pin ? VK_TRUE : VK_FALSE;
+        extensions.push_back(VK_EXT_SUBGROUP_SIZE_CONTROL_EXTENSION_NAME);
+      }
+    }
+    if (!subgroup_request_.full_subgroups)
+      IPS_WARN("e3d: Vulkan device '" << props.deviceName
+                                      << "' cannot be asked for full subgroups (VK_EXT_subgroup_size_control): "
+                                         "the lane shaders assume each workgroup is one whole subgroup");
     VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
     dci.queueCreateInfoCount = 1;
     dci.pQueueCreateInfos = &qci;
     dci.pEnabledFeatures = &features;
+    dci.enabledExtensionCount = static_cast<uint32_t>(extensions.size());
+    dci.ppEnabledExtensionNames = extensions.data();
+    if (subgroup_request_.full_subgroups) dci.pNext = &size_control;
     vkCheck(vkCreateDevice(physical_, &dci, nullptr, &device_), "vkCreateDevice");
     vkGetDeviceQueue(device_, queue_family_, 0, &queue_);
     IPS_INFO("e3d: Vulkan device " << info_.index << " '" << info_.name << "' (" << info_.type << "), subgroup size "
-                                   << subgroup_size_);
+                                   << subgroup_size_
+                                   << (subgroup_request_.full_subgroups
+                                           ? (subgroup_request_.required_size ? ", full and pinned" : ", full")
+                                           : ""));
   } catch (...) {
     if (device_) vkDestroyDevice(device_, nullptr);
     vkDestroyInstance(instance_, nullptr);

@@ -25,7 +25,7 @@ MatchLevel::MatchLevel(const VulkanContext& ctx, cv::Size size, const SgmParams&
       size_(size),
       params_(params),
       plan_(planLayout(size, params, DeviceLimits::of(ctx))),
-      pool_(dev_, 24, 10 * kMaxChunks + 64, 48, 4) {
+      pool_(ctx, 24, 10 * kMaxChunks + 64, 48, 4) {
   const size_t pixels = static_cast<size_t>(size.area());
   for (int i = 0; i < 2; ++i) {
     image_[i] = buffer((pixels + 3) / 4 * 4, true);

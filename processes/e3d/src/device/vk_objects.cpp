@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "ips/e3d_shaders/interface.h"
 #include "ips/shaders.hpp"
 
 namespace ips {
@@ -84,9 +85,9 @@ VkDescriptorType Binding::type() const {
   return VK_DESCRIPTOR_TYPE_STORAGE_BUFFER;
 }
 
-DescriptorPool::DescriptorPool(VkDevice dev, uint32_t max_sets, uint32_t storage_buffers, uint32_t texel_buffers,
-                               uint32_t uniform_buffers)
-    : dev_(dev) {
+DescriptorPool::DescriptorPool(const VulkanContext& ctx, uint32_t max_sets, uint32_t storage_buffers,
+                               uint32_t texel_buffers, uint32_t uniform_buffers)
+    : dev_(ctx.device()), subgroup_request_(ctx.subgroupRequest()), subgroup_size_(ctx.subgroupSize()) {
   VkDescriptorPoolSize sizes[4] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, storage_buffers},
                                    {VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, texel_buffers},
                                    {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, uniform_buffers},
@@ -108,6 +109,8 @@ DescriptorPool& DescriptorPool::operator=(DescriptorPool&& other) noexcept {
     if (pool_) vkDestroyDescriptorPool(dev_, pool_, nullptr);
     dev_ = other.dev_;
     pool_ = take(other.pool_);
+    subgroup_request_ = other.subgroup_request_;
+    subgroup_size_ = other.subgroup_size_;
   }
   return *this;
 }
@@ -156,6 +159,17 @@ Pipeline::Pipeline(const DescriptorPool& pool, const std::string& shader, const 
   ci.stage.module = module;
   ci.stage.pName = "main";
   ci.stage.pSpecializationInfo = entries.empty() ? nullptr : &spec;
+  const bool lanes = std::any_of(specialisation.begin(), specialisation.end(),
+                                 [](const auto& e) { return e.first == E3D_SPEC_SUBGROUP_SIZE; });
+  VkPipelineShaderStageRequiredSubgroupSizeCreateInfoEXT required{
+      VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_REQUIRED_SUBGROUP_SIZE_CREATE_INFO_EXT};
+  if (lanes && pool.subgroupRequest().full_subgroups) {
+    ci.stage.flags |= VK_PIPELINE_SHADER_STAGE_CREATE_REQUIRE_FULL_SUBGROUPS_BIT_EXT;
+    if (pool.subgroupRequest().required_size) {
+      required.requiredSubgroupSize = pool.subgroupSize();
+      ci.stage.pNext = &required;
+    }
+  }
   ci.layout = layout_;
   VkResult r = vkCreateComputePipelines(dev_, VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline_);
   vkDestroyShaderModule(dev_, module, nullptr);

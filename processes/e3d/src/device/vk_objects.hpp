@@ -96,8 +96,9 @@ class DescriptorPool {
  public:
   DescriptorPool() = default;
   // Room for `max_sets` sets with up to `storage_buffers` storage buffers, `texel_buffers` texel buffers and
-  // `uniform_buffers` uniform buffers in all (and as many dynamic uniform buffers).
-  DescriptorPool(VkDevice dev, uint32_t max_sets, uint32_t storage_buffers, uint32_t texel_buffers,
+  // `uniform_buffers` uniform buffers in all (and as many dynamic uniform buffers), on ctx's device; the pipelines
+  // built from it ask for its subgroups as the device needs (VulkanContext::subgroupRequest).
+  DescriptorPool(const VulkanContext& ctx, uint32_t max_sets, uint32_t storage_buffers, uint32_t texel_buffers,
                  uint32_t uniform_buffers);
   ~DescriptorPool();
   DescriptorPool(DescriptorPool&& other) noexcept { *this = std::move(other); }
@@ -106,17 +107,22 @@ class DescriptorPool {
   DescriptorPool& operator=(const DescriptorPool&) = delete;
   VkDevice device() const { return dev_; }
   VkDescriptorPool handle() const { return pool_; }
+  const VulkanContext::SubgroupRequest& subgroupRequest() const { return subgroup_request_; }
+  uint32_t subgroupSize() const { return subgroup_size_; }
 
  private:
   VkDevice dev_ = VK_NULL_HANDLE;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
+  VulkanContext::SubgroupRequest subgroup_request_;
+  uint32_t subgroup_size_ = 0;
 };
 
 // Specialisation constants: (id, value) pairs, ids from ips/e3d_shaders/interface.h.
 using Specialisation = std::vector<std::pair<uint32_t, int32_t>>;
 
 // A compute pipeline of one embedded shader (ips::shaderCode), its layouts and one descriptor set written with
-// `bindings`.
+// `bindings`. A shader whose workgroup size is the subgroup size (the specialisation constant
+// E3D_SPEC_SUBGROUP_SIZE: the lane shaders) gets its workgroups as full subgroups where the device can be asked.
 class Pipeline {
  public:
   Pipeline() = default;

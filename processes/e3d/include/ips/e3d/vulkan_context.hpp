@@ -36,6 +36,16 @@ class VulkanContext {
   uint32_t queueFamily() const { return queue_family_; }
   const VulkanDeviceInfo& info() const { return info_; }
   uint32_t subgroupSize() const { return subgroup_size_; }
+  // How a pipeline whose workgroup is one subgroup (local size = subgroupSize(), the lane shaders) must ask for it.
+  // Without asking, an implementation may split such a workgroup into partial subgroups (lavapipe with 1024-bit
+  // vectors runs subgroups of 32 as two halves whose lanes count 0-15 each; a GPU with variable subgroup sizes may
+  // pick another size): full_subgroups asks for full ones (VK_EXT_subgroup_size_control's computeFullSubgroups),
+  // required_size also pins their size to subgroupSize() where the device's largest differs from it.
+  struct SubgroupRequest {
+    bool full_subgroups = false;
+    bool required_size = false;
+  };
+  const SubgroupRequest& subgroupRequest() const { return subgroup_request_; }
   uint64_t maxStorageBufferRange() const { return max_storage_buffer_range_; }
   uint32_t maxStorageBuffersPerStage() const { return max_storage_buffers_per_stage_; }
   double timestampPeriodNs() const { return timestamp_period_ns_; }
@@ -55,6 +65,7 @@ class VulkanContext {
   uint32_t queue_family_ = 0;
   VulkanDeviceInfo info_;
   uint32_t subgroup_size_ = 0;
+  SubgroupRequest subgroup_request_;
   uint64_t max_storage_buffer_range_ = 0;
   uint32_t max_storage_buffers_per_stage_ = 0;
   double timestamp_period_ns_ = 1.0;
