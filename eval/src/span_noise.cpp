@@ -94,8 +94,10 @@ std::vector<SpanNoise> spanNoise(const SpanNoiseInput& in, const std::vector<int
     throw std::invalid_argument("spanNoise: the truth, the estimate (if any) and the IMU need three samples each");
   // The samples the second differences are taken at: the estimate's, camera 0 carried to the body with its own
   // attitude and put into the truth's world; without an estimate the truth's own.
-  Trajectory est = in.truth;
-  if (with_estimate) {
+  Trajectory est;
+  if (!with_estimate) {
+    est = in.truth;
+  } else {
     Trajectory ref;
     associate(rigidlyAttached(in.estimate, in.T_imu_cam0.inverse()), in.truth, 0.1, &est, &ref);
     if (est.size() < 3)

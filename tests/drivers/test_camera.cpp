@@ -141,18 +141,18 @@ void runUntil(StereoCamera& stereo, Check* c, Done done, double deadline_s = kDe
       // come off that grid; they are counted for information.)
       auto offTick = [](double t) { return std::fabs(t - kPeriodUs * std::round(t / kPeriodUs)) > 2000; };
       const bool on_grid = !offTick(sl) && !offTick(sr);
-      const int unsynchronised_before = c->unsynchronised;
+      bool unsynchronised = false;
       if (!on_grid) {
         // Off the grid (the immediate first frame, or a late wake-up): free-running cameras have no common
         // exposure then, and the driver pairs within its tolerance (5 ms) on stamps mapped to the host clock;
         // the raw stamps may differ by that plus both mappings' error (the 3 ms bound on the mapping spread
         // checked below; a camera just reconnected has a fresh fit).
         ++c->off_tick;
-        if (std::fabs(sl - sr) > 5000 + 3000) ++c->unsynchronised;
-      } else if (std::llround(sl / kPeriodUs) != std::llround(sr / kPeriodUs)) {
-        ++c->unsynchronised;
+        unsynchronised = std::fabs(sl - sr) > 5000 + 3000;
+      } else {
+        unsynchronised = std::llround(sl / kPeriodUs) != std::llround(sr / kPeriodUs);
       }
-      if (c->unsynchronised > unsynchronised_before && c->unsynchronised <= 5) {
+      if (unsynchronised && ++c->unsynchronised <= 5) {
         char line[256];
         std::snprintf(line, sizeof line,
                       "\n  pair %d (seq %lld, %s): camera stamps left %.0f right %.0f us; mapped - camera stamp left "

@@ -221,7 +221,7 @@ VulkanContext::VulkanContext(const std::string& choice_arg) {
                            (sizes.requiredSubgroupSizeStages & VK_SHADER_STAGE_COMPUTE_BIT) &&
                            subgroup_size_ >= sizes.minSubgroupSize && subgroup_size_ <= sizes.maxSubgroupSize;
       if (size_control.computeFullSubgroups && (!pin || can_pin)) {
-        subgroup_request_ = {true, pin};
+        subgroup_request_ = {true, pin ? subgroup_size_ : 0u};
         size_control.subgroupSizeControl = pin ? VK_TRUE : VK_FALSE;
         extensions.push_back(VK_EXT_SUBGROUP_SIZE_CONTROL_EXTENSION_NAME);
       }
@@ -242,7 +242,7 @@ VulkanContext::VulkanContext(const std::string& choice_arg) {
     IPS_INFO("e3d: Vulkan device " << info_.index << " '" << info_.name << "' (" << info_.type << "), subgroup size "
                                    << subgroup_size_
                                    << (subgroup_request_.full_subgroups
-                                           ? (subgroup_request_.required_size ? ", full and pinned" : ", full")
+                                           ? (subgroup_request_.required_size > 0 ? ", full and pinned" : ", full")
                                            : ""));
   } catch (...) {
     if (device_) vkDestroyDevice(device_, nullptr);

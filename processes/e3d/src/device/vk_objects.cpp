@@ -87,7 +87,7 @@ VkDescriptorType Binding::type() const {
 
 DescriptorPool::DescriptorPool(const VulkanContext& ctx, uint32_t max_sets, uint32_t storage_buffers,
                                uint32_t texel_buffers, uint32_t uniform_buffers)
-    : dev_(ctx.device()), subgroup_request_(ctx.subgroupRequest()), subgroup_size_(ctx.subgroupSize()) {
+    : dev_(ctx.device()), subgroup_request_(ctx.subgroupRequest()) {
   VkDescriptorPoolSize sizes[4] = {{VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, storage_buffers},
                                    {VK_DESCRIPTOR_TYPE_STORAGE_TEXEL_BUFFER, texel_buffers},
                                    {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, uniform_buffers},
@@ -110,7 +110,6 @@ DescriptorPool& DescriptorPool::operator=(DescriptorPool&& other) noexcept {
     dev_ = other.dev_;
     pool_ = take(other.pool_);
     subgroup_request_ = other.subgroup_request_;
-    subgroup_size_ = other.subgroup_size_;
   }
   return *this;
 }
@@ -161,14 +160,13 @@ Pipeline::Pipeline(const DescriptorPool& pool, const std::string& shader, const 
   ci.stage.pSpecializationInfo = entries.empty() ? nullptr : &spec;
   const bool lanes = std::any_of(specialisation.begin(), specialisation.end(),
                                  [](const auto& e) { return e.first == E3D_SPEC_SUBGROUP_SIZE; });
+  const VulkanContext::SubgroupRequest& request = pool.subgroupRequest();
   VkPipelineShaderStageRequiredSubgroupSizeCreateInfoEXT required{
       VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_REQUIRED_SUBGROUP_SIZE_CREATE_INFO_EXT};
-  if (lanes && pool.subgroupRequest().full_subgroups) {
+  required.requiredSubgroupSize = request.required_size;
+  if (lanes && request.full_subgroups) {
     ci.stage.flags |= VK_PIPELINE_SHADER_STAGE_CREATE_REQUIRE_FULL_SUBGROUPS_BIT_EXT;
-    if (pool.subgroupRequest().required_size) {
-      required.requiredSubgroupSize = pool.subgroupSize();
-      ci.stage.pNext = &required;
-    }
+    if (request.required_size > 0) ci.stage.pNext = &required;
   }
   ci.layout = layout_;
   VkResult r = vkCreateComputePipelines(dev_, VK_NULL_HANDLE, 1, &ci, nullptr, &pipeline_);

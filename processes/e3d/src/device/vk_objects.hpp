@@ -108,13 +108,11 @@ class DescriptorPool {
   VkDevice device() const { return dev_; }
   VkDescriptorPool handle() const { return pool_; }
   const VulkanContext::SubgroupRequest& subgroupRequest() const { return subgroup_request_; }
-  uint32_t subgroupSize() const { return subgroup_size_; }
 
  private:
   VkDevice dev_ = VK_NULL_HANDLE;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
   VulkanContext::SubgroupRequest subgroup_request_;
-  uint32_t subgroup_size_ = 0;
 };
 
 // Specialisation constants: (id, value) pairs, ids from ips/e3d_shaders/interface.h.

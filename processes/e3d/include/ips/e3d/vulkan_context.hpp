@@ -40,10 +40,10 @@ class VulkanContext {
   // Without asking, an implementation may split such a workgroup into partial subgroups (lavapipe with 1024-bit
   // vectors runs subgroups of 32 as two halves whose lanes count 0-15 each; a GPU with variable subgroup sizes may
   // pick another size): full_subgroups asks for full ones (VK_EXT_subgroup_size_control's computeFullSubgroups),
-  // required_size also pins their size to subgroupSize() where the device's largest differs from it.
+  // required_size, where not 0, also pins their size (to subgroupSize(), where the device's largest differs from it).
   struct SubgroupRequest {
     bool full_subgroups = false;
-    bool required_size = false;
+    uint32_t required_size = 0;
   };
   const SubgroupRequest& subgroupRequest() const { return subgroup_request_; }
   uint64_t maxStorageBufferRange() const { return max_storage_buffer_range_; }
